@@ -1,0 +1,1 @@
+"""predgait.problems."""
