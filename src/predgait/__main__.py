@@ -1,0 +1,7 @@
+"""``python -m predgait`` runs the command line."""
+
+import sys
+
+from predgait.cli import main
+
+sys.exit(main())

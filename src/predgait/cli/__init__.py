@@ -1,0 +1,72 @@
+"""The ``predgait`` command line: one module per command, each with ``register``.
+
+Every command reports user errors (:class:`predgait.errors.PredgaitError`) as one line
+``predgait: error: ...`` on stderr and exits with status 2; no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Sequence
+
+from predgait import __version__
+from predgait.errors import PredgaitError
+
+#: Command modules, in the order they appear in ``predgait --help``.
+COMMAND_MODULES = ("demo", "model", "inverse", "simulate", "solve")
+
+DESCRIPTION = """\
+predgait: forward dynamic modelling of human walking.
+
+Units are SI throughout (m, kg, s, rad, N, N m) unless an option says otherwise.
+Lab frame: X forward, Y lateral (left), Z up; planar models turn about +Y.
+Clinical angles: hip flexion, knee flexion and ankle dorsiflexion are positive; a
+joint moment is positive when it acts toward the positive angle.
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser with every available command registered."""
+    import importlib
+
+    parser = argparse.ArgumentParser(
+        prog="predgait", description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"predgait {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(f"predgait.cli.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name == f"predgait.cli.{name}":
+                continue
+            raise
+        module.register(commands)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``predgait`` console script; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        format="%(message)s")
+    if not getattr(args, "run", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.run(args) or 0)
+    except PredgaitError as exc:
+        print(f"predgait: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("predgait: interrupted; no output was completed.", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,162 @@
+"""TOML problem files: load, apply ``--set key=value`` overrides, read typed fields.
+
+Every problem file (``problems/*.toml``) is read through :class:`Table`, so errors
+name the file, the key and its line, and unknown keys are refused (a typo must not be
+silently ignored). Strings become enums here, at the boundary (STYLE.md 1).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import re
+import tomllib
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypeVar
+
+from predgait.errors import InputError
+
+E = TypeVar("E", bound=enum.Enum)
+_MISSING = object()
+
+
+@dataclass(frozen=True)
+class Table:
+    """A (sub)table of a TOML problem file with where it came from."""
+
+    data: dict
+    path: Path
+    text: str
+    prefix: str = ""
+
+    def _where(self, key: str) -> str:
+        full = f"{self.prefix}{key}"
+        line = _find_line(self.text, key, self.prefix)
+        return f"{self.path}, key '{full}'" + (f" (line {line})" if line else "")
+
+    def error(self, key: str, message: str) -> InputError:
+        """An InputError that names the file, the key and its line."""
+        return InputError(f"{self._where(key)}: {message}")
+
+    def has(self, key: str) -> bool:
+        """Whether the key is present."""
+        return key in self.data
+
+    def check_keys(self, allowed: Iterable[str]) -> None:
+        """Refuse keys not in ``allowed`` (typos), naming the valid ones."""
+        allowed = list(allowed)
+        for key in self.data:
+            if key not in allowed:
+                raise self.error(key, f"unknown key; valid keys here: {', '.join(allowed)}.")
+
+    def table(self, key: str, *, required: bool = False) -> Table:
+        """A sub-table (empty if absent and not required)."""
+        value = self.data.get(key, _MISSING)
+        if value is _MISSING:
+            if required:
+                raise self.error(key, "missing table; add it (see the example files in "
+                                      "problems/).")
+            value = {}
+        if not isinstance(value, dict):
+            raise self.error(key, f"expected a table, got {type(value).__name__}.")
+        return Table(value, self.path, self.text, f"{self.prefix}{key}.")
+
+    def get(self, key: str, kind: type | tuple[type, ...], default: Any = _MISSING) -> Any:
+        """A value of the given Python type(s); ``default`` if absent (else required)."""
+        value = self.data.get(key, _MISSING)
+        if value is _MISSING:
+            if default is _MISSING:
+                raise self.error(key, "missing; this key is required.")
+            return default
+        kinds = kind if isinstance(kind, tuple) else (kind,)
+        if float in kinds and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
+            names = " or ".join(k.__name__ for k in kinds)
+            raise self.error(key, f"expected {names}, got {value!r}.")
+        return value
+
+    def number(self, key: str, default: Any = _MISSING, *, low: float = -math.inf,
+               high: float = math.inf, unit: str = "") -> float:
+        """A finite float within [low, high]."""
+        value = self.get(key, float, default)
+        if value is None:
+            return value
+        if not math.isfinite(value) or not low <= value <= high:
+            raise self.error(key, f"{value!r} {unit} is outside {low:g}..{high:g} {unit}.")
+        return value
+
+    def choice(self, key: str, enum_type: type[E], default: Any = _MISSING) -> E:
+        """An enum member from its string value."""
+        value = self.get(key, str, default)
+        if isinstance(value, enum_type):
+            return value
+        for member in enum_type:
+            if member.value == value:
+                return member
+        valid = ", ".join(str(m.value) for m in enum_type)
+        raise self.error(key, f"{value!r} is not one of: {valid}.")
+
+    def path_value(self, key: str, default: Any = _MISSING) -> Path | None:
+        """A path, relative paths taken from the problem file's folder."""
+        value = self.get(key, str, default)
+        if value is None:
+            return None
+        path = Path(value)
+        return path if path.is_absolute() else (self.path.parent / path)
+
+
+def _find_line(text: str, key: str, prefix: str) -> int | None:
+    """Line number of ``key`` (inside its ``[section]`` when there is one)."""
+    section = prefix.rstrip(".")
+    lines = text.splitlines()
+    start = 0
+    if section:
+        pattern = re.compile(rf"^\s*\[+\s*{re.escape(section)}\s*\]+")
+        for number, line in enumerate(lines):
+            if pattern.match(line):
+                start = number
+                break
+    key_pattern = re.compile(rf"^\s*\"?{re.escape(key)}\"?\s*=|^\s*\[+\s*{re.escape(prefix + key)}")
+    for number in range(start, len(lines)):
+        if key_pattern.match(lines[number]):
+            return number + 1
+    return None
+
+
+def _set_override(data: dict, assignment: str, path: Path) -> None:
+    if "=" not in assignment:
+        raise InputError(f"--set {assignment!r}: expected KEY=VALUE, e.g. passive.knee.k=100.")
+    key, raw = (part.strip() for part in assignment.split("=", 1))
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    node = data
+    parts = key.split(".")
+    for part in parts[:-1]:
+        node = node.setdefault(part, {})
+        if not isinstance(node, dict):
+            raise InputError(f"--set {assignment!r}: '{part}' in {path} is not a table.")
+    node[parts[-1]] = value
+
+
+def load_problem(path: str | Path, overrides: Sequence[str] = ()) -> Table:
+    """Read a TOML problem file and apply ``--set KEY=VALUE`` overrides.
+
+    Raises:
+        InputError: Missing file, TOML syntax error (with its line) or a bad override.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: problem file not found; copy one from problems/.")
+    text = path.read_text()
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML ({exc}).") from None
+    for assignment in overrides:
+        _set_override(data, assignment, path)
+    return Table(data, path, text)
