@@ -162,5 +162,6 @@ def write_text_atomic(text: str, path: str | Path, *, force: bool = False) -> Pa
         tmp.replace(path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        raise InputError(f"{path}: cannot write ({exc.strerror}); choose a writable path.") from None
+        raise InputError(f"{path}: cannot write ({exc.strerror}); choose a writable "
+                         "path.") from None
     return path
