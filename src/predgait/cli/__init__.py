@@ -15,7 +15,8 @@ from predgait import __version__
 from predgait.errors import PredgaitError
 
 #: Command modules, in the order they appear in ``predgait --help``.
-COMMAND_MODULES = ("demo", "model", "inverse", "simulate", "solve")
+COMMAND_MODULES = ("demo", "model", "inverse", "simulate", "solve", "scenario", "sweep",
+                   "report")
 
 DESCRIPTION = """\
 predgait: forward dynamic modelling of human walking.

@@ -1,0 +1,28 @@
+"""``predgait report DIR -o report.html``: one self-contained HTML page of a result folder."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from predgait.models.urdf import write_text_atomic
+from predgait.report.html import build_report
+
+
+def register(commands: argparse._SubParsersAction) -> None:
+    """Add ``report``."""
+    report = commands.add_parser(
+        "report", help="write a self-contained HTML report of a result folder",
+        description="Write one HTML page (embedded plots, tables of summaries and "
+                    "per-column statistics of STO/CSV results) for any predgait --out folder.")
+    report.add_argument("folder", type=Path, help="result folder (the --out of a command)")
+    report.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.html")
+    report.add_argument("--force", action="store_true", help="overwrite an existing report")
+    report.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build and write the report."""
+    write_text_atomic(build_report(args.folder), args.output, force=args.force)
+    print(f"wrote {args.output}")
+    return 0
