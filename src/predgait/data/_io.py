@@ -1,0 +1,73 @@
+"""File helpers shared by the readers and writers: input registry and atomic writes."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from predgait.errors import InputError
+
+_INPUTS: set[Path] = set()
+
+#: Length units accepted in headers, with their factor to metres.
+LENGTH_UNITS = {"mm": 1e-3, "millimeters": 1e-3, "cm": 1e-2, "centimeters": 1e-2,
+                "m": 1.0, "meters": 1.0}
+
+
+def length_factor(unit: str, *, source: str, field: str) -> float:
+    """Factor from ``unit`` to metres; InputError naming the file and field if unknown."""
+    key = str(unit).strip().lower()
+    if key not in LENGTH_UNITS:
+        raise InputError(
+            f"{source}: {field} {unit!r} is not a length unit predgait knows; "
+            f"use one of {', '.join(sorted(LENGTH_UNITS))}."
+        )
+    return LENGTH_UNITS[key]
+
+
+def open_input(path) -> Path:
+    """Check that an input file exists, remember it as an input, and return its Path."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: file not found. Check the path (cwd is {Path.cwd()}).")
+    _INPUTS.add(path.resolve())
+    return path
+
+
+def check_output(path) -> Path:
+    """Refuse to write over a file that was read as an input in this session."""
+    path = Path(path)
+    if path.resolve() in _INPUTS:
+        raise InputError(
+            f"{path}: refusing to overwrite an input file; choose another output path."
+        )
+    if not path.parent.is_dir():
+        raise InputError(f"{path}: output folder {path.parent} does not exist; create it first.")
+    return path
+
+
+def atomic_write_text(path, text: str, *, protect=()) -> Path:
+    """Write ``text`` whole or not at all: temp file in the same folder, then os.replace.
+
+    Args:
+        path: output file.
+        text: content.
+        protect: further paths that must not be overwritten (e.g. this job's inputs).
+
+    Returns:
+        The output Path.
+    """
+    path = check_output(path)
+    if path.resolve() in {Path(p).resolve() for p in protect}:
+        raise InputError(f"{path}: refusing to overwrite an input file; choose another path.")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", newline="\n") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path

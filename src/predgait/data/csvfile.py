@@ -1,0 +1,80 @@
+"""Read marker trajectories from a plain CSV file through a column map."""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Mapping
+
+import numpy as np
+
+from predgait.data._io import length_factor, open_input
+from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers
+from predgait.data.trial import Markers, uniform_time
+from predgait.errors import InputError
+
+
+def read_markers_csv(path, columns: Mapping[str, tuple[str, str, str]], *,
+                     time_column: str = "time", rate: float | None = None, units: str = "m",
+                     axes: FileAxes | str = FileAxes.Z_UP,
+                     forward: Forward | str = Forward.PLUS_X) -> Markers:
+    """Read markers from a CSV with a header row, mapping columns to marker coordinates.
+
+    Lines starting with ``#`` are comments. Empty fields and ``NaN`` become NaN.
+
+    Args:
+        path: the .csv file (comma, semicolon or tab separated; detected).
+        columns: marker name -> (x, y, z) column labels, e.g.
+            ``{"RHIP": ("hip_x", "hip_y", "hip_z")}``.
+        time_column: label of the time column (s).
+        rate: Hz; if None it is taken from the median time step.
+        units: length unit of the coordinates (mm, cm, m).
+        axes: the file's vertical convention.
+        forward: file axis of progression, or "auto".
+
+    Returns:
+        Markers, lab frame, m, on a uniform time base.
+    """
+    path = open_input(path)
+    lines = [ln for ln in path.read_text(errors="replace").splitlines()
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) < 2:
+        raise InputError(f"{path}: needs a header row and at least one data row.")
+    try:
+        dialect = csv.Sniffer().sniff(lines[0], delimiters=",;\t")
+    except csv.Error:
+        dialect = csv.excel
+    rows = list(csv.reader(lines, dialect))
+    labels = [lb.strip() for lb in rows[0]]
+    factor = length_factor(units, source=str(path), field="units")
+
+    def column(label: str) -> int:
+        if label not in labels:
+            raise InputError(f"{path}: no column {label!r}. Columns: {', '.join(labels)}.")
+        return labels.index(label)
+
+    wanted = [column(time_column)]
+    for name, triple in columns.items():
+        if len(triple) != 3:
+            raise InputError(f"{path}: marker {name!r} maps to {triple}; give (x, y, z) labels.")
+        wanted += [column(label) for label in triple]
+    data = np.full((len(rows) - 1, len(wanted)), np.nan)
+    for r, row in enumerate(rows[1:]):
+        for c, index in enumerate(wanted):
+            text = row[index].strip() if index < len(row) else ""
+            if text:
+                try:
+                    data[r, c] = float(text)
+                except ValueError:
+                    raise InputError(
+                        f"{path}: row {r + 2}, column {labels[index]!r}: {text!r} is not a number."
+                    ) from None
+    time = data[:, 0]
+    if np.isnan(time).any():
+        raise InputError(f"{path}: time column {time_column!r} has empty values.")
+    if rate is None:
+        rate = float(1.0 / np.median(np.diff(time)))
+    time = uniform_time(time, rate, source=str(path))
+    xyz = data[:, 1:].reshape(len(time), len(columns), 3) * factor
+    rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
+    markers = Markers(time=time, names=tuple(columns), xyz=xyz, rate=rate, source=str(path))
+    return rotate_markers(markers, rotation)

@@ -1,0 +1,140 @@
+"""Force-plate conditioning: contact threshold, low-pass, resampling to marker times."""
+
+from __future__ import annotations
+
+import dataclasses
+from enum import StrEnum
+
+import numpy as np
+
+from predgait.data.filters import lowpass
+from predgait.data.frames import parse_enum
+from predgait.data.trial import ForcePlate
+from predgait.errors import InputError
+
+#: Default vertical-force threshold (N) below which a foot is not in contact.
+CONTACT_THRESHOLD = 20.0
+
+
+class Resampling(StrEnum):
+    """How plate samples are brought to marker frames."""
+
+    AVERAGE = "average"    # mean of the plate samples inside each marker frame (boxcar)
+    LOWPASS = "lowpass"    # low-pass below the marker Nyquist frequency, then interpolate
+
+
+def _hold(values: np.ndarray, valid: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """Replace rows where ``valid`` is False with the nearest valid row (or ``fallback``)."""
+    if not valid.any():
+        return np.broadcast_to(fallback, values.shape).copy()
+    index = np.flatnonzero(valid)
+    nearest = index[np.clip(np.searchsorted(index, np.arange(len(valid))), 0, len(index) - 1)]
+    previous = index[np.clip(np.searchsorted(index, np.arange(len(valid))) - 1, 0, len(index) - 1)]
+    rows = np.arange(len(valid))
+    pick = np.where(np.abs(rows - previous) <= np.abs(nearest - rows), previous, nearest)
+    out = values.copy()
+    out[~valid] = values[pick[~valid]]
+    return out
+
+
+def threshold_plate(plate: ForcePlate, *, threshold: float = CONTACT_THRESHOLD) -> ForcePlate:
+    """Zero the force and free moment where the vertical force is below ``threshold``.
+
+    The COP there is held at the nearest in-contact COP (or the plate centre, or the
+    origin), so it stays finite but carries no load: moments of the GRF about any point
+    are exactly zero out of contact.
+
+    Args:
+        plate: plate in the lab frame.
+        threshold: N, vertical force (lab Z) below which there is no contact.
+    """
+    contact = plate.force[:, 2] >= threshold
+    centre = plate.corners.mean(axis=0) if plate.corners is not None else np.zeros(3)
+    cop = _hold(np.where(np.isfinite(plate.cop), plate.cop, 0.0), contact, centre)
+    return dataclasses.replace(
+        plate,
+        force=np.where(contact[:, None], plate.force, 0.0),
+        free_moment=np.where(contact[:, None], plate.free_moment, 0.0),
+        cop=cop,
+    )
+
+
+def filter_plate(plate: ForcePlate, cutoff: float, *, threshold: float = CONTACT_THRESHOLD,
+                 order: int = 2) -> ForcePlate:
+    """Low-pass a plate's force, free moment and COP (via Fz * COP), then re-threshold.
+
+    Filtering the moment-like product Fz * COP instead of the COP keeps the COP finite at
+    contact edges. Use the markers' cut-off here to keep forces and kinematics consistent.
+
+    Args:
+        plate: plate in the lab frame.
+        cutoff: Hz, -3 dB of the zero-lag filter.
+        threshold: N, contact threshold applied before and after filtering.
+        order: order of each Butterworth pass.
+    """
+    plate = threshold_plate(plate, threshold=threshold)
+    rate = plate.rate
+    fz = plate.force[:, 2]
+    force = lowpass(plate.force, rate, cutoff, order=order)
+    free = lowpass(plate.free_moment, rate, cutoff, order=order)
+    weighted = lowpass(plate.cop * fz[:, None], rate, cutoff, order=order)
+    fz_f = force[:, 2]
+    safe = np.where(np.abs(fz_f) > 1e-9, fz_f, 1.0)
+    cop = np.where((fz_f >= threshold)[:, None], weighted / safe[:, None], plate.cop)
+    out = dataclasses.replace(plate, force=force, free_moment=free, cop=cop)
+    return threshold_plate(out, threshold=threshold)
+
+
+def resample_plate(plate: ForcePlate, time, *, method: Resampling | str = Resampling.AVERAGE,
+                   threshold: float = CONTACT_THRESHOLD) -> ForcePlate:
+    """Bring plate data to marker times with anti-aliasing, then apply the contact threshold.
+
+    Args:
+        plate: plate sampled at its own (higher) rate, lab frame.
+        time: (n,) s, marker times (uniform).
+        method: "average" (mean of plate samples within +-half a marker frame) or
+            "lowpass" (Butterworth at 0.4 x the marker Nyquist, then linear interpolation).
+        threshold: N, contact threshold.
+
+    Returns:
+        ForcePlate at ``time``. Marker frames outside the plate's time span are an error.
+    """
+    method = parse_enum(method, Resampling, field="method")
+    time = np.asarray(time, dtype=float)
+    if time.size < 2:
+        raise InputError("resample_plate needs at least 2 marker times.")
+    dt = float(np.median(np.diff(time)))
+    tol = 0.5 / plate.rate + 1e-9
+    if time[0] < plate.time[0] - tol or time[-1] > plate.time[-1] + tol:
+        raise InputError(
+            f"force plate {plate.name!r} covers t = {plate.time[0]:.4f}..{plate.time[-1]:.4f} s "
+            f"but marker times run {time[0]:.4f}..{time[-1]:.4f} s; trim the markers."
+        )
+    plate = threshold_plate(plate, threshold=threshold)
+    fz = plate.force[:, 2]
+    signals = np.concatenate([plate.force, plate.free_moment, plate.cop * fz[:, None],
+                              fz[:, None], plate.cop], axis=1)
+    if method is Resampling.AVERAGE:
+        edges = np.concatenate([time - dt / 2, [time[-1] + dt / 2]])
+        bins = np.digitize(plate.time, edges) - 1
+        inside = (bins >= 0) & (bins < time.size)
+        counts = np.bincount(bins[inside], minlength=time.size).astype(float)
+        sums = np.stack([np.bincount(bins[inside], weights=s[inside], minlength=time.size)
+                         for s in signals.T], axis=1)
+        empty = counts == 0
+        counts[empty] = 1.0
+        sampled = sums / counts[:, None]
+        if empty.any():  # marker rate above plate rate: interpolate instead
+            for c in range(signals.shape[1]):
+                sampled[empty, c] = np.interp(time[empty], plate.time, signals[:, c])
+    else:
+        cutoff = 0.4 * 0.5 / dt
+        smooth = lowpass(signals, plate.rate, cutoff) if cutoff < 0.5 * plate.rate else signals
+        sampled = np.stack([np.interp(time, plate.time, s) for s in smooth.T], axis=1)
+    force, free, weighted, fz_mean, cop_plain = np.split(sampled, [3, 6, 9, 10], axis=1)
+    fz_mean = fz_mean[:, 0]
+    safe = np.where(np.abs(fz_mean) > 1e-9, fz_mean, 1.0)
+    cop = np.where((np.abs(fz_mean) > 1e-9)[:, None], weighted / safe[:, None], cop_plain)
+    out = ForcePlate(time=time, force=force, cop=cop, free_moment=free, name=plate.name,
+                     corners=plate.corners)
+    return threshold_plate(out, threshold=threshold)

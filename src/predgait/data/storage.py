@@ -1,0 +1,249 @@
+"""Read and write OpenSim storage files (.sto/.mot) and CSV tables.
+
+Storage layout: optional name line, ``key=value`` header lines until ``endheader``, a
+line of column labels, then rows (tab- or space-separated). Ground reactions in a MOT
+follow OpenSim's naming ``<prefix>ground_force_vx/vy/vz`` (N), ``..._px/py/pz`` (COP)
+and ``<prefix>ground_torque_x/y/z`` (N m), one prefix per foot or plate.
+"""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from predgait.data._io import atomic_write_text, length_factor, open_input
+from predgait.data.frames import FileAxes, lab_rotation, rotate_plate
+from predgait.data.trial import ForcePlate
+from predgait.errors import InputError
+
+_FORCE = "ground_force_v"
+_POINT = "ground_force_p"
+_TORQUE = "ground_torque_"
+
+
+@dataclass(frozen=True, eq=False)
+class Storage:
+    """Columns of an OpenSim storage file.
+
+    Attributes:
+        time: (n,) s.
+        columns: label -> (n,) values (units as in the file).
+        header: ``key=value`` header entries (``inDegrees``, ``nRows``, ...).
+        in_degrees: True when the header says ``inDegrees=yes``.
+        source: file name.
+    """
+
+    time: np.ndarray
+    columns: dict[str, np.ndarray]
+    header: dict[str, str]
+    in_degrees: bool
+    source: str
+
+    def column(self, name: str) -> np.ndarray:
+        """One column; raises InputError listing the available labels."""
+        if name not in self.columns:
+            raise InputError(
+                f"{self.source}: no column {name!r}. Columns: {', '.join(self.columns)}."
+            )
+        return self.columns[name]
+
+
+def read_storage(path) -> Storage:
+    """Read an OpenSim .sto/.mot file.
+
+    Args:
+        path: the file.
+
+    Returns:
+        :class:`Storage` with the time column (label ``time``, else the first) apart.
+
+    Raises:
+        InputError: missing file, no ``endheader``, ragged or non-numeric rows.
+    """
+    path = open_input(path)
+    lines = path.read_text(errors="replace").splitlines()
+    end = next((i for i, ln in enumerate(lines) if ln.strip().lower() == "endheader"), None)
+    if end is None:
+        raise InputError(f"{path}: no 'endheader' line; is this an OpenSim .sto/.mot file?")
+    header = {}
+    for line in lines[:end]:
+        if "=" in line:
+            key, _, value = line.strip().partition("=")
+            header[key.strip()] = value.strip()
+    body = [ln for ln in lines[end + 1:] if ln.strip()]
+    if not body:
+        raise InputError(f"{path}: no column labels after 'endheader'.")
+    labels = body[0].split("\t") if "\t" in body[0] else body[0].split()
+    labels = [lb.strip() for lb in labels if lb.strip()]
+    rows = []
+    for number, line in enumerate(body[1:], start=end + 3):
+        fields = line.split()
+        if len(fields) != len(labels):
+            raise InputError(
+                f"{path}: line {number} has {len(fields)} values for {len(labels)} columns; "
+                "the file may be truncated."
+            )
+        try:
+            rows.append([float(f) for f in fields])
+        except ValueError:
+            raise InputError(f"{path}: line {number} has a non-numeric value.") from None
+    if "nRows" in header and header["nRows"].isdigit() and int(header["nRows"]) > len(rows):
+        raise InputError(
+            f"{path}: {len(rows)} rows but the header says nRows={header['nRows']}; "
+            "the file looks truncated."
+        )
+    data = np.array(rows, dtype=float).reshape(len(rows), len(labels))
+    lower = [lb.lower() for lb in labels]
+    t_index = lower.index("time") if "time" in lower else 0
+    columns = {lb: data[:, i] for i, lb in enumerate(labels) if i != t_index}
+    in_degrees = header.get("inDegrees", "no").lower().startswith("y")
+    return Storage(data[:, t_index], columns, header, in_degrees, str(path))
+
+
+def grf_prefixes(storage: Storage) -> list[str]:
+    """Prefixes ``p`` with a ``p + 'ground_force_vx'`` column, in file order."""
+    return [c[: -len(_FORCE + "x")] for c in storage.columns if c.endswith(_FORCE + "x")]
+
+
+def read_external_loads(path) -> dict[str, str]:
+    """Map ground-force prefixes to ExternalForce names from an OpenSim ExternalLoads XML.
+
+    Args:
+        path: e.g. ``subject01_walk1_grf.xml``.
+
+    Returns:
+        prefix -> name, e.g. ``{"": "right", "1_": "left"}``.
+    """
+    path = open_input(path)
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise InputError(f"{path}: not valid XML ({exc}).") from None
+    names = {}
+    for force in root.iter("ExternalForce"):
+        ident = (force.findtext("force_identifier") or "").strip()
+        if ident.endswith(_FORCE):
+            names[ident[: -len(_FORCE)]] = force.get("name", ident)
+    return names
+
+
+def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
+                 axes: FileAxes | str = FileAxes.OPENSIM, length_unit: str = "m",
+                 ) -> tuple[ForcePlate, ...]:
+    """Read ground reactions from a MOT into lab-frame force plates, one per prefix.
+
+    Args:
+        path: the .mot file.
+        names: prefix -> plate name (e.g. from :func:`read_external_loads`); a prefix
+            without a name is named after the prefix (``""`` -> ``"0"``, ``"1_"`` -> ``"1"``).
+        axes: the file's axes (OpenSim ground is Y-up).
+        length_unit: unit of the COP columns (OpenSim uses m).
+
+    Returns:
+        Force plates: force on the foot (N), COP (m), free moment (N m), lab frame.
+    """
+    storage = read_storage(path)
+    prefixes = grf_prefixes(storage)
+    if not prefixes:
+        raise InputError(
+            f"{path}: no '<prefix>ground_force_vx' column; columns: {', '.join(storage.columns)}."
+        )
+    factor = length_factor(length_unit, source=str(path), field="length_unit")
+    rotation = lab_rotation(axes, "+x", source=str(path))
+    names = dict(names or {})
+    plates = []
+    for prefix in prefixes:
+        def stack(stem, prefix=prefix):
+            return np.column_stack([storage.column(prefix + stem + a) for a in "xyz"])
+
+        torque = (stack(_TORQUE) if prefix + _TORQUE + "x" in storage.columns
+                  else np.zeros((storage.time.size, 3)))
+        plate = ForcePlate(
+            time=storage.time, force=stack(_FORCE), cop=stack(_POINT) * factor,
+            free_moment=torque, name=names.get(prefix, prefix.rstrip("_") or "0"),
+        )
+        plates.append(rotate_plate(plate, rotation))
+    return tuple(plates)
+
+
+def _expand(columns: Mapping[str, np.ndarray], n: int, source: str) -> dict[str, np.ndarray]:
+    out = {}
+    for name, values in columns.items():
+        values = np.asarray(values, dtype=float)
+        if values.shape[0] != n:
+            raise InputError(f"{source}: column {name!r} has {values.shape[0]} rows, time {n}.")
+        if values.ndim == 1:
+            out[name] = values
+            continue
+        values = values.reshape(n, -1)
+        suffixes = "xyz" if values.shape[1] == 3 else [str(i + 1) for i in range(values.shape[1])]
+        for suffix, column in zip(suffixes, values.T, strict=True):
+            out[f"{name}_{suffix}"] = column
+    for name in out:
+        if re.search(r"\s", name):
+            raise InputError(f"{source}: column name {name!r} contains white space.")
+    return out
+
+
+def write_storage(path, time, columns: Mapping[str, np.ndarray], *, name: str | None = None,
+                  in_degrees: bool = False, header: Mapping[str, str] | None = None,
+                  protect=()) -> None:
+    """Write an OpenSim-readable .sto/.mot file, whole or not at all.
+
+    Args:
+        path: output file; never an input read in this session (nor one in ``protect``).
+        time: (n,) s.
+        columns: label -> (n,) or (n, k) values; (n, 3) become ``label_x/_y/_z``.
+        name: first header line (defaults to the file stem).
+        in_degrees: value of the ``inDegrees`` header entry.
+        header: further ``key=value`` entries (units, provenance); values on one line.
+        protect: paths that must not be overwritten.
+    """
+    time = np.asarray(time, dtype=float).ravel()
+    flat = _expand(columns, time.size, str(path))
+    lines = [name or str(path).rsplit("/", 1)[-1].rsplit(".", 1)[0], "version=1",
+             f"nRows={time.size}", f"nColumns={len(flat) + 1}",
+             f"inDegrees={'yes' if in_degrees else 'no'}"]
+    for key, value in (header or {}).items():
+        text = f"{key}={value}"
+        if "\n" in text or text.strip().lower() == "endheader":
+            raise InputError(f"{path}: header entry {key!r} must be one line.")
+        lines.append(text)
+    lines += ["endheader", "\t".join(["time", *flat])]
+    data = np.column_stack([time, *flat.values()]) if flat else time[:, None]
+    lines += ["\t".join(f"{v:.10g}" for v in row) for row in data]
+    atomic_write_text(path, "\n".join(lines) + "\n", protect=protect)
+
+
+def write_csv(path, time, columns: Mapping[str, np.ndarray], *,
+              units: Mapping[str, str] | None = None, provenance: str = "", protect=()) -> None:
+    """Write a CSV table with a units/provenance comment line, whole or not at all.
+
+    Layout: ``# predgait: <provenance>``, ``# units: time=s, col=unit, ...``, a header
+    row, then rows. (n, 3) columns become ``label_x/_y/_z`` and share the unit.
+
+    Args:
+        path: output file (never an input).
+        time: (n,) s.
+        columns: label -> (n,) or (n, k) values.
+        units: label -> unit text (e.g. ``"N m"``); unnamed units are written as ``?``.
+        provenance: trial, model and options in one line.
+        protect: paths that must not be overwritten.
+    """
+    time = np.asarray(time, dtype=float).ravel()
+    units = dict(units or {})
+    flat = _expand(columns, time.size, str(path))
+    unit_of = {}
+    for label in flat:
+        base = label if label in units else label.rsplit("_", 1)[0]
+        unit_of[label] = units.get(base, "?")
+    lines = [f"# predgait: {provenance.replace(chr(10), ' ')}",
+             "# units: " + ", ".join(["time=s", *(f"{k}={v}" for k, v in unit_of.items())]),
+             ",".join(["time", *flat])]
+    data = np.column_stack([time, *flat.values()]) if flat else time[:, None]
+    lines += [",".join(f"{v:.10g}" for v in row) for row in data]
+    atomic_write_text(path, "\n".join(lines) + "\n", protect=protect)

@@ -1,0 +1,99 @@
+"""Read OpenSim TRC marker files (any length unit, tab- or space-separated)."""
+
+from __future__ import annotations
+
+import logging
+import re
+
+import numpy as np
+
+from predgait.data._io import length_factor, open_input
+from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers
+from predgait.data.trial import Markers, uniform_time
+from predgait.errors import InputError
+
+logger = logging.getLogger(__name__)
+
+_N_HEADER = 5
+
+
+def _split(line: str) -> list[str]:
+    """Fields of a line: tab-separated if it has tabs (empty fields kept), else spaces."""
+    line = line.rstrip("\r\n")
+    if "\t" in line:
+        return [f.strip() for f in line.split("\t")]
+    return line.split()
+
+
+def _to_float(text: str) -> float:
+    return float(text) if text and text.lower() not in {"nan", "-nan"} else np.nan
+
+
+def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
+             forward: Forward | str = Forward.PLUS_X) -> Markers:
+    """Read a TRC marker file into lab-frame markers in metres.
+
+    The header's ``Units`` (mm, cm or m) is applied; missing values (empty fields or
+    "NaN") become NaN; blank trailing columns are ignored. The time base is rebuilt
+    uniformly from ``DataRate`` (checked against the time column).
+
+    Args:
+        path: the .trc file.
+        axes: the file's axes; OpenSim TRCs are Y-up ("opensim").
+        forward: file axis of progression after the Z-up mapping ("+x", ..., "auto").
+
+    Returns:
+        Markers, lab frame, m.
+
+    Raises:
+        InputError: missing file, malformed header, bad number, or fewer frames than
+            the header's ``NumFrames`` (a truncated file).
+    """
+    path = open_input(path)
+    lines = path.read_text(errors="replace").splitlines()
+    if len(lines) < _N_HEADER:
+        raise InputError(f"{path}: only {len(lines)} lines; a TRC file has a 5-line header.")
+    keys, values = _split(lines[1]), _split(lines[2])
+    header = {k: v for k, v in zip(keys, values, strict=False) if k}
+    for key in ("DataRate", "NumFrames", "NumMarkers", "Units"):
+        if key not in header:
+            raise InputError(f"{path}: header line 2 has no {key!r} (found {keys}).")
+    try:
+        rate = float(header["DataRate"])
+        n_frames, n_markers = int(header["NumFrames"]), int(header["NumMarkers"])
+    except ValueError as exc:
+        raise InputError(f"{path}: header line 3 has a bad number ({exc}).") from None
+    factor = length_factor(header["Units"], source=str(path), field="Units")
+    names = [n for n in _split(lines[3])[2:] if n]
+    if len(names) != n_markers:
+        raise InputError(
+            f"{path}: line 4 names {len(names)} markers but NumMarkers is {n_markers}."
+        )
+    rows = []
+    for number, line in enumerate(lines[_N_HEADER:], start=_N_HEADER + 1):
+        if not line.strip():
+            continue
+        fields = _split(line)
+        try:
+            values_ = [_to_float(f) for f in fields[: 2 + 3 * n_markers]]
+        except ValueError:
+            bad = next(f for f in fields if f and not re.fullmatch(r"[-+.\deEnaNA]+", f))
+            raise InputError(f"{path}: line {number} has a non-numeric value {bad!r}.") from None
+        values_ += [np.nan] * (2 + 3 * n_markers - len(values_))
+        rows.append(values_)
+    if len(rows) < n_frames:
+        raise InputError(
+            f"{path}: {len(rows)} data rows but the header says NumFrames={n_frames}; "
+            "the file looks truncated. Re-export it."
+        )
+    if len(rows) > n_frames:
+        logger.warning("%s: %d rows, NumFrames=%d; reading all rows", path, len(rows), n_frames)
+    data = np.array(rows, dtype=float)
+    if np.isnan(data[:, 1]).any():
+        frame = int(np.flatnonzero(np.isnan(data[:, 1]))[0]) + 1
+        raise InputError(f"{path}: data row {frame} has no time value.")
+    time = uniform_time(data[:, 1], rate, source=str(path))
+    xyz = data[:, 2:].reshape(len(rows), n_markers, 3) * factor
+    rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
+    markers = Markers(time=time, names=tuple(names), xyz=xyz, rate=rate, source=str(path))
+    return rotate_markers(markers, rotation)
