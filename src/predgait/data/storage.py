@@ -17,7 +17,7 @@ import numpy as np
 
 from predgait.data._io import atomic_write_text, length_factor, open_input
 from predgait.data.frames import FileAxes, lab_rotation, rotate_plate
-from predgait.data.trial import ForcePlate
+from predgait.data.trial import ForcePlate, uniform_time
 from predgait.errors import InputError
 
 _FORCE = "ground_force_v"
@@ -144,7 +144,8 @@ def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
         length_unit: unit of the COP columns (OpenSim uses m).
 
     Returns:
-        Force plates: force on the foot (N), COP (m), free moment (N m), lab frame.
+        Force plates: force on the foot (N), COP (m), free moment (N m), lab frame,
+        on a uniform time base rebuilt from the first and last times (checked).
     """
     storage = read_storage(path)
     prefixes = grf_prefixes(storage)
@@ -155,6 +156,9 @@ def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
     factor = length_factor(length_unit, source=str(path), field="length_unit")
     rotation = lab_rotation(axes, "+x", source=str(path))
     names = dict(names or {})
+    time = storage.time
+    if time.size > 2:  # time printed with few decimals: rebuild it if the steps agree
+        time = uniform_time(time, (time.size - 1) / (time[-1] - time[0]), source=str(path))
     plates = []
     for prefix in prefixes:
         def stack(stem, prefix=prefix):
@@ -163,7 +167,7 @@ def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
         torque = (stack(_TORQUE) if prefix + _TORQUE + "x" in storage.columns
                   else np.zeros((storage.time.size, 3)))
         plate = ForcePlate(
-            time=storage.time, force=stack(_FORCE), cop=stack(_POINT) * factor,
+            time=time, force=stack(_FORCE), cop=stack(_POINT) * factor,
             free_moment=torque, name=names.get(prefix, prefix.rstrip("_") or "0"),
         )
         plates.append(rotate_plate(plate, rotation))

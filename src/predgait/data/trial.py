@@ -150,8 +150,8 @@ class ForcePlate:
 
     @property
     def rate(self) -> float:
-        """Hz, from the median sample period."""
-        return float(1.0 / np.median(np.diff(self.time)))
+        """Hz, from the mean sample period."""
+        return float((self.time.size - 1) / (self.time[-1] - self.time[0]))
 
     def window(self, start: float, stop: float) -> ForcePlate:
         """Samples with ``start <= time <= stop`` (s)."""
