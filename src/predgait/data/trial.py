@@ -45,9 +45,9 @@ def uniform_time(time, rate: float, *, source: str = "", tolerance: float = 0.25
     if not rate > 0:
         raise InputError(f"{source}: the sample rate is {rate!r} Hz; it must be positive.")
     uniform = time[0] + np.arange(time.size) / rate
-    deviation = np.abs(uniform - time)
-    worst = int(np.argmax(deviation)) if time.size else 0
-    if time.size and deviation[worst] > tolerance / rate:
+    bad = np.flatnonzero(np.abs(uniform - time) > tolerance / rate)
+    if bad.size:
+        worst = int(bad[0])
         raise InputError(
             f"{source}: the time column is not uniform at the stated rate {rate:g} Hz: frame "
             f"{worst + 1} reads t = {time[worst]:.6g} s but {uniform[worst]:.6g} s is expected. "
