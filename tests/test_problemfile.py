@@ -54,3 +54,13 @@ def test_syntax_error_and_missing_file(tmp_path):
         load_problem(bad)
     with pytest.raises(InputError, match="problem file not found"):
         load_problem(tmp_path / "none.toml")
+
+
+def test_override_inside_an_array_of_tables(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text('[[edit]]\nkind = "passive"\nk = 1\n\n[[edit]]\nkind = "lock_joint"\n')
+    table = load_problem(path, overrides=["edit.0.k=250", "edit.1.angle_deg=12"])
+    assert table.data["edit"][0]["k"] == 250
+    assert table.data["edit"][1]["angle_deg"] == 12
+    with pytest.raises(InputError, match="is not an index 0..1"):
+        load_problem(path, overrides=["edit.5.k=1"])

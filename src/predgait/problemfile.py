@@ -137,9 +137,17 @@ def _set_override(data: dict, assignment: str, path: Path) -> None:
     node = data
     parts = key.split(".")
     for part in parts[:-1]:
-        node = node.setdefault(part, {})
-        if not isinstance(node, dict):
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                raise InputError(f"--set {assignment!r}: {path} has {len(node)} entries there; "
+                                 f"'{part}' is not an index 0..{len(node) - 1}.")
+            node = node[int(part)]
+        else:
+            node = node.setdefault(part, {})
+        if not isinstance(node, dict | list):
             raise InputError(f"--set {assignment!r}: '{part}' in {path} is not a table.")
+    if isinstance(node, list):
+        raise InputError(f"--set {assignment!r}: '{parts[-1]}' needs a key after the index.")
     node[parts[-1]] = value
 
 

@@ -1,0 +1,151 @@
+"""Parameter sweeps: a grid or a random sample of ``--set`` overrides, run in parallel.
+
+Points run in local processes by default (``concurrent.futures``) or on a Dask cluster
+(``dask.distributed``, imported only then) when a scheduler address is given. A point
+that fails is recorded with its reason and the sweep goes on. Results come back in the
+order of the points, whatever order they finished in.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+import time
+import traceback
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm import tqdm
+
+from predgait.errors import InputError, PredgaitError
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One point: its index and the ``key=value`` overrides that define it."""
+
+    index: int
+    values: Mapping[str, float]
+
+    @property
+    def overrides(self) -> tuple[str, ...]:
+        """The point as ``--set`` assignments."""
+        return tuple(f"{key}={value!r}" for key, value in self.values.items())
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """What one point gave: metrics, or the reason it failed."""
+
+    point: SweepPoint
+    ok: bool
+    metrics: Mapping[str, float] = field(default_factory=dict)
+    reason: str = ""
+    seconds: float = 0.0
+
+
+def grid_points(axes: Mapping[str, Sequence[float]]) -> list[SweepPoint]:
+    """Every combination of the axis values (first axis slowest)."""
+    names = list(axes)
+    combos = itertools.product(*(axes[name] for name in names))
+    return [SweepPoint(i, dict(zip(names, combo, strict=True))) for i, combo in enumerate(combos)]
+
+
+def random_points(ranges: Mapping[str, tuple[float, float]], count: int, *,
+                  seed: int = 0) -> list[SweepPoint]:
+    """``count`` points drawn uniformly in the ranges with a seeded generator."""
+    rng = np.random.default_rng(seed)
+    points = []
+    for i in range(count):
+        values = {name: float(rng.uniform(lo, hi)) for name, (lo, hi) in ranges.items()}
+        points.append(SweepPoint(i, values))
+    return points
+
+
+def run_point(task: Callable[[SweepPoint], Mapping[str, float]], point: SweepPoint) -> SweepOutcome:
+    """Run one point, turning any failure into a recorded outcome (never raising)."""
+    start = time.perf_counter()
+    try:
+        metrics = dict(task(point))
+    except PredgaitError as exc:
+        return SweepOutcome(point, False, reason=str(exc), seconds=time.perf_counter() - start)
+    except Exception as exc:  # noqa: BLE001 - a sweep records every failure and goes on
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        place = f"{os.path.basename(where.filename)}:{where.lineno}"
+        reason = f"{type(exc).__name__}: {exc} (at {place})"
+        return SweepOutcome(point, False, reason=reason, seconds=time.perf_counter() - start)
+    return SweepOutcome(point, True, metrics, seconds=time.perf_counter() - start)
+
+
+def _dask_client(scheduler: str, timeout: float):
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise InputError("--scheduler needs dask.distributed: pip install 'dask[distributed]'."
+                         ) from None
+    try:
+        return Client(scheduler, timeout=timeout)
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start one "
+                         "with 'dask scheduler' or drop --scheduler.") from None
+
+
+def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequence[SweepPoint],
+              *, workers: int = 2, scheduler: str | None = None,
+              progress: bool = True, connect_timeout: float = 10.0) -> list[SweepOutcome]:
+    """Run ``task`` at every point; failed points are recorded, not raised.
+
+    Args:
+        task: A picklable (module-level) function of a point returning its metrics.
+        points: The points to run.
+        workers: Local processes (ignored with ``scheduler``); 1 runs in this process.
+        scheduler: Address of a Dask scheduler (``tcp://host:port``), or a
+            ``dask.distributed.Client``.
+        progress: Show a progress bar.
+        connect_timeout: Seconds to wait for the Dask scheduler.
+    """
+    if workers < 1:
+        raise InputError(f"--workers = {workers}: give at least 1.")
+    outcomes: dict[int, SweepOutcome] = {}
+    bar = tqdm(total=len(points), desc="sweep", unit="run", disable=not progress)
+    try:
+        if scheduler is not None:
+            client = (_dask_client(scheduler, connect_timeout) if isinstance(scheduler, str)
+                      else scheduler)
+            futures = client.map(run_point, [task] * len(points), points, pure=False)
+            from dask.distributed import as_completed as dask_completed
+
+            for future in dask_completed(futures):
+                outcome = future.result()
+                outcomes[outcome.point.index] = outcome
+                bar.update()
+        elif workers == 1 or len(points) <= 1:
+            for point in points:
+                outcomes[point.index] = run_point(task, point)
+                bar.update()
+        else:
+            with ProcessPoolExecutor(max_workers=workers) as pool:
+                futures = [pool.submit(run_point, task, point) for point in points]
+                for future in as_completed(futures):
+                    outcome = future.result()
+                    outcomes[outcome.point.index] = outcome
+                    bar.update()
+    finally:
+        bar.close()
+    return [outcomes[point.index] for point in points]
+
+
+def outcomes_table(outcomes: Sequence[SweepOutcome]) -> tuple[list[str], list[list]]:
+    """Header and rows (parameters, status, metrics, reason) for a CSV file."""
+    params = list(dict.fromkeys(k for o in outcomes for k in o.point.values))
+    metrics = list(dict.fromkeys(k for o in outcomes for k in o.metrics))
+    header = ["index", *params, "status", *metrics, "seconds", "reason"]
+    rows = []
+    for o in outcomes:
+        rows.append([o.point.index, *(o.point.values.get(p, math.nan) for p in params),
+                     "ok" if o.ok else "failed", *(o.metrics.get(m, math.nan) for m in metrics),
+                     round(o.seconds, 4), o.reason])
+    return header, rows
