@@ -128,13 +128,29 @@ def foot_geometry(foot_length: float, ankle_height: float, com_fraction: float) 
     )
 
 
-def leg_from_subject(mass: float, height: float) -> LegParameters:
-    """Leg parameters from body mass (kg) and height (m) by the regressions above."""
+def leg_from_subject(mass: float, height: float, *,
+                     lengths: dict[str, float] | None = None) -> LegParameters:
+    """Leg parameters from body mass (kg) and height (m) by the regressions above.
+
+    Args:
+        mass: Body mass, kg.
+        height: Standing height, m.
+        lengths: Measured segment lengths, m (e.g. joint-centre distances in a static
+            trial), replacing the height regressions for the segments named; masses and
+            radii of gyration (as fractions of the length) still follow Table 3.3.2.
+    """
     check_subject(mass, height)
+    lengths = dict(lengths or {})
+    unknown = set(lengths) - set(LEG_SEGMENTS)
+    if unknown:
+        raise InputError(f"unknown segment(s) {', '.join(sorted(unknown))}; segments: "
+                         f"{', '.join(LEG_SEGMENTS)}.")
+    for name, value in lengths.items():
+        _check_range(f"{name} length", value, (0.05, 1.0), "m")
     segments = {}
     for name in LEG_SEGMENTS:
         seg_mass = MASS_FRACTION[name] * mass
-        length = LENGTH_FRACTION[name] * height
+        length = lengths.get(name, LENGTH_FRACTION[name] * height)
         radius = GYRATION_FRACTION[name] * length
         segments[name] = Segment(
             name=name,
@@ -146,7 +162,9 @@ def leg_from_subject(mass: float, height: float) -> LegParameters:
     foot = foot_geometry(
         segments["foot"].length, ANKLE_HEIGHT_FRACTION * height, segments["foot"].com_fraction
     )
-    return LegParameters(segments=segments, foot=foot, body_mass=mass, height=height)
+    source = "regressions" if not lengths else "regressions, measured lengths"
+    return LegParameters(segments=segments, foot=foot, body_mass=mass, height=height,
+                         source=source)
 
 
 SEGMENT_CSV_COLUMNS = ("segment", "mass_kg", "length_m", "com_from_proximal", "inertia_kg_m2")

@@ -102,9 +102,9 @@ def rod_urdf(rod: Segment) -> str:
 
 
 #: Joint ranges of the model coordinates, rad (ankle: dorsiflexion +; knee: the model
-#: coordinate is minus knee flexion, so flexion 0..150 deg and 10 deg of hyperextension).
+#: coordinate is minus knee flexion, so flexion 0..150 deg and 20 deg of hyperextension).
 ANKLE_RANGE = (-0.87, 0.61)
-KNEE_RANGE = (-2.62, 0.17)
+KNEE_RANGE = (-2.62, 0.35)
 
 
 def leg_urdf(leg: LegParameters) -> str:
@@ -119,6 +119,9 @@ def leg_urdf(leg: LegParameters) -> str:
     geo = leg.foot
     if leg.body_mass is not None:
         what = f"planar leg for body mass {_num(leg.body_mass)} kg, height {_num(leg.height)} m"
+        if leg.source != "regressions":
+            lengths = ", ".join(f"{n} {_num(leg.segments[n].length)}" for n in leg.segments)
+            what += f", segment lengths (m) {lengths}"
     else:
         what = f"planar leg from segment table {Path(leg.source).name}"
     shank_com = shank.length * (1.0 - shank.com_fraction)

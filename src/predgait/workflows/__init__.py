@@ -1,0 +1,1 @@
+"""predgait.workflows: file-to-file pipelines behind the CLI commands."""

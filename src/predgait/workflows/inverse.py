@@ -1,0 +1,390 @@
+"""Measured trial in, joint moments out: the planar inverse-dynamics pipeline.
+
+markers (TRC / C3D / CSV) + ground reactions (MOT / C3D plates)
+  -> gap filling, Butterworth low-pass (Winter correction) of markers and forces
+  -> joint centres (markers, Harrington hip regression, static-trial calibration)
+  -> least-squares IK of the leg URDF (hinge-consistent coordinates)
+  -> 5-point central differences -> Pinocchio RNEA with the ground reaction on the foot
+  -> ankle, knee, hip moments, joint forces and powers; time zero at heel strike.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from predgait.data import (
+    Side,
+    differentiate,
+    events_from_plate,
+    fill_gaps,
+    filter_plate,
+    lowpass,
+    read_c3d,
+    read_external_loads,
+    read_grf_mot,
+    read_markers_csv,
+    read_trc,
+    resample_plate,
+)
+from predgait.data.bundled import bundled_path, subject_info
+from predgait.data.events import Events
+from predgait.data.trial import ForcePlate, Markers, Trial
+from predgait.dynamics.external import Load
+from predgait.dynamics.inverse import LegInverse, leg_inverse_dynamics
+from predgait.errors import InputError
+from predgait.kinematics import clinical
+from predgait.kinematics.joint_centres import calibrate_centre, harrington_hip
+from predgait.kinematics.planar_ik import IKResult, solve_ik
+from predgait.models.anthropometry import leg_from_subject
+from predgait.models.loading import Model, load_model, model_from_urdf
+from predgait.models.urdf import leg_urdf
+
+log = logging.getLogger(__name__)
+POINT_NAMES = ("hip", "knee", "ankle", "heel", "toe")
+#: Largest median horizontal distance (m) of a contact's COP from the foot's heel-toe
+#: segment for the contact to load that foot.
+NEAR_FOOT = 0.1
+
+
+@dataclass(frozen=True)
+class HipRegression:
+    """Hip centre by Harrington et al. (2007) from these pelvis markers."""
+
+    rasis: str
+    lasis: str
+    sacrum: str
+
+
+@dataclass(frozen=True)
+class StaticCentre:
+    """Knee/ankle centre: mid-point of two static markers, carried by a 3-marker cluster."""
+
+    medial: str
+    lateral: str
+    cluster: tuple[str, str, str]
+
+
+PointSource = str | HipRegression | StaticCentre
+
+
+@dataclass(frozen=True)
+class InverseOptions:
+    """Everything ``predgait inverse`` needs (units: kg, m, Hz, N).
+
+    ``points`` maps hip, knee, ankle, heel, toe to a trial marker name or a joint-centre
+    rule. ``grf_cutoff`` None leaves forces unfiltered; by default forces are filtered
+    with the marker cut-off (Kristianslund et al. 2012, J Biomech 45:666-671), which
+    avoids the impact artefacts of mismatched filtering.
+    """
+
+    markers: Path
+    mass: float
+    points: Mapping[str, PointSource]
+    side: Side = Side.RIGHT
+    grf: Path | None = None
+    static: Path | None = None
+    height: float | None = None
+    model: Path | None = None
+    cutoff: float = 6.0
+    grf_cutoff: float | None = 6.0
+    threshold: float = 20.0
+    scale_to_markers: bool = True
+    max_gap_frames: int = 10
+
+
+@dataclass(frozen=True)
+class InverseResult:
+    """Planar inverse-dynamics results of one leg (see docs/DEVELOPING.md contract)."""
+
+    time: np.ndarray
+    model: Model
+    side: str
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    tau: np.ndarray
+    hip_force: np.ndarray
+    hip_moment: np.ndarray
+    joint_force: dict[str, np.ndarray]
+    grf: np.ndarray
+    cop: np.ndarray
+    free_moment: np.ndarray
+    events: Events
+    ik: IKResult
+    body_mass: float
+    has_grf: bool
+    provenance: dict = field(default_factory=dict)
+
+    def clinical_angles(self) -> dict[str, np.ndarray]:
+        """Hip flexion, knee flexion, ankle dorsiflexion, rad."""
+        return clinical.clinical_angles(self.q)
+
+    def clinical_rates(self) -> dict[str, np.ndarray]:
+        """Their time derivatives, rad/s."""
+        return clinical.clinical_angles(self.qd)
+
+    def clinical_moments(self) -> dict[str, np.ndarray]:
+        """Hip flexion, knee flexion, ankle dorsiflexion moments, N m."""
+        return clinical.clinical_moments(self.tau, self.hip_moment[:, 1])
+
+    def powers(self) -> dict[str, np.ndarray]:
+        """Joint powers, W."""
+        return clinical.joint_powers(self.clinical_moments(), self.clinical_rates())
+
+    def first_cycle(self) -> tuple[float, float] | None:
+        """Start and end time (s) of the first full gait cycle, if the trial has one."""
+        cycles = self.events.cycles()
+        return cycles[0] if cycles else None
+
+
+def read_trial(options: InverseOptions) -> Trial:
+    """Markers and plates in the lab frame from TRC(+MOT), C3D or CSV(+MOT)."""
+    path = Path(options.markers)
+    suffix = path.suffix.lower()
+    if suffix == ".c3d":
+        if options.grf is not None:
+            raise InputError(f"{path}: a C3D file carries its own force plates; drop --grf.")
+        return read_c3d(path)
+    if suffix == ".trc":
+        markers = read_trc(path)
+    elif suffix == ".csv":
+        header = path.read_text().splitlines()
+        header = next(line for line in header if not line.startswith("#"))
+        cols = [c.strip() for c in header.split(",")]
+        names = [c[:-2] for c in cols if c.endswith("_x") and f"{c[:-2]}_z" in cols]
+        if not names:
+            raise InputError(f"{path}: no marker columns NAME_x, NAME_y, NAME_z in the header.")
+        markers = read_markers_csv(path, {n: (f"{n}_x", f"{n}_y", f"{n}_z") for n in names})
+    else:
+        raise InputError(f"{path}: unknown marker file type '{suffix}'; give .trc, .c3d or .csv.")
+    plates: tuple[ForcePlate, ...] = ()
+    if options.grf is not None:
+        grf = Path(options.grf)
+        xml = grf.with_suffix(".xml")
+        names = read_external_loads(xml) if xml.is_file() else None
+        plates = read_grf_mot(grf, names=names)
+    return Trial(markers=markers, plates=plates, source=str(path))
+
+
+def _needed_markers(points: Mapping[str, PointSource]) -> list[str]:
+    names: list[str] = []
+    for source in points.values():
+        if isinstance(source, str):
+            names.append(source)
+        elif isinstance(source, HipRegression):
+            names += [source.rasis, source.lasis, source.sacrum]
+        else:
+            names += list(source.cluster)
+    return list(dict.fromkeys(names))
+
+
+def joint_points(markers: Markers, options: InverseOptions, static: Markers | None
+                 ) -> dict[str, np.ndarray]:
+    """Positions (n, 3) of hip, knee, ankle centres and heel, toe markers."""
+    missing = [p for p in POINT_NAMES if p not in options.points]
+    if missing:
+        raise InputError(f"no marker given for {', '.join(missing)}; give --markers "
+                         "hip=NAME,knee=NAME,ankle=NAME,heel=NAME,toe=NAME (heel may be omitted "
+                         "only when the foot is the ankle-toe line).")
+    out = {}
+    for point, source in options.points.items():
+        if isinstance(source, str):
+            out[point] = markers.get(source)
+        elif isinstance(source, HipRegression):
+            out[point] = harrington_hip(markers.get(source.rasis), markers.get(source.lasis),
+                                        markers.get(source.sacrum), side=str(options.side))
+        else:
+            if static is None:
+                raise InputError(f"the {point} centre is defined from a static trial; give "
+                                 "--static STATIC.trc (or a marker name for it).")
+            centre = calibrate_centre(static, point, source.medial, source.lateral,
+                                      source.cluster)
+            out[point] = centre.locate(markers)
+    return out
+
+
+def foot_pitch(points: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Pitch (n,) of the heel-to-toe line about +Y (toe down positive), rad."""
+    d = points["toe"] - points["heel"]
+    return np.arctan2(-d[..., 2], d[..., 0])
+
+
+def measured_lengths(points: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """Thigh, shank and foot lengths (m): mean sagittal joint-centre and heel-toe distances."""
+    def mean_distance(a, b):
+        return float(np.nanmean(np.linalg.norm((points[a] - points[b])[..., [0, 2]], axis=-1)))
+
+    return {"thigh": mean_distance("hip", "knee"), "shank": mean_distance("knee", "ankle"),
+            "foot": mean_distance("toe", "heel")}
+
+
+def _build_model(options: InverseOptions, calibration: dict[str, np.ndarray]) -> Model:
+    """The leg: a given URDF, or the regressions with lengths measured on the markers.
+
+    Segment lengths come from the static trial when there is one, else from the walking
+    trial's joint centres (``scale_to_markers``); the height (for the ankle height) may
+    then be left out and is estimated from the leg length (Winter 2009, Fig. 4.1).
+    """
+    if options.model is not None:
+        return load_model(options.model)
+    lengths = measured_lengths(calibration) if options.scale_to_markers else None
+    height = options.height
+    if height is None:
+        if lengths is None:
+            raise InputError("give --height (m) or --model LEG.urdf to build the leg model.")
+        height = (lengths["thigh"] + lengths["shank"]) / (0.245 + 0.246)
+    params = leg_from_subject(options.mass, height, lengths=lengths)
+    return model_from_urdf(leg_urdf(params), source=f"leg for {options.mass} kg, "
+                                                     f"{height:.4g} m ({params.source})")
+
+
+def _distance_to_foot(point: np.ndarray, heel: np.ndarray, toe: np.ndarray) -> np.ndarray:
+    """Horizontal distance (n,) from points to the heel-toe segment of the foot, m."""
+    p, a, b = point[:, :2], heel[:, :2], toe[:, :2]
+    ab = b - a
+    u = np.clip(np.sum((p - a) * ab, axis=1) / np.sum(ab * ab, axis=1), 0.0, 1.0)
+    return np.linalg.norm(p - (a + u[:, None] * ab), axis=1)
+
+
+def _contacts(loaded: np.ndarray) -> list[slice]:
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], loaded.astype(int), [0]])))
+    return [slice(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _foot_grf(plates: tuple[ForcePlate, ...], time: np.ndarray, heel: np.ndarray,
+              toe: np.ndarray, options: InverseOptions
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ground reaction on the analysed foot.
+
+    A plate named after the side (OpenSim's external-loads file maps MOT columns to
+    ``right``/``left``) is that foot's. Otherwise each contact on a plate (a run of frames
+    above the threshold) is the foot's when the median horizontal distance of its COP
+    from the foot's heel-toe segment is below ``NEAR_FOOT``.
+    """
+    force, moment_o, free = (np.zeros((len(time), 3)) for _ in range(3))
+    named = [p for p in plates if p.name == str(options.side)]
+    for plate in named or plates:
+        if options.grf_cutoff is not None:
+            plate = filter_plate(plate, options.grf_cutoff, threshold=options.threshold)
+        plate = resample_plate(plate, time, threshold=options.threshold)
+        use = np.zeros(len(time), dtype=bool)
+        distance = _distance_to_foot(plate.cop, heel, toe)
+        for contact in _contacts(plate.force[:, 2] > options.threshold):
+            if named or np.median(distance[contact]) < NEAR_FOOT:
+                use[contact] = True
+        force[use] += plate.force[use]
+        free[use] += plate.free_moment[use]
+        moment_o[use] += np.cross(plate.cop[use], plate.force[use])
+    fz = force[:, 2]
+    cop = np.zeros_like(force)
+    on = fz > options.threshold
+    # COP on the ground plane z = 0 of the summed wrench (sagittal components).
+    cop[on, 0] = -moment_o[on, 1] / fz[on]
+    cop[on, 1] = moment_o[on, 0] / fz[on]
+    return force, cop, free
+
+
+def run_inverse(options: InverseOptions) -> InverseResult:
+    """Run the pipeline (module docstring) on one trial and leg."""
+    trial = read_trial(options)
+    needed = _needed_markers(options.points)
+    markers = fill_gaps(trial.markers, names=needed, max_gap_frames=options.max_gap_frames,
+                        edges="trim")
+    if markers.n_frames < 20:
+        raise InputError(f"{trial.source}: only {markers.n_frames} frames have all of "
+                         f"{', '.join(needed)}; check the marker names.")
+    if not 0.5 <= options.cutoff < 0.5 * markers.rate:
+        raise InputError(f"--cutoff {options.cutoff} Hz must lie in 0.5..{0.5 * markers.rate} Hz "
+                         f"(below the Nyquist frequency of {markers.rate} Hz markers).")
+    markers = markers.with_xyz(lowpass(markers.xyz, markers.rate, options.cutoff))
+    static = None
+    static_points = None
+    if options.static is not None:
+        static = read_trc(options.static)
+        static_names = [n for s in options.points.values() if isinstance(s, StaticCentre)
+                        for n in (s.medial, s.lateral)]
+        static = fill_gaps(static, names=list(dict.fromkeys(needed + static_names)),
+                           edges="trim")
+        static_points = joint_points(static, options, static)
+    points = joint_points(markers, options, static)
+    pitch = foot_pitch(points)
+    if static_points is not None:
+        pitch = pitch - float(np.mean(foot_pitch(static_points)))
+    model = _build_model(options, static_points if static_points is not None else points)
+    ik = solve_ik(model, {f"{k}_center": points[k] for k in ("hip", "knee", "ankle")}, pitch)
+    if not ik.converged.all():
+        bad = np.flatnonzero(~ik.converged)
+        log.warning("IK did not converge in %d frames (first at t = %.3f s)", bad.size,
+                    markers.time[bad[0]])
+    time = markers.time
+    q = ik.q
+    qd = differentiate(q, time, method="central5")
+    qdd = differentiate(q, time, method="central5", order=2)
+    force, cop, free = _foot_grf(trial.plates, time, points["heel"], points["toe"], options)
+    has_grf = bool(trial.plates)
+    if has_grf and not np.any(force[:, 2] > options.threshold):
+        raise InputError(f"{options.grf or trial.source}: no plate has a contact (vertical "
+                         f"force > {options.threshold} N) under the {options.side} foot.")
+    loads = [[Load("foot", force[k], point=cop[k], moment=free[k])] if force[k, 2] > 0 else []
+             for k in range(len(time))]
+    inv: LegInverse = leg_inverse_dynamics(model, q, qd, qdd, loads)
+    if has_grf:
+        foot_plate = ForcePlate(time=time, force=force, cop=cop, free_moment=free,
+                                name=str(options.side))
+        events = events_from_plate(foot_plate, options.side, threshold=options.threshold)
+    else:
+        events = Events(side=options.side, heel_strikes=np.array([]), toe_offs=np.array([]))
+    t0 = float(events.heel_strikes[0]) if len(events.heel_strikes) else 0.0
+    provenance = {
+        "trial": str(options.markers), "grf": str(options.grf) if options.grf else "",
+        "static": str(options.static) if options.static else "", "side": str(options.side),
+        "mass_kg": options.mass, "height_m": options.height, "model": model.source,
+        "marker_cutoff_hz": options.cutoff, "grf_cutoff_hz": options.grf_cutoff,
+        "contact_threshold_n": options.threshold, "time_zero_s": t0,
+    }
+    return InverseResult(
+        time=time - t0, model=model, side=str(options.side), q=q, qd=qd, qdd=qdd, tau=inv.tau,
+        hip_force=inv.hip_force, hip_moment=inv.hip_moment, joint_force=inv.joint_force,
+        grf=force, cop=cop, free_moment=free, events=events.shifted(t0), ik=ik,
+        body_mass=options.mass, has_grf=has_grf, provenance=provenance)
+
+
+def subject01_points(side: Side | str = Side.RIGHT) -> dict[str, PointSource]:
+    """Point definitions for the bundled subject01 marker set (Gait2354 example)."""
+    s = "R" if str(side) == "right" else "L"
+    return {
+        "hip": HipRegression("R.ASIS", "L.ASIS", "V.Sacral"),
+        "knee": StaticCentre(f"{s}.Knee.Med", f"{s}.Knee.Lat",
+                             (f"{s}.Thigh.Upper", f"{s}.Thigh.Front", f"{s}.Thigh.Rear")),
+        "ankle": StaticCentre(f"{s}.Ankle.Med", f"{s}.Ankle.Lat",
+                              (f"{s}.Shank.Upper", f"{s}.Shank.Front", f"{s}.Shank.Rear")),
+        "heel": f"{s}.Heel",
+        "toe": f"{s}.Toe.Tip",
+    }
+
+
+def bundled_options(side: Side | str = Side.RIGHT) -> InverseOptions:
+    """Options of the bundled subject01 trial (what ``problems/inverse_subject01.toml`` says)."""
+    folder = bundled_path("subject01_walk1")
+    info = subject_info("subject01_walk1")
+    return InverseOptions(
+        markers=folder / "subject01_walk1.trc", grf=folder / "subject01_walk1_grf.mot",
+        static=folder / "subject01_static.trc", mass=info["mass"], height=info["height"],
+        side=Side(str(side)), points=subject01_points(side))
+
+
+@functools.lru_cache(maxsize=4)
+def bundled_inverse(side: str = "right") -> InverseResult:
+    """Inverse dynamics of the bundled subject01 trial with default options (cached)."""
+    return run_inverse(bundled_options(side))
+
+
+def with_options(options: InverseOptions, **changes) -> InverseOptions:
+    """A copy of ``options`` with some fields changed."""
+    return replace(options, **changes)
