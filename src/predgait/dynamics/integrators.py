@@ -469,11 +469,12 @@ def _adaptive(run, t0, t1, x0, events, bar):
     opts, limit = run.options, run.limit
     solver_class = {Method.RK45: spi.RK45, Method.RADAU: spi.Radau, Method.BDF: spi.BDF,
                     Method.LSODA: spi.LSODA}[opts.method]
-    count = [0]
+    count, last_call = [0], [t0, None]
 
     def fun(t, x):
         count[0] += 1
-        return run.rhs(t, x)
+        last_call[:] = t, run.rhs(t, x)
+        return last_call[1]
 
     if run.t_eval is not None:
         t_out = run.t_eval
@@ -493,10 +494,12 @@ def _adaptive(run, t0, t1, x0, events, bar):
         t_new, x_new = solver.t, solver.y
         if solver.status == "failed" or _is_bad(x_new, limit):
             index, what, reason = *_offender(x_new, limit), None
-            if solver.status == "failed":
-                f_old = np.asarray(run.rhs(t_old, x_old), dtype=float)
-                index = _offender(f_old, np.inf)[0]
-                what = f"has derivative {f_old[index]:.4g} at the last finite state"
+            if solver.status == "failed":  # name the derivative that stalled the solver
+                t_f, f_f = last_call[0], np.asarray(last_call[1], dtype=float)
+                if np.all(np.isfinite(f_f)):
+                    t_f, f_f = t_old, np.asarray(run.rhs(t_old, x_old), dtype=float)
+                index = _offender(f_f, np.inf)[0]
+                what = f"has derivative {f_f[index]:.4g} at t = {t_f:.6g} s"
                 reason = f"the {opts.method.value} solver failed ({solver_message})"
             last = (t_old, x_old) if filled == 0 or t_out[filled - 1] < t_old else None
             run.diverged(*_with_last(t_out[:filled], x_out[:filled], last), t_new, index, what,
