@@ -115,7 +115,10 @@ def resample_plate(plate: ForcePlate, time, *, method: Resampling | str = Resamp
     signals = np.concatenate([plate.force, plate.free_moment, plate.cop * fz[:, None],
                               fz[:, None], plate.cop], axis=1)
     if method is Resampling.AVERAGE:
-        edges = np.concatenate([time - dt / 2, [time[-1] + dt / 2]])
+        # Shift the bin edges by a hair so that plate samples lying exactly on an edge
+        # (600 Hz plates, 60 Hz markers) fall in the same bin whatever the rounding of
+        # the time columns: results must not depend on the 9th digit of a time stamp.
+        edges = np.concatenate([time - dt / 2, [time[-1] + dt / 2]]) + 1e-6 * dt
         bins = np.digitize(plate.time, edges) - 1
         inside = (bins >= 0) & (bins < time.size)
         counts = np.bincount(bins[inside], minlength=time.size).astype(float)

@@ -21,6 +21,7 @@ import numpy as np
 from predgait.data import (
     Side,
     differentiate,
+    events_from_kinematics,
     events_from_plate,
     fill_gaps,
     filter_plate,
@@ -32,7 +33,7 @@ from predgait.data import (
     read_trc,
     resample_plate,
 )
-from predgait.data.bundled import bundled_path, subject_info
+from predgait.data.bundled import bundled_path, read_winter_table, subject_info
 from predgait.data.events import Events
 from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.dynamics.external import Load
@@ -153,6 +154,8 @@ def read_trial(options: InverseOptions) -> Trial:
         return read_c3d(path)
     if suffix == ".trc":
         markers = read_trc(path)
+    elif suffix == ".txt":
+        markers = read_winter_table(path)
     elif suffix == ".csv":
         header = path.read_text().splitlines()
         header = next(line for line in header if not line.startswith("#"))
@@ -162,7 +165,8 @@ def read_trial(options: InverseOptions) -> Trial:
             raise InputError(f"{path}: no marker columns NAME_x, NAME_y, NAME_z in the header.")
         markers = read_markers_csv(path, {n: (f"{n}_x", f"{n}_y", f"{n}_z") for n in names})
     else:
-        raise InputError(f"{path}: unknown marker file type '{suffix}'; give .trc, .c3d or .csv.")
+        raise InputError(f"{path}: unknown marker file type '{suffix}'; give .trc, .c3d, .csv "
+                         "or Winter's Table A.1 (.txt).")
     plates: tuple[ForcePlate, ...] = ()
     if options.grf is not None:
         grf = Path(options.grf)
@@ -290,6 +294,18 @@ def _foot_grf(plates: tuple[ForcePlate, ...], time: np.ndarray, heel: np.ndarray
     return force, cop, free
 
 
+def _kinematic_events(time: np.ndarray, points: Mapping[str, np.ndarray], side: Side) -> Events:
+    """Zeni et al. (2008) events with the hip centre as the pelvis reference."""
+    names = ("heel", "toe", "hip")
+    xyz = np.stack([points[n] for n in names], axis=1)
+    markers = Markers(time=time, names=names, xyz=xyz, rate=1.0 / float(np.median(np.diff(time))),
+                      source="joint centres")
+    try:
+        return events_from_kinematics(markers, side, heel="heel", toe="toe", pelvis=["hip"])
+    except InputError:
+        return Events(side=side, heel_strikes=np.array([]), toe_offs=np.array([]))
+
+
 def run_inverse(options: InverseOptions) -> InverseResult:
     """Run the pipeline (module docstring) on one trial and leg."""
     trial = read_trial(options)
@@ -335,11 +351,14 @@ def run_inverse(options: InverseOptions) -> InverseResult:
              for k in range(len(time))]
     inv: LegInverse = leg_inverse_dynamics(model, q, qd, qdd, loads)
     if has_grf:
-        foot_plate = ForcePlate(time=time, force=force, cop=cop, free_moment=free,
+        # Events from the unfiltered reaction: low-pass filtering smears the contact edges.
+        raw = _foot_grf(trial.plates, time, points["heel"], points["toe"],
+                        replace(options, grf_cutoff=None))
+        foot_plate = ForcePlate(time=time, force=raw[0], cop=raw[1], free_moment=raw[2],
                                 name=str(options.side))
         events = events_from_plate(foot_plate, options.side, threshold=options.threshold)
     else:
-        events = Events(side=options.side, heel_strikes=np.array([]), toe_offs=np.array([]))
+        events = _kinematic_events(time, points, options.side)
     t0 = float(events.heel_strikes[0]) if len(events.heel_strikes) else 0.0
     provenance = {
         "trial": str(options.markers), "grf": str(options.grf) if options.grf else "",

@@ -1,0 +1,100 @@
+"""``predgait inverse``: planar inverse dynamics of a measured trial."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from predgait.data import Side
+from predgait.errors import InputError
+
+DESCRIPTION = """\
+Planar inverse dynamics of one leg (thesis 3.3.3; Pinocchio RNEA with the measured ground
+reaction on the foot). Writes kinematics.sto/.csv (hip_flexion, knee_flexion,
+ankle_dorsiflexion, rad), inverse_dynamics.sto/.csv (moments N m, joint forces N, powers W,
+ground reaction), summary.json and PNG plots against % gait cycle into --out.
+
+Give either a TOML problem file (problems/inverse_*.toml: joint-centre rules, static trial)
+or a marker file (TRC, C3D or CSV with NAME_x/_y/_z columns) and the options below.
+Time zero is heel strike of the analysed foot.
+"""
+
+
+def _parse_markers(text: str) -> dict[str, str]:
+    pairs = {}
+    for item in filter(None, (p.strip() for p in text.split(","))):
+        if "=" not in item:
+            raise InputError(f"--markers: '{item}' is not POINT=NAME (e.g. hip=RHJC).")
+        point, name = (s.strip() for s in item.split("=", 1))
+        if point not in ("hip", "knee", "ankle", "heel", "toe"):
+            raise InputError(f"--markers: unknown point '{point}'; points: hip, knee, ankle, "
+                             "heel, toe.")
+        pairs[point] = name
+    if "heel" not in pairs and "ankle" in pairs:
+        pairs["heel"] = pairs["ankle"]  # the foot is the ankle-toe line
+    return pairs
+
+
+def register(commands: argparse._SubParsersAction) -> None:
+    """Add ``inverse``."""
+    cmd = commands.add_parser("inverse", help="joint moments from markers and force plates",
+                              description=DESCRIPTION,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    cmd.add_argument("input", type=Path, help="PROBLEM.toml, or MARKERS.trc|.c3d|.csv")
+    cmd.add_argument("--grf", type=Path, help="ground reactions (OpenSim .mot); none for C3D")
+    cmd.add_argument("--static", type=Path, help="static trial (TRC) for segment lengths")
+    cmd.add_argument("--mass", type=float, metavar="KG", help="body mass, kg (required)")
+    cmd.add_argument("--height", type=float, metavar="M", help="standing height, m")
+    cmd.add_argument("--side", choices=("right", "left"), default="right")
+    cmd.add_argument("--markers", metavar="hip=NAME,knee=NAME,ankle=NAME,heel=NAME,toe=NAME",
+                     help="trial markers (joint centres) of the leg; heel may be omitted")
+    cmd.add_argument("--model", type=Path, metavar="LEG.urdf",
+                     help="leg from 'predgait model build leg' (e.g. custom segments)")
+    cmd.add_argument("--cutoff", type=float, default=6.0, metavar="HZ",
+                     help="marker low-pass cut-off, Hz (default 6)")
+    cmd.add_argument("--grf-cutoff", type=float, default=6.0, metavar="HZ",
+                     help="ground-reaction low-pass cut-off, Hz (default 6; 0 = unfiltered)")
+    cmd.add_argument("--out", type=Path, required=True, metavar="DIR", help="result folder")
+    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    cmd.set_defaults(run=run)
+
+
+def options_from_args(args: argparse.Namespace):
+    """InverseOptions from a problem file or the command-line options."""
+    from predgait.problemfile import load_problem
+    from predgait.workflows.inverse import InverseOptions
+    from predgait.workflows.inverse_io import options_from_problem
+
+    if args.input.suffix.lower() == ".toml":
+        return options_from_problem(load_problem(args.input))
+    if args.mass is None:
+        raise InputError("--mass (kg) is required: joint moments depend on the body mass.")
+    if not args.markers:
+        raise InputError("--markers is required with a marker file, e.g. "
+                         "--markers hip=RHJC,knee=RKJC,ankle=RAJC,heel=RCAL,toe=RMT2.")
+    if not args.input.is_file():
+        raise InputError(f"{args.input}: file not found.")
+    return InverseOptions(markers=args.input, grf=args.grf, static=args.static, mass=args.mass,
+                          height=args.height, side=Side(args.side), model=args.model,
+                          points=_parse_markers(args.markers), cutoff=args.cutoff,
+                          grf_cutoff=args.grf_cutoff or None)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the pipeline and write the result folder."""
+    from predgait.workflows.inverse import run_inverse
+    from predgait.workflows.inverse_io import summary, write_inverse_outputs
+
+    options = options_from_args(args)
+    result = run_inverse(options)
+    inputs = [p for p in (options.markers, options.grf, options.static) if p]
+    write_inverse_outputs(result, args.out, force=args.force, inputs=inputs)
+    peaks = summary(result)["peak_moments_n_m_per_kg"]
+    print(f"inverse dynamics of the {result.side} leg, {result.time.size} frames "
+          f"({summary(result)['window']}); wrote {args.out}/")
+    if not result.has_grf:
+        print("  no ground reaction in this trial: stance-phase moments are not valid.")
+    for joint in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion"):
+        print(f"  {joint}_moment: {peaks[joint + '_moment_min']:+.2f} .. "
+              f"{peaks[joint + '_moment_max']:+.2f} N m/kg")
+    return 0
