@@ -52,7 +52,8 @@ def run(args: argparse.Namespace) -> int:
         result = bundled_inverse("right")
         write_inverse_outputs(result, stage / "01_inverse_dynamics")
         _stage("1 inverse dynamics", started)
-        write_text_atomic(build_report(stage, title="predgait demo: subject01 right leg"),
+        write_text_atomic(build_report(stage, title="predgait demo: subject01 right leg",
+                                       source=str(out.resolve())),
                           stage / "report.html")
     print(f"wrote {out}/report.html (open it in a browser)")
     return 0

@@ -133,8 +133,9 @@ def _section(folder: Path, title: str, level: int) -> str:
     return "\n".join(parts)
 
 
-def build_report(result_dir: str | Path, *, title: str | None = None) -> str:
-    """The HTML text of the report of a result folder.
+def build_report(result_dir: str | Path, *, title: str | None = None,
+                 source: str | None = None) -> str:
+    """The HTML text of the report of a result folder (``source``: name to show for it).
 
     Raises:
         InputError: The folder does not exist or holds no result file.
@@ -150,5 +151,6 @@ def build_report(result_dir: str | Path, *, title: str | None = None) -> str:
     body = _section(folder, title, 1)
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             f"<title>{_esc(title)}</title><style>{_STYLE}</style></head><body>"
-            f"<p class='meta'>predgait {__version__}, {stamp}, from {_esc(folder.resolve())}</p>"
+            f"<p class='meta'>predgait {__version__}, {stamp}, from "
+            f"{_esc(source or folder.resolve())}</p>"
             f"{body}</body></html>\n")
