@@ -1,0 +1,207 @@
+"""Inputs of forward synthesis: time histories of prescribed motion, torques and loads.
+
+Measured histories (from inverse dynamics, a file or a function) are interpolated with
+natural-boundary-free cubic splines (:class:`scipy.interpolate.CubicSpline`, "not-a-knot"
+ends), which pass through every sample and are C2, so a variable integration step can
+ask for inputs between the measured frames. The thesis (3.3.4) used Newton's divided
+difference formula for the same purpose; a spline avoids the oscillation of high-degree
+divided-difference polynomials and has the same accuracy near the samples.
+
+Outside the sampled time range the histories are held constant at the end values
+(no extrapolation); simulations check their time span against ``time_range``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from predgait.errors import InputError
+
+TimeFunction = Callable[[float], np.ndarray]
+
+
+class SampledHistory:
+    """Cubic-spline interpolation of sampled columns, memoised on the last time.
+
+    Calling it returns the (k,) interpolated row at time t (s). Integrators evaluate
+    the inputs several times at one time (the modified-Euler correctors), so the last
+    row is cached. Returned arrays must not be modified by callers.
+
+    Args:
+        time: (n,) increasing sample times, s (n >= 2).
+        values: (n, k) samples.
+        name: Name for messages.
+    """
+
+    def __init__(self, time, values, *, name: str = "history"):
+        time = np.asarray(time, dtype=float).reshape(-1)
+        values = np.asarray(values, dtype=float)
+        values = values.reshape(time.size, -1) if values.ndim != 2 else values
+        if time.size < 2 or np.any(np.diff(time) <= 0):
+            raise InputError(f"{name}: needs at least 2 samples at increasing times.")
+        if values.shape[0] != time.size or not np.all(np.isfinite(values)):
+            raise InputError(f"{name}: expected {time.size} finite rows of samples, got "
+                             f"shape {values.shape} (NaN/Inf present or wrong length).")
+        self.name = name
+        self.t0, self.t1 = float(time[0]), float(time[-1])
+        self._spline = CubicSpline(time, values, axis=0) if time.size > 2 else None
+        self._time, self._values = time, values
+        self._last_t = None
+        self._last = None
+
+    def __call__(self, t: float) -> np.ndarray:
+        """Interpolated (k,) row at t (s), held at the end values outside the range."""
+        if t == self._last_t:
+            return self._last
+        tc = min(max(t, self.t0), self.t1)
+        if self._spline is None:
+            row = np.array([np.interp(tc, self._time, col) for col in self._values.T])
+        else:
+            row = self._spline(tc)
+        self._last_t, self._last = t, row
+        return row
+
+    def derivative(self, order: int = 1) -> Callable[[float], np.ndarray]:
+        """Time derivative of the spline, t -> (k,) (zero outside the range)."""
+        if self._spline is None:
+            slope = np.diff(self._values, axis=0)[0] / (self.t1 - self.t0)
+            return lambda t: slope.copy() if order == 1 else np.zeros_like(slope)
+        spline = self._spline.derivative(order)
+
+        def evaluate(t):
+            if t < self.t0 or t > self.t1:
+                return np.zeros(self._values.shape[1])
+            return spline(t)
+
+        return evaluate
+
+
+def _columns(history: SampledHistory, columns: slice) -> TimeFunction:
+    return lambda t: history(t)[columns]
+
+
+def constant(value) -> TimeFunction:
+    """A time function returning a fixed (copied) array."""
+    value = np.array(value, dtype=float)
+    return lambda t: value
+
+
+@dataclass(frozen=True)
+class LegDrivers:
+    """What drives the leg: prescribed foot motion, joint torques, hip load.
+
+    All fields are callables of time t (s). Build them from inverse-dynamics results
+    with :meth:`from_inverse`, or hold them constant with :meth:`still`.
+
+    Attributes:
+        prescribed_q: t -> (3,) foot base coordinates base_x, base_z (m), base_pitch (rad).
+        prescribed_qd: t -> (3,) their rates.
+        prescribed_qdd: t -> (3,) their accelerations.
+        joint_torque: t -> (2,) active ankle and knee torques, N m, MODEL sign (the
+            torque about +Y on the distal segment; knee flexion moment = -tau_knee).
+        hip_force: t -> (3,) N, lab frame, pelvis on thigh at ``hip_center``.
+        hip_moment: t -> (3,) N m, lab frame (only Y acts in the plane).
+        reference_q: Optional t -> (5,) measured coordinates (initial state, feedback,
+            deviation).
+        reference_qd: Optional t -> (5,) measured velocities.
+        reference_qdd: Optional t -> (5,) measured accelerations (needed when a joint
+            coordinate is prescribed rather than free).
+        time_range: (t0, t1) s where the histories are sampled, or None (any time).
+    """
+
+    prescribed_q: TimeFunction
+    prescribed_qd: TimeFunction
+    prescribed_qdd: TimeFunction
+    joint_torque: TimeFunction
+    hip_force: TimeFunction
+    hip_moment: TimeFunction
+    reference_q: TimeFunction | None = None
+    reference_qd: TimeFunction | None = None
+    reference_qdd: TimeFunction | None = None
+    time_range: tuple[float, float] | None = None
+
+    @classmethod
+    def still(cls, base=(0.0, 0.0, 0.0), *, joint_torque=(0.0, 0.0),
+              hip_force=(0.0, 0.0, 0.0), hip_moment=(0.0, 0.0, 0.0)) -> LegDrivers:
+        """Foot held still at ``base``; constant torques and hip load (default zero).
+
+        The thesis' collapse test (4.2): foot fixed, no moments, no forces.
+        """
+        zero = constant(np.zeros(3))
+        return cls(prescribed_q=constant(base), prescribed_qd=zero, prescribed_qdd=zero,
+                   joint_torque=constant(joint_torque), hip_force=constant(hip_force),
+                   hip_moment=constant(hip_moment))
+
+    @classmethod
+    def from_samples(cls, time, q, qd, qdd, tau, hip_force, hip_moment) -> LegDrivers:
+        """Drivers interpolating sampled histories (all arrays with n rows).
+
+        Args:
+            time: (n,) s.
+            q: (n, 5) leg coordinates (m, rad); the base columns are prescribed, the
+                joint columns are the reference motion.
+            qd: (n, 5) velocities.
+            qdd: (n, 5) accelerations.
+            tau: (n, 5) generalised forces; columns 3:5 are the ankle, knee torques.
+            hip_force: (n, 3) N.
+            hip_moment: (n, 3) N m.
+        """
+        q, qd, qdd, tau = (np.asarray(a, dtype=float) for a in (q, qd, qdd, tau))
+        stacked = np.column_stack([q, qd, qdd, tau[:, 3:5], hip_force, hip_moment])
+        history = SampledHistory(time, stacked, name="leg drivers")
+        return cls(prescribed_q=_columns(history, slice(0, 3)),
+                   prescribed_qd=_columns(history, slice(5, 8)),
+                   prescribed_qdd=_columns(history, slice(10, 13)),
+                   joint_torque=_columns(history, slice(15, 17)),
+                   hip_force=_columns(history, slice(17, 20)),
+                   hip_moment=_columns(history, slice(20, 23)),
+                   reference_q=_columns(history, slice(0, 5)),
+                   reference_qd=_columns(history, slice(5, 10)),
+                   reference_qdd=_columns(history, slice(10, 15)),
+                   time_range=(history.t0, history.t1))
+
+    @classmethod
+    def from_inverse(cls, result, *, torque_offsets=None) -> LegDrivers:
+        """Drivers from a :class:`predgait.workflows.inverse.InverseResult`.
+
+        Prescribed foot motion = IK base coordinates (q, qd and the inverse-dynamics
+        qdd, so forward and inverse use the same accelerations); torques = RNEA ankle
+        and knee torques (+ ``torque_offsets`` (n, 2) or (2,) N m, model sign); hip
+        load = the solved hip force and moment; reference = IK coordinates.
+        """
+        tau = np.array(result.tau, dtype=float)
+        if torque_offsets is not None:
+            tau[:, 3:5] += np.broadcast_to(np.asarray(torque_offsets, dtype=float),
+                                           tau[:, 3:5].shape)
+        return cls.from_samples(result.time, result.q, result.qd, result.qdd, tau,
+                                result.hip_force, result.hip_moment)
+
+
+@dataclass(frozen=True)
+class PDFeedback:
+    """Joint feedback on the free coordinates (thesis 4.2 future work).
+
+    tau_fb = kp (q_ref(t) - q) + kd (qd_ref(t) - qd), on the free joints in MODEL
+    coordinates (ankle, knee), added to the active torques.
+
+    Attributes:
+        kp: (2,) N m/rad.
+        kd: (2,) N m s/rad.
+        q_ref: t -> (5,) reference coordinates (e.g. ``LegDrivers.reference_q``).
+        qd_ref: t -> (5,) reference velocities.
+    """
+
+    kp: np.ndarray
+    kd: np.ndarray
+    q_ref: TimeFunction
+    qd_ref: TimeFunction
+
+    def torque(self, t: float, q_free: np.ndarray, v_free: np.ndarray,
+               free: np.ndarray) -> np.ndarray:
+        """Feedback torques (len(free),) N m at time t for the free coordinates ``free``."""
+        return (np.asarray(self.kp) * (self.q_ref(t)[free] - q_free)
+                + np.asarray(self.kd) * (self.qd_ref(t)[free] - v_free))
