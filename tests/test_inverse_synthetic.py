@@ -275,10 +275,6 @@ def test_plates_found_by_position_equal_the_named_ones(tmp_path, side):
         np.testing.assert_allclose(by_position.clinical_moments()[name], value, atol=1e-6)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "TRC/CSV trials are read with +X forward (no direction detection, unlike C3D): a walk "
-    "toward -X gives mirrored, wrong angles and moments without a warning. Reported to the "
-    "lead (read_trial in predgait.workflows.inverse); remove this mark when fixed."))
 def test_walking_toward_minus_x_gives_the_same_moments(tmp_path):
     forward = tmp_path / "forward"
     backward = tmp_path / "backward"

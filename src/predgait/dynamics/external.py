@@ -51,7 +51,10 @@ def joint_forces(model: Model, data: pin.Data, loads: Sequence[Load]) -> pin.Std
         force = np.asarray(load.force, dtype=float)
         point = data.oMf[frame_id].translation if load.point is None else np.asarray(load.point)
         moment = np.zeros(3) if load.moment is None else np.asarray(load.moment, dtype=float)
-        world = pin.Force(force, moment + np.cross(point, force))
+        px, py, pz = point
+        fx, fy, fz = force
+        lever = np.array([py * fz - pz * fy, pz * fx - px * fz, px * fy - py * fx])
+        world = pin.Force(force, moment + lever)  # moment about the world origin
         fext[joint] += data.oMi[joint].actInv(world)
     return fext
 

@@ -35,6 +35,7 @@ from predgait.data import (
 )
 from predgait.data.bundled import bundled_path, read_winter_table, subject_info
 from predgait.data.events import Events
+from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers, rotate_trial
 from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.dynamics.external import Load
 from predgait.dynamics.inverse import LegInverse, leg_inverse_dynamics
@@ -144,14 +145,19 @@ class InverseResult:
         return cycles[0] if cycles else None
 
 
-def read_trial(options: InverseOptions) -> Trial:
-    """Markers and plates in the lab frame from TRC(+MOT), C3D or CSV(+MOT)."""
+def read_trial(options: InverseOptions) -> tuple[Trial, np.ndarray]:
+    """Markers and plates in the lab frame from TRC(+MOT), C3D or CSV(+MOT).
+
+    Returns:
+        The trial with X along the direction of travel, and the rotation (3, 3) that was
+        applied after the reader (a static trial of the same session needs it too).
+    """
     path = Path(options.markers)
     suffix = path.suffix.lower()
     if suffix == ".c3d":
         if options.grf is not None:
             raise InputError(f"{path}: a C3D file carries its own force plates; drop --grf.")
-        return read_c3d(path)
+        return read_c3d(path), np.eye(3)
     if suffix == ".trc":
         markers = read_trc(path)
     elif suffix == ".txt":
@@ -173,7 +179,18 @@ def read_trial(options: InverseOptions) -> Trial:
         xml = grf.with_suffix(".xml")
         names = read_external_loads(xml) if xml.is_file() else None
         plates = read_grf_mot(grf, names=names)
-    return Trial(markers=markers, plates=plates, source=str(path))
+    turn = progression_rotation(markers)
+    return rotate_trial(Trial(markers=markers, plates=plates, source=str(path)), turn), turn
+
+
+def progression_rotation(markers: Markers) -> np.ndarray:
+    """Rotation about Z that turns the trial's direction of travel into +X.
+
+    C3D files are turned by their reader; TRC/CSV files come in with the file's X
+    forward, and an overground walk toward -X (or +-Y) is turned here. Treadmill-like
+    trials (net travel < 0.3 m) keep their X axis.
+    """
+    return lab_rotation(FileAxes.Z_UP, Forward.AUTO, xyz=markers.xyz, source=markers.source)
 
 
 def _needed_markers(points: Mapping[str, PointSource]) -> list[str]:
@@ -308,7 +325,7 @@ def _kinematic_events(time: np.ndarray, points: Mapping[str, np.ndarray], side: 
 
 def run_inverse(options: InverseOptions) -> InverseResult:
     """Run the pipeline (module docstring) on one trial and leg."""
-    trial = read_trial(options)
+    trial, turn = read_trial(options)
     needed = _needed_markers(options.points)
     markers = fill_gaps(trial.markers, names=needed, max_gap_frames=options.max_gap_frames,
                         edges="trim")
@@ -322,7 +339,7 @@ def run_inverse(options: InverseOptions) -> InverseResult:
     static = None
     static_points = None
     if options.static is not None:
-        static = read_trc(options.static)
+        static = rotate_markers(read_trc(options.static), turn)
         static_names = [n for s in options.points.values() if isinstance(s, StaticCentre)
                         for n in (s.medial, s.lateral)]
         static = fill_gaps(static, names=list(dict.fromkeys(needed + static_names)),
