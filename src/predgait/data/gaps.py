@@ -89,8 +89,8 @@ def fill_gaps(markers: Markers, *, max_gap_frames: int | None = None,
         if gap.interior and gap.length > limit:
             raise InputError(
                 f"{markers.source}: {where}, longer than the {limit}-frame limit for gap "
-                "filling. Raise max_gap_frames (problem file [options]), drop the marker, or analyse a "
-                "window without the gap."
+                "filling. Raise max_gap_frames (problem file [options]), drop the marker, or "
+                "analyse a window without the gap."
             )
         if not gap.interior and edges is Edges.ERROR:
             raise InputError(f"{markers.source}: {where} at the edge of the trial; "
