@@ -165,20 +165,38 @@ class LegDrivers:
                    time_range=(history.t0, history.t1))
 
     @classmethod
-    def from_inverse(cls, result, *, torque_offsets=None) -> LegDrivers:
+    def from_inverse(cls, result, *, torque_offsets=None, passive=None) -> LegDrivers:
         """Drivers from a :class:`predgait.workflows.inverse.InverseResult`.
 
         Prescribed foot motion = IK base coordinates (q, qd and the inverse-dynamics
         qdd, so forward and inverse use the same accelerations); torques = RNEA ankle
         and knee torques (+ ``torque_offsets`` (n, 2) or (2,) N m, model sign); hip
         load = the solved hip force and moment; reference = IK coordinates.
+
+        With ``passive`` (joint name -> PassiveJoint, as given to the simulation), the
+        drivers are the ACTIVE moments: inverse-dynamics total minus the passive moment
+        at the measured state (thesis 3.3.3-3.3.4: the same passive elements in the
+        indirect and forward problems), so the measured motion still solves the forward
+        problem and the elements only act on deviations from it.
         """
         tau = np.array(result.tau, dtype=float)
+        hip_moment = np.array(result.hip_moment, dtype=float)
         if torque_offsets is not None:
             tau[:, 3:5] += np.broadcast_to(np.asarray(torque_offsets, dtype=float),
                                            tau[:, 3:5].shape)
+        q, qd = np.asarray(result.q), np.asarray(result.qd)
+        for name, joint in (passive or {}).items():
+            if name == "ankle":
+                tau[:, 3] -= np.asarray(joint.moment(q[:, 3], qd[:, 3]))
+            elif name == "knee":
+                tau[:, 4] -= -np.asarray(joint.moment(-q[:, 4], -qd[:, 4]))
+            elif name == "hip":  # moment on the thigh about +Y = -(clinical hip moment)
+                pitch, rate = q[:, 2:5].sum(axis=1), qd[:, 2:5].sum(axis=1)
+                hip_moment[:, 1] -= -np.asarray(joint.moment(-pitch, -rate))
+            else:
+                raise InputError(f"passive elements on '{name}': the leg has ankle, knee, hip.")
         return cls.from_samples(result.time, result.q, result.qd, result.qdd, tau,
-                                result.hip_force, result.hip_moment)
+                                result.hip_force, hip_moment)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,104 @@
+"""Stick figures of the leg or rod (thesis Figs. 4.2.2, 4.2.5, 4.2.8-4.2.10) and a GIF."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+#: Polylines drawn per model kind, by frame name.
+LINES = {"leg": (("heel", "toe", "ankle_center", "heel"), ("ankle_center", "knee_center"),
+                 ("knee_center", "hip_center")),
+         "rod": (("bottom", "top"),)}
+
+
+def stick_points(model, q: np.ndarray) -> list[np.ndarray]:
+    """Per polyline, (n, k, 2) lab X, Z of its points for each row of q (n, nq)."""
+    pm = model.pin_model
+    data = pm.createData()
+    q = np.atleast_2d(q)
+    lines = LINES[model.kind]
+    names = sorted({n for line in lines for n in line})
+    ids = {n: model.frame_id(n) for n in names}
+    pos = {n: np.zeros((len(q), 2)) for n in names}
+    for k, qk in enumerate(q):
+        pin.framesForwardKinematics(pm, data, qk)
+        for n in names:
+            pos[n][k] = data.oMf[ids[n]].translation[[0, 2]]
+    return [np.stack([pos[n] for n in line], axis=1) for line in lines]
+
+
+def sample_times(t: np.ndarray, interval: float) -> np.ndarray:
+    """Row indices of t nearest to t0, t0 + interval, ... (no repeats)."""
+    targets = np.arange(t[0], t[-1] + 1e-9, interval)
+    return np.unique(np.clip(np.searchsorted(t, targets - 1e-9), 0, len(t) - 1))
+
+
+def plot_stick(model, t, q, *, interval: float = 0.05, ax=None, color=None, label=None,
+               offset: float = 0.0):
+    """Overlay the figure at ``interval`` s (darker = later); returns the axes.
+
+    Args:
+        model: Leg or rod.
+        t: (n,) s.
+        q: (n, nq) coordinates.
+        interval: Time between drawn figures, s (thesis: 0.05 s).
+        ax: Matplotlib axes (new figure when None).
+        color: Line colour (default: grey scale in time).
+        label: Legend label of the last figure.
+        offset: Horizontal shift of the drawing, m (to put runs side by side).
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(4, 5))
+    rows = sample_times(np.asarray(t), interval)
+    lines = stick_points(model, np.asarray(q)[rows])
+    for j in range(len(rows)):
+        shade = color or str(0.75 * (1 - j / max(1, len(rows) - 1)))
+        for pts in lines:
+            ax.plot(pts[j, :, 0] + offset, pts[j, :, 1], "-o", color=shade, ms=2, lw=1.2,
+                    label=label if (j == len(rows) - 1 and pts is lines[0]) else None)
+    ax.axhline(0.0, color="k", lw=0.5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("X (m)")
+    ax.set_ylabel("Z (m)")
+    return ax
+
+
+def write_gif(path: str | Path, model, t, q, *, reference_q=None, fps: int = 20,
+              max_frames: int = 80) -> Path:
+    """Animated stick figure (Pillow writer); the reference motion in grey if given."""
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    t, q = np.asarray(t), np.asarray(q)
+    rows = sample_times(t, max(1.0 / fps, (t[-1] - t[0]) / max_frames))
+    sim = stick_points(model, q[rows])
+    ref = stick_points(model, np.asarray(reference_q)[rows]) if reference_q is not None else None
+    allpts = np.concatenate([p.reshape(-1, 2) for p in sim + (ref or [])])
+    allpts = allpts[np.all(np.isfinite(allpts), axis=1)]
+    fig, ax = plt.subplots(figsize=(4, 4.5))
+    lo, hi = allpts.min(axis=0) - 0.1, allpts.max(axis=0) + 0.1
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(min(lo[1], -0.05), hi[1])
+    ax.set_aspect("equal")
+    ax.axhline(0.0, color="k", lw=0.5)
+    ref_lines = [ax.plot([], [], "-", color="0.7", lw=2)[0] for _ in (ref or [])]
+    sim_lines = [ax.plot([], [], "-o", color="C0", ms=3)[0] for _ in sim]
+    title = ax.set_title("")
+
+    def draw(j):
+        for line, pts in zip(sim_lines, sim, strict=True):
+            line.set_data(pts[j, :, 0], pts[j, :, 1])
+        for line, pts in zip(ref_lines, ref or [], strict=True):
+            line.set_data(pts[j, :, 0], pts[j, :, 1])
+        title.set_text(f"t = {t[rows[j]]:.2f} s")
+        return [*sim_lines, *ref_lines, title]
+
+    anim = FuncAnimation(fig, draw, frames=len(rows), blit=False)
+    path = Path(path)
+    anim.save(path, writer=PillowWriter(fps=fps))
+    plt.close(fig)
+    return path

@@ -1,0 +1,198 @@
+"""``predgait simulate`` problem files: one frozen spec per kind, parsed once.
+
+Kinds (``kind = "..."`` at the top of the file):
+
+* ``rod``: the thesis rod experiment on a synthetic trial (3.2.4, Figs. 4.1.9-4.1.10),
+  inertial- vs body-based end forces, and a step-size study.
+* ``collapse``: the leg collapsing under its own weight (4.2, Figs. 4.2.2-4.2.5), with
+  ``[[compare]]`` runs at other steps / iterations.
+* ``resynthesis``: the measured trial re-synthesized from its inverse-dynamics moments
+  and hip load with the foot prescribed (4.2, Figs. 4.2.8-4.2.10), with ``[[variants]]``
+  of passive elements (Fig. 4.2.9).
+
+Strings become enums here; unknown keys are refused with their line.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from predgait.dynamics.forward import FallLimit, ForceFrame
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.passive import PassiveJoint, parse_passive
+from predgait.errors import InputError
+from predgait.problemfile import Table, load_problem
+
+KINDS = ("rod", "collapse", "resynthesis")
+
+
+@dataclass(frozen=True)
+class RodSpec:
+    """Rod experiment: synthetic trial, both force frames, step study."""
+
+    integrator: IntegratorOptions
+    duration: float = 1.0
+    rate: float = 60.0
+    noise: float = 0.0
+    frames: tuple[ForceFrame, ...] = (ForceFrame.INERTIAL, ForceFrame.BODY)
+    step_study: tuple[float, ...] = ()
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A compared run: a name and what it changes."""
+
+    name: str
+    step: float | None = None
+    iterations: int | None = None
+    passive: dict[str, PassiveJoint] | None = None
+
+
+@dataclass(frozen=True)
+class CollapseSpec:
+    """Collapse test: foot fixed, initial absolute segment angles, no loads."""
+
+    integrator: IntegratorOptions
+    duration: float = 0.3
+    foot_deg: float = 0.0
+    shank_deg: float = 5.0
+    thigh_deg: float = -5.0
+    fall: FallLimit = FallLimit()
+    passive: dict[str, PassiveJoint] = field(default_factory=dict)
+    compare: tuple[Variant, ...] = ()
+    stick_interval: float = 0.05
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class ResynthesisSpec:
+    """Re-synthesis of a measured trial (bundled subject01 or an inverse problem file)."""
+
+    integrator: IntegratorOptions
+    trial: str = "bundled:subject01"
+    side: str = "right"
+    inverse_problem: Path | None = None
+    start: float = 0.0
+    duration: float | None = None
+    threshold_deg: float = 5.0
+    fall: FallLimit = FallLimit()
+    passive: dict[str, PassiveJoint] = field(default_factory=dict)
+    variants: tuple[Variant, ...] = ()
+    stability_times: tuple[float, ...] = (0.05, 0.2, 0.4)
+    stick_interval: float = 0.05
+    source: str = ""
+
+
+Spec = RodSpec | CollapseSpec | ResynthesisSpec
+
+
+def _integrator(table: Table) -> IntegratorOptions:
+    sub = table.table("integrator")
+    sub.check_keys(("method", "step", "iterations", "rtol", "atol", "max_step"))
+    values = {}
+    if sub.has("method"):
+        values["method"] = sub.choice("method", Method)
+    for key in ("step", "rtol", "atol", "max_step"):
+        if sub.has(key):
+            values[key] = sub.number(key)
+    if sub.has("iterations"):
+        values["iterations"] = sub.get("iterations", int)
+    try:
+        return IntegratorOptions(**values)
+    except InputError as exc:
+        raise sub.error(next(iter(values), "method"), str(exc)) from None
+
+
+def _passive(table: Table, key: str = "passive") -> dict[str, PassiveJoint]:
+    sub = table.table(key)
+    sub.check_keys(("ankle", "knee", "hip"))
+    return {name: parse_passive(sub.data[name], where=f"{table.path}: {sub.prefix}{name}")
+            for name in sub.data}
+
+
+def _fall(table: Table) -> FallLimit:
+    sub = table.table("fall")
+    sub.check_keys(("segment_angle_deg", "hip_height"))
+    return FallLimit(segment_angle_deg=sub.number("segment_angle_deg", 60.0, low=1, high=180,
+                                                  unit="deg"),
+                     hip_height=sub.number("hip_height", None, low=0, high=2, unit="m"))
+
+
+def _variants(table: Table, key: str) -> tuple[Variant, ...]:
+    items = table.data.get(key, [])
+    if not isinstance(items, list):
+        raise table.error(key, "expected an array of tables [[...]].")
+    out = []
+    for i, item in enumerate(items):
+        sub = Table(item, table.path, table.text, f"{key}.{i}.")
+        sub.check_keys(("name", "step", "iterations", "passive"))
+        out.append(Variant(name=sub.get("name", str),
+                           step=sub.number("step", None, low=1e-6, high=0.1, unit="s"),
+                           iterations=sub.get("iterations", int, None),
+                           passive=_passive(sub) if sub.has("passive") else None))
+    return tuple(out)
+
+
+def parse_spec(path: str | Path, overrides=()) -> Spec:
+    """Read a ``simulate`` problem file into its spec.
+
+    Raises:
+        InputError: Naming file, key and line for unknown keys or bad values.
+    """
+    table = load_problem(path, overrides)
+    kind = table.get("kind", str)
+    if kind not in KINDS:
+        raise table.error("kind", f"{kind!r} is not one of: {', '.join(KINDS)}.")
+    integrator = _integrator(table)
+    source = str(path)
+    if kind == "rod":
+        table.check_keys(("kind", "integrator", "rod"))
+        rod = table.table("rod")
+        rod.check_keys(("duration", "rate", "noise", "frames", "step_study"))
+        frames = rod.get("frames", list, ["inertial", "body"])
+        try:
+            frames = tuple(ForceFrame(f) for f in frames)
+        except ValueError:
+            raise rod.error("frames", "use a list of \"inertial\" and/or \"body\".") from None
+        steps = tuple(float(s) for s in rod.get("step_study", list, []))
+        return RodSpec(integrator=integrator,
+                       duration=rod.number("duration", 1.0, low=0.05, high=20, unit="s"),
+                       rate=rod.number("rate", 60.0, low=10, high=10000, unit="Hz"),
+                       noise=rod.number("noise", 0.0, low=0, high=1e3, unit="N"),
+                       frames=frames, step_study=steps, source=source)
+    if kind == "collapse":
+        table.check_keys(("kind", "integrator", "collapse", "fall", "passive", "compare"))
+        c = table.table("collapse")
+        c.check_keys(("duration", "foot_deg", "shank_deg", "thigh_deg", "stick_interval"))
+        return CollapseSpec(
+            integrator=integrator,
+            duration=c.number("duration", 0.3, low=0.01, high=10, unit="s"),
+            foot_deg=c.number("foot_deg", 0.0, low=-90, high=90, unit="deg"),
+            shank_deg=c.number("shank_deg", 5.0, low=-90, high=90, unit="deg"),
+            thigh_deg=c.number("thigh_deg", -5.0, low=-90, high=90, unit="deg"),
+            stick_interval=c.number("stick_interval", 0.05, low=0.001, high=1, unit="s"),
+            fall=_fall(table), passive=_passive(table), compare=_variants(table, "compare"),
+            source=source)
+    table.check_keys(("kind", "integrator", "trial", "simulation", "fall", "passive",
+                      "variants", "stability"))
+    trial = table.table("trial")
+    trial.check_keys(("source", "side", "inverse_problem"))
+    sim = table.table("simulation")
+    sim.check_keys(("start", "duration", "threshold_deg", "stick_interval"))
+    stab = table.table("stability")
+    stab.check_keys(("times",))
+    side = trial.get("side", str, "right")
+    if side not in ("right", "left"):
+        raise trial.error("side", f"{side!r} is not right or left.")
+    return ResynthesisSpec(
+        integrator=integrator, trial=trial.get("source", str, "bundled:subject01"), side=side,
+        inverse_problem=trial.path_value("inverse_problem", None),
+        start=sim.number("start", 0.0, unit="s"),
+        duration=sim.number("duration", None, low=0.01, high=30, unit="s"),
+        threshold_deg=sim.number("threshold_deg", 5.0, low=0.01, high=90, unit="deg"),
+        stick_interval=sim.number("stick_interval", 0.05, low=0.001, high=1, unit="s"),
+        fall=_fall(table), passive=_passive(table), variants=_variants(table, "variants"),
+        stability_times=tuple(float(t) for t in stab.get("times", list, [0.05, 0.2, 0.4])),
+        source=source)

@@ -1,0 +1,303 @@
+"""Run a ``simulate`` spec and write its result folder (states, summary, plots, GIF).
+
+Files (in the folder given, normally a staging folder of
+:func:`predgait.workflows.output.staged_output`):
+``states.sto`` (time, each coordinate in rad/m, then each velocity) or
+``states_partial.sto`` when the main run diverged, ``summary.json`` (status, integrator,
+time to fall, RMS per coordinate, provenance), PNG plots, ``stick.png`` (figures every
+``stick_interval`` s, thesis Fig. 4.2.2) and ``stick.gif``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from predgait import __version__
+from predgait.analysis.contributions import contribution_history
+from predgait.analysis.deviation import deviation
+from predgait.analysis.stability import linearize
+from predgait.data.storage import write_storage
+from predgait.dynamics.drivers import LegDrivers
+from predgait.dynamics.forward import LegSystem, SimulationResult, simulate_leg, simulate_rod
+from predgait.errors import InputError, SimulationDiverged
+from predgait.models.loading import load_model
+from predgait.workflows.simulate import CollapseSpec, ResynthesisSpec, RodSpec, Variant
+
+
+def _options_dict(o) -> dict:
+    return {"method": o.method.value, "step_s": o.step, "iterations": o.iterations,
+            "rtol": o.rtol, "atol": o.atol}
+
+
+def _run(fn, *args, **kwargs) -> tuple[SimulationResult, str | None]:
+    """Run a simulation; a divergence returns its partial result and the message."""
+    try:
+        return fn(*args, **kwargs), None
+    except SimulationDiverged as exc:
+        return exc.partial, str(exc)
+
+
+def write_states(folder: Path, sim: SimulationResult, *, name: str = "states",
+                 header: dict | None = None) -> Path:
+    """``name.sto`` (or ``name_partial.sto``): time, coordinates, then velocities."""
+    columns = {n: sim.q[:, i] for i, n in enumerate(sim.coordinate_names)}
+    columns |= {f"{n}_speed": sim.qd[:, i] for i, n in enumerate(sim.coordinate_names)}
+    path = folder / (f"{name}_partial.sto" if sim.partial else f"{name}.sto")
+    head = {"units": "m, rad, m/s, rad/s", "status": sim.status,
+            "integrator": json.dumps(_options_dict(sim.options)).replace(" ", "")}
+    write_storage(path, sim.t, columns, header=head | (header or {}))
+    return path
+
+
+def _save(fig_or_axes, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = np.atleast_1d(fig_or_axes)[0].figure
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _summary(folder: Path, spec, data: dict) -> dict:
+    data = {"kind": type(spec).__name__.replace("Spec", "").lower(), **data,
+            "provenance": {"problem": spec.source, "predgait": __version__}
+            | data.get("provenance", {})}
+    (folder / "summary.json").write_text(json.dumps(data, indent=2, default=float) + "\n")
+    return data
+
+
+def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
+    """Run a spec into ``folder``; returns the summary (``status`` may be "diverged")."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    if isinstance(spec, RodSpec):
+        return _run_rod(spec, folder, progress)
+    if isinstance(spec, CollapseSpec):
+        return _run_collapse(spec, folder, progress)
+    if isinstance(spec, ResynthesisSpec):
+        return _run_resynthesis(spec, folder, progress)
+    raise InputError(f"unknown spec {spec!r}")
+
+
+# ---------------------------------------------------------------------------- rod
+def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
+    from predgait.report.simulation_plots import plot_coordinates
+    from predgait.report.stick import plot_stick, write_gif
+    from predgait.workflows.rod import synthetic_rod_trial
+
+    model = load_model("rod")
+    trial = synthetic_rod_trial(model, duration=spec.duration, rate=spec.rate, noise=spec.noise)
+    x0 = np.concatenate([trial.q[0], trial.qd[0]])
+    span = (float(trial.time[0]), float(trial.time[-1]))
+
+    def rms(sim):
+        n = len(sim.t)
+        return dict(zip(model.coordinate_names, np.sqrt(np.mean(
+            (sim.q - trial.q[:n]) ** 2, axis=0)).tolist(), strict=True))
+
+    runs, messages, table = {}, {}, []
+    for frame in spec.frames:
+        sim, msg = _run(simulate_rod, model, trial.forces(frame), span, x0, frame=frame,
+                        options=spec.integrator, t_eval=trial.time, progress=progress)
+        runs[frame.value], messages[frame.value] = sim, msg
+        write_states(folder, sim, name=f"states_{frame.value}")
+        table.append({"frame": frame.value, "status": sim.status, "rms": rms(sim),
+                      "message": msg or sim.message})
+    main = runs.get("body") or next(iter(runs.values()))
+    write_states(folder, main)
+    study = []
+    for step in spec.step_study:
+        for iterations in sorted({1, spec.integrator.iterations}):
+            opts = replace(spec.integrator, step=step, iterations=iterations)
+            for frame in spec.frames:
+                sim, msg = _run(simulate_rod, model, trial.forces(frame), span, x0,
+                                frame=frame, options=opts, t_eval=trial.time)
+                study.append({"frame": frame.value, "step_s": step, "iterations": iterations,
+                              "status": sim.status, "rms": rms(sim)})
+    names = model.coordinate_names
+    _save(plot_coordinates({k: (s.t, s.q) for k, s in runs.items()}, names,
+                           reference=(trial.time, trial.q)), folder / "rod_trajectories.png")
+    if study:
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(5, 4))
+        for frame in spec.frames:
+            for it in sorted({r["iterations"] for r in study}):
+                rows = [r for r in study if r["frame"] == frame.value and r["iterations"] == it]
+                ax.loglog([r["step_s"] for r in rows],
+                          [np.degrees(r["rms"]["base_pitch"]) for r in rows], "o-",
+                          label=f"{frame.value}, {it} iteration(s)")
+        ax.set_xlabel("step h (s)")
+        ax.set_ylabel("RMS error of theta (deg)")
+        ax.legend(fontsize=7)
+        _save(ax, folder / "step_study.png")
+    _save(plot_stick(model, main.t, main.q, interval=0.1), folder / "stick.png")
+    write_gif(folder / "stick.gif", model, main.t, main.q, reference_q=trial.q[:len(main.t)])
+    diverged = [k for k, m in messages.items() if m]
+    return _summary(folder, spec, {
+        "status": "diverged" if diverged else "completed",
+        "message": "; ".join(messages[k] for k in diverged) or "completed",
+        "integrator": _options_dict(spec.integrator), "time_to_fall_s": None,
+        "rms": {r["frame"]: r["rms"] for r in table}, "runs": table, "step_study": study,
+        "provenance": {"trial": f"synthetic rod, {spec.rate:g} Hz, noise {spec.noise:g}",
+                       "model": model.source}})
+
+
+# ----------------------------------------------------------------------- collapse
+def _variant_options(base, variant: Variant):
+    changes = {}
+    if variant.step is not None:
+        changes["step"] = variant.step
+    if variant.iterations is not None:
+        changes["iterations"] = variant.iterations
+    return replace(base, **changes)
+
+
+def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
+    import matplotlib.pyplot as plt
+
+    from predgait.report.simulation_plots import plot_coordinates
+    from predgait.report.stick import plot_stick, write_gif
+
+    model = load_model("leg")
+    foot, shank, thigh = np.radians([spec.foot_deg, spec.shank_deg, spec.thigh_deg])
+    x0 = np.array([shank - foot, thigh - shank, 0.0, 0.0])
+    drivers = LegDrivers.still(base=(0.0, 0.0, foot))
+    variants = [Variant("main", passive=spec.passive), *spec.compare]
+    runs, rows = {}, []
+    for v in variants:
+        opts = _variant_options(spec.integrator, v)
+        sim, msg = _run(simulate_leg, model, drivers, (0.0, spec.duration), x0,
+                        options=opts, fall=spec.fall, progress=progress and v.name == "main",
+                        passive=v.passive if v.passive is not None else spec.passive)
+        runs[v.name] = sim
+        rows.append({"name": v.name, **_options_dict(opts), "status": sim.status,
+                     "time_to_fall_s": sim.time_to_fall, "end_time_s": float(sim.t[-1]),
+                     "final_deg": dict(zip(sim.free, np.degrees(sim.q[-1, 3:]).tolist(),
+                                           strict=True)),
+                     "message": msg or sim.message})
+    main = runs["main"]
+    write_states(folder, main)
+    lin = linearize(LegSystem(model, drivers, passive=spec.passive), 0.0, x0)
+    _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee")),
+          folder / "angles.png")
+    fig, axes = plt.subplots(1, len(runs), figsize=(3 * len(runs), 4), squeeze=False)
+    for ax, (name, sim) in zip(axes[0], runs.items(), strict=True):
+        plot_stick(model, sim.t, sim.q, interval=spec.stick_interval, ax=ax)
+        ax.set_title(name, fontsize=8)
+    _save(axes[0], folder / "stick.png")
+    write_gif(folder / "stick.gif", model, main.t, main.q)
+    return _summary(folder, spec, {
+        "status": "diverged" if main.partial else main.status, "message": rows[0]["message"],
+        "integrator": _options_dict(spec.integrator),
+        "n_rhs_evaluations": main.n_rhs_evaluations, "time_to_fall_s": main.time_to_fall,
+        "rms": None, "runs": rows,
+        "stability_at_start": _eig(lin),
+        "provenance": {"model": model.source, "initial_deg": {
+            "foot": spec.foot_deg, "shank": spec.shank_deg, "thigh": spec.thigh_deg}}})
+
+
+def _eig(lin) -> dict:
+    return {"eigenvalues_real": lin.eigenvalues.real.tolist(),
+            "eigenvalues_imag": lin.eigenvalues.imag.tolist(),
+            "unstable": int(lin.unstable.size), "e_folding_time_s": lin.e_folding_time}
+
+
+# -------------------------------------------------------------------- resynthesis
+def _inverse(spec: ResynthesisSpec):
+    if spec.inverse_problem is not None:
+        from predgait.problemfile import load_problem
+        from predgait.workflows.inverse import run_inverse
+        from predgait.workflows.inverse_io import options_from_problem
+
+        return run_inverse(options_from_problem(load_problem(spec.inverse_problem)))
+    if spec.trial != "bundled:subject01":
+        raise InputError(f"{spec.source}: trial.source {spec.trial!r}: use "
+                         "\"bundled:subject01\" or give trial.inverse_problem = FILE.toml.")
+    from predgait.workflows.inverse import bundled_inverse
+
+    return bundled_inverse(spec.side)
+
+
+def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dict:
+    from predgait.report.simulation_plots import plot_contributions, plot_coordinates, plot_grf
+    from predgait.report.stick import plot_stick, write_gif
+
+    inv = _inverse(spec)
+    model = inv.model
+    drivers = LegDrivers.from_inverse(inv)
+    t0 = spec.start
+    if spec.duration is not None:
+        t1 = t0 + spec.duration
+    else:
+        cycle = inv.first_cycle()
+        t1 = cycle[1] if cycle and cycle[0] <= t0 < cycle[1] else float(inv.time[-1])
+    if not (inv.time[0] <= t0 < t1 <= inv.time[-1] + 1e-9):
+        raise InputError(f"{spec.source}: simulation {t0:g}..{t1:g} s is outside the trial "
+                         f"{inv.time[0]:.3f}..{inv.time[-1]:.3f} s (time 0 = heel strike).")
+    variants = [Variant("main", passive=spec.passive), *spec.variants]
+    runs, rows, main_msg = {}, [], None
+    for v in variants:
+        passive = v.passive if v.passive is not None else spec.passive
+        active = LegDrivers.from_inverse(inv, passive=passive)
+        sim, msg = _run(simulate_leg, model, active, (t0, t1), None, passive=passive,
+                        options=_variant_options(spec.integrator, v), fall=spec.fall,
+                        progress=progress and v.name == "main")
+        runs[v.name] = sim
+        main_msg = msg if v.name == "main" else main_msg
+        dev = deviation(sim, inv.time, inv.q, threshold_deg=spec.threshold_deg)
+        rows.append({"name": v.name, "status": sim.status, "time_to_fall_s": sim.time_to_fall,
+                     "end_time_s": float(sim.t[-1]),
+                     "rms_deg": {k: float(np.degrees(x)) for k, x in dev.rms.items()},
+                     "time_to_threshold_s": dev.time_to_threshold,
+                     "coordinate_at_threshold": dev.coordinate_at_threshold,
+                     "max_knee_hyperextension_deg": float(max(0.0, np.degrees(
+                         np.max(sim.q[:, 4])))),
+                     "message": msg or sim.message})
+    main = runs["main"]
+    write_states(folder, main, header={"trial": inv.provenance.get("trial", "")})
+    measured_grf = (inv.time, inv.grf, inv.cop)
+    inside = (inv.time >= t0) & (inv.time <= main.t[-1])
+    grf_i = np.column_stack([np.interp(inv.time[inside], main.t, main.grf[:, i])
+                             for i in (0, 2)])
+    grf_rms = np.sqrt(np.mean((grf_i - inv.grf[inside][:, [0, 2]]) ** 2, axis=0))
+    system = LegSystem(model, LegDrivers.from_inverse(inv, passive=spec.passive),
+                       passive=spec.passive)
+    stability = []
+    for t in spec.stability_times:
+        tt = t0 + t
+        if tt <= t1:
+            x = np.concatenate([drivers.reference_q(tt)[3:], drivers.reference_qd(tt)[3:]])
+            stability.append({"time_s": tt, **_eig(linearize(system, tt, x))})
+    parts = contribution_history(system, main)
+    ref_q = np.column_stack([np.interp(main.t, inv.time, inv.q[:, i]) for i in range(5)])
+    _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee"),
+                           reference=(inv.time[inv.time <= t1], inv.q[inv.time <= t1, 3:])),
+          folder / "angles.png")
+    _save(plot_grf(main.t, main.grf, main.cop, measured=measured_grf), folder / "grf.png")
+    _save(plot_contributions(main.t, parts, ("ankle", "knee")), folder / "contributions.png")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(8, 4.5))
+    plot_stick(model, main.t, ref_q, interval=spec.stick_interval, ax=axes[0])
+    axes[0].set_title("measured", fontsize=8)
+    plot_stick(model, main.t, main.q, interval=spec.stick_interval, ax=axes[1])
+    axes[1].set_title("synthesized", fontsize=8)
+    _save(axes, folder / "stick.png")
+    write_gif(folder / "stick.gif", model, main.t, main.q, reference_q=ref_q)
+    return _summary(folder, spec, {
+        "status": "diverged" if main.partial else main.status,
+        "message": main_msg or main.message, "integrator": _options_dict(spec.integrator),
+        "n_rhs_evaluations": main.n_rhs_evaluations, "time_to_fall_s": main.time_to_fall,
+        "time_span_s": [t0, t1], "rms_deg": rows[0]["rms_deg"],
+        "time_to_threshold_s": rows[0]["time_to_threshold_s"],
+        "threshold_deg": spec.threshold_deg,
+        "grf_rms_n": {"x": float(grf_rms[0]), "z": float(grf_rms[1])}, "runs": rows,
+        "stability": stability,
+        "provenance": {"trial": inv.provenance.get("trial", ""), "model": model.source,
+                       "side": inv.side}})
