@@ -43,7 +43,7 @@ from predgait.errors import InputError
 from predgait.kinematics import clinical
 from predgait.kinematics.joint_centres import calibrate_centre, harrington_hip
 from predgait.kinematics.planar_ik import IKResult, solve_ik
-from predgait.models.anthropometry import leg_from_subject
+from predgait.models.anthropometry import LegParameters, leg_from_subject
 from predgait.models.loading import Model, load_model, model_from_urdf
 from predgait.models.urdf import leg_urdf
 
@@ -122,6 +122,7 @@ class InverseResult:
     body_mass: float
     has_grf: bool
     provenance: dict = field(default_factory=dict)
+    leg: LegParameters | None = None
 
     def clinical_angles(self) -> dict[str, np.ndarray]:
         """Hip flexion, knee flexion, ankle dorsiflexion, rad."""
@@ -245,7 +246,8 @@ def measured_lengths(points: Mapping[str, np.ndarray]) -> dict[str, float]:
             "foot": mean_distance("toe", "heel")}
 
 
-def _build_model(options: InverseOptions, calibration: dict[str, np.ndarray]) -> Model:
+def _build_model(options: InverseOptions, calibration: dict[str, np.ndarray]
+                 ) -> tuple[Model, LegParameters | None]:
     """The leg: a given URDF, or the regressions with lengths measured on the markers.
 
     Segment lengths come from the static trial when there is one, else from the walking
@@ -253,7 +255,7 @@ def _build_model(options: InverseOptions, calibration: dict[str, np.ndarray]) ->
     then be left out and is estimated from the leg length (Winter 2009, Fig. 4.1).
     """
     if options.model is not None:
-        return load_model(options.model)
+        return load_model(options.model), None
     lengths = measured_lengths(calibration) if options.scale_to_markers else None
     height = options.height
     if height is None:
@@ -261,8 +263,9 @@ def _build_model(options: InverseOptions, calibration: dict[str, np.ndarray]) ->
             raise InputError("give --height (m) or --model LEG.urdf to build the leg model.")
         height = (lengths["thigh"] + lengths["shank"]) / (0.245 + 0.246)
     params = leg_from_subject(options.mass, height, lengths=lengths)
-    return model_from_urdf(leg_urdf(params), source=f"leg for {options.mass} kg, "
-                                                     f"{height:.4g} m ({params.source})")
+    model = model_from_urdf(leg_urdf(params), source=f"leg for {options.mass} kg, "
+                                                      f"{height:.4g} m ({params.source})")
+    return model, params
 
 
 def _distance_to_foot(point: np.ndarray, heel: np.ndarray, toe: np.ndarray) -> np.ndarray:
@@ -349,7 +352,7 @@ def run_inverse(options: InverseOptions) -> InverseResult:
     pitch = foot_pitch(points)
     if static_points is not None:
         pitch = pitch - float(np.mean(foot_pitch(static_points)))
-    model = _build_model(options, static_points if static_points is not None else points)
+    model, leg = _build_model(options, static_points if static_points is not None else points)
     ik = solve_ik(model, {f"{k}_center": points[k] for k in ("hip", "knee", "ankle")}, pitch)
     if not ik.converged.all():
         bad = np.flatnonzero(~ik.converged)
@@ -388,7 +391,7 @@ def run_inverse(options: InverseOptions) -> InverseResult:
         time=time - t0, model=model, side=str(options.side), q=q, qd=qd, qdd=qdd, tau=inv.tau,
         hip_force=inv.hip_force, hip_moment=inv.hip_moment, joint_force=inv.joint_force,
         grf=force, cop=cop, free_moment=free, events=events.shifted(t0), ik=ik,
-        body_mass=options.mass, has_grf=has_grf, provenance=provenance)
+        body_mass=options.mass, has_grf=has_grf, provenance=provenance, leg=leg)
 
 
 def subject01_points(side: Side | str = Side.RIGHT) -> dict[str, PointSource]:

@@ -1,0 +1,142 @@
+"""``predgait sweep``: a grid or random sample of scenario parameters, run in parallel."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import functools
+import json
+import time
+from pathlib import Path
+
+DESCRIPTION = """\
+Run a scenario file over a grid or a random sample of its parameters (any key that
+'predgait scenario --set' accepts, e.g. edit.0.k). Runs in local processes (--workers)
+or on a Dask cluster (--scheduler tcp://HOST:PORT). A failed run is recorded with its
+reason and the sweep goes on. Writes results.csv, summary.json and plots (outcome against
+parameter; a heat map for a 2-D grid) into --out. Example: problems/sweep_knee_stiffness.toml.
+"""
+
+METRICS_PLOTTED = ("knee_rms_change_deg", "knee_extra_feedback_rms_n_m", "knee_peak_angle_deg")
+
+
+def register(commands: argparse._SubParsersAction) -> None:
+    """Add ``sweep``."""
+    cmd = commands.add_parser("sweep", help="parameter sweep of a scenario (parallel, Dask)",
+                              description=DESCRIPTION,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    cmd.add_argument("sweep", type=Path, help="SWEEP.toml")
+    cmd.add_argument("--out", type=Path, required=True, metavar="DIR")
+    cmd.add_argument("--workers", type=int, default=2, metavar="N",
+                     help="local worker processes (default 2)")
+    cmd.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address")
+    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    cmd.set_defaults(run=run)
+
+
+def sweep_points(path: Path):
+    """The scenario path and the points of a sweep file."""
+    from predgait.problemfile import load_problem
+    from predgait.scenarios.sweep import grid_points, random_points
+
+    table = load_problem(path)
+    table.check_keys(("scenario", "grid", "random"))
+    scenario = table.path_value("scenario")
+    if not scenario.is_file():
+        raise table.error("scenario", f"{scenario} not found.")
+    if table.has("grid") == table.has("random"):
+        raise table.error("grid", "give exactly one of [grid] or [random].")
+    if table.has("grid"):
+        grid = table.table("grid")
+        axes = {}
+        for key in grid.data:
+            values = grid.get(key, list)
+            if not values or not all(isinstance(v, int | float) for v in values):
+                raise grid.error(key, "give a list of numbers.")
+            axes[key] = values
+        return scenario, grid_points(axes)
+    rnd = table.table("random")
+    rnd.check_keys(("count", "seed", "ranges"))
+    ranges = rnd.table("ranges", required=True)
+    bounds = {}
+    for key in ranges.data:
+        pair = ranges.get(key, list)
+        if len(pair) != 2 or not pair[0] < pair[1]:
+            raise ranges.error(key, "give [low, high] with low < high.")
+        bounds[key] = (float(pair[0]), float(pair[1]))
+    return scenario, random_points(bounds, int(rnd.number("count", low=1, high=10000)),
+                                   seed=int(rnd.number("seed", 0, low=0, high=2**31)))
+
+
+def _plots(outcomes, folder: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    ok = [o for o in outcomes if o.ok]
+    if not ok:
+        return
+    params = list(ok[0].point.values)
+    if len(params) == 2 and len(ok) == len(outcomes):
+        xs = sorted({o.point.values[params[0]] for o in ok})
+        ys = sorted({o.point.values[params[1]] for o in ok})
+        if len(xs) * len(ys) == len(ok):
+            for metric in METRICS_PLOTTED:
+                grid = np.full((len(ys), len(xs)), np.nan)
+                for o in ok:
+                    grid[ys.index(o.point.values[params[1]]),
+                         xs.index(o.point.values[params[0]])] = o.metrics.get(metric, np.nan)
+                fig, ax = plt.subplots(figsize=(5.5, 4.2), constrained_layout=True)
+                image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
+                ax.set_xticks(range(len(xs)), [f"{x:g}" for x in xs])
+                ax.set_yticks(range(len(ys)), [f"{y:g}" for y in ys])
+                ax.set_xlabel(params[0])
+                ax.set_ylabel(params[1])
+                fig.colorbar(image, label=metric)
+                fig.savefig(folder / f"heatmap_{metric}.png", dpi=110)
+                plt.close(fig)
+            return
+    for param in params:
+        fig, axes = plt.subplots(1, len(METRICS_PLOTTED), figsize=(12, 3.4),
+                                 constrained_layout=True)
+        x = [o.point.values[param] for o in ok]
+        for ax, metric in zip(axes, METRICS_PLOTTED, strict=True):
+            ax.plot(x, [o.metrics.get(metric, np.nan) for o in ok], "o")
+            ax.set_xlabel(param)
+            ax.set_title(metric, fontsize=9)
+            ax.grid(alpha=0.3)
+        fig.savefig(folder / f"outcome_vs_{param.replace('.', '_')}.png", dpi=110)
+        plt.close(fig)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sweep and write its results."""
+    from predgait.scenarios.run import load_scenario, scenario_metrics
+    from predgait.scenarios.sweep import outcomes_table, run_sweep
+    from predgait.workflows.output import staged_output
+
+    scenario, points = sweep_points(args.sweep)
+    load_scenario(scenario)  # a bad scenario file fails here, once, not in every run
+    started = time.perf_counter()
+    outcomes = run_sweep(functools.partial(scenario_metrics, scenario), points,
+                         workers=args.workers, scheduler=args.scheduler)
+    seconds = time.perf_counter() - started
+    with staged_output(args.out, force=args.force, inputs=[args.sweep, scenario]) as stage:
+        header, rows = outcomes_table(outcomes)
+        with (stage / "results.csv").open("w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(header)
+            writer.writerows(rows)
+        failed = [o for o in outcomes if not o.ok]
+        summary = {"status": "completed" if not failed else "completed with failures",
+                   "scenario": str(scenario), "runs": len(outcomes), "failed": len(failed),
+                   "failures": {str(o.point.values): o.reason for o in failed},
+                   "wall_time_s": seconds, "scenarios_per_second": len(outcomes) / seconds,
+                   "workers": "dask" if args.scheduler else args.workers}
+        (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        _plots(outcomes, stage)
+    print(f"sweep: {len(outcomes)} runs ({len(failed)} failed) in {seconds:.1f} s "
+          f"({len(outcomes) / seconds:.2f} per s); wrote {args.out}/")
+    return 0

@@ -1,0 +1,217 @@
+"""A what-if scenario: edit the leg, re-simulate the measured gait, compare with baseline.
+
+The baseline is the measured trial's leg driven forward by its inverse-dynamics torques
+(plus optional torque offsets, e.g. a torque correction), the hip load, the prescribed
+foot motion and the baseline passive elements, with PD feedback toward the measured
+motion standing in for the subject's control (thesis 4.2 future work). The scenario keeps
+that same drive and control and changes the body: segment edits regenerate the URDF,
+joint edits change passive elements, ranges of motion or lock a joint. What changes is
+the prediction: joint angles, ground reaction, time to fall, and the feedback torque the
+subject would need to keep walking the same way (a measure of the extra effort).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from predgait.dynamics.drivers import LegDrivers, PDFeedback
+from predgait.dynamics.forward import FallLimit, SimulationResult, simulate_leg
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
+from predgait.errors import InputError, SimulationDiverged
+from predgait.kinematics.clinical import JOINT_SIGN
+from predgait.models.loading import model_from_urdf
+from predgait.models.urdf import leg_urdf
+from predgait.problemfile import Table, load_problem
+from predgait.scenarios.edits import (
+    LockJoint,
+    PassiveEdit,
+    RangeOfMotion,
+    apply_segment_edits,
+    parse_edit,
+)
+from predgait.workflows.inverse import InverseResult, bundled_inverse
+
+#: Stiffness of the range-of-motion stops of a restricted joint (exponential form of
+#: predgait.dynamics.passive.ExponentialLimits), N m and 1/rad.
+ROM_STIFFNESS = (2.0, 30.0)
+#: A shank or thigh pitch past this (deg from vertical) counts as a fall; in normal swing
+#: the shank reaches about 60 deg behind the vertical, so the thesis-style 60 deg is too tight.
+FALL_ANGLE_DEG = 90.0
+
+
+@dataclass(frozen=True)
+class ScenarioSpec:
+    """A scenario file, parsed (see problems/scenario_*.toml)."""
+
+    name: str
+    source: Path
+    side: str
+    window: tuple[float, float]
+    kp: float
+    kd: float
+    options: IntegratorOptions
+    edits: tuple
+
+
+@dataclass(frozen=True)
+class ScenarioResult:
+    """Baseline and edited simulations with the comparison metrics."""
+
+    spec: ScenarioSpec
+    baseline: SimulationResult
+    edited: SimulationResult
+    metrics: dict
+    feedback_baseline: np.ndarray
+    feedback_edited: np.ndarray
+    edited_urdf: str
+
+
+def parse_scenario(table: Table) -> ScenarioSpec:
+    """ScenarioSpec from a TOML table (errors name file, key and line)."""
+    table.check_keys(("name", "trial", "side", "window", "control", "integrator", "edit"))
+    trial = table.get("trial", str, "bundled:subject01")
+    if trial != "bundled:subject01":
+        raise table.error("trial", "only 'bundled:subject01' is supported in scenarios so far.")
+    side = table.get("side", str, "right")
+    if side not in ("right", "left"):
+        raise table.error("side", f"'{side}' is not one of: right, left.")
+    window = table.get("window", list, [0.0, 1.0])
+    if len(window) != 2 or not all(isinstance(v, int | float) for v in window) or \
+            not window[0] < window[1]:
+        raise table.error("window", "give [start, end] in s from heel strike, start < end.")
+    control = table.table("control")
+    control.check_keys(("kp", "kd"))
+    integrator = table.table("integrator")
+    integrator.check_keys(("method", "step"))
+    options = IntegratorOptions(method=integrator.choice("method", Method, "rk4"),
+                                step=integrator.number("step", 2e-3, low=1e-5, high=0.02))
+    edits = []
+    for index, item in enumerate(table.data.get("edit", [])):
+        if not isinstance(item, dict):
+            raise table.error("edit", "each [[edit]] must be a table.")
+        edits.append(parse_edit(Table(item, table.path, table.text, f"edit.{index}.")))
+    return ScenarioSpec(
+        name=table.get("name", str, table.path.stem), source=table.path, side=side,
+        window=(float(window[0]), float(window[1])),
+        kp=control.number("kp", 300.0, low=0, high=1e4, unit="N m/rad"),
+        kd=control.number("kd", 30.0, low=0, high=1e3, unit="N m s/rad"),
+        options=options, edits=tuple(edits))
+
+
+def load_scenario(path: str | Path, overrides=()) -> ScenarioSpec:
+    """Read and parse a scenario file with ``--set`` overrides."""
+    return parse_scenario(load_problem(path, overrides))
+
+
+def _passive_for(edits) -> dict[str, PassiveJoint]:
+    elements: dict[str, list] = {}
+    for edit in edits:
+        if isinstance(edit, PassiveEdit):
+            elements.setdefault(edit.joint, []).append(
+                LinearSpringDamper(edit.k, edit.c, edit.theta0))
+        elif isinstance(edit, RangeOfMotion):
+            k, b = ROM_STIFFNESS
+            elements.setdefault(edit.joint, []).append(
+                ExponentialLimits(lower=edit.lower, upper=edit.upper, k_lower=k, b_lower=b,
+                                  k_upper=k, b_upper=b))
+    return {joint: PassiveJoint(tuple(items)) for joint, items in elements.items()}
+
+
+def _locked(drivers: LegDrivers, model, locks) -> tuple[LegDrivers, tuple[str, ...]]:
+    """Drivers whose reference holds each locked joint still; the remaining free joints."""
+    if not locks:
+        return drivers, ("ankle", "knee")
+    index = {lock.joint: model.coordinate_index(lock.joint) for lock in locks}
+    value = {lock.joint: JOINT_SIGN[lock.joint] * lock.angle for lock in locks}
+
+    def hold(function, zero: bool):
+        def held(t):
+            out = np.array(function(t), dtype=float)
+            for joint, i in index.items():
+                out[i] = 0.0 if zero else value[joint]
+            return out
+        return held
+
+    free = tuple(j for j in ("ankle", "knee") if j not in index)
+    if not free:
+        raise InputError("both ankle and knee are locked: nothing is left to simulate.")
+    return replace(drivers, reference_q=hold(drivers.reference_q, False),
+                   reference_qd=hold(drivers.reference_qd, True),
+                   reference_qdd=hold(drivers.reference_qdd, True)), free
+
+
+def _simulate(model, drivers, spec: ScenarioSpec, passive, free) -> SimulationResult:
+    n = len(free)
+    free_index = [model.coordinate_index(j) for j in free]
+    feedback = PDFeedback(np.full(n, spec.kp), np.full(n, spec.kd), drivers.reference_q,
+                          drivers.reference_qd)
+    x0 = np.concatenate([drivers.reference_q(spec.window[0])[free_index],
+                         drivers.reference_qd(spec.window[0])[free_index]])
+    try:
+        return simulate_leg(model, drivers, spec.window, x0, passive=passive, feedback=feedback,
+                            options=spec.options, free=free,
+                            fall=FallLimit(segment_angle_deg=FALL_ANGLE_DEG))
+    except SimulationDiverged as exc:
+        return exc.partial
+
+
+def _feedback_torque(result: SimulationResult, drivers: LegDrivers, spec) -> np.ndarray:
+    """PD torque (n, 2) N m (ankle, knee; model sign) along a simulated motion."""
+    ref_q = np.array([drivers.reference_q(t) for t in result.t])
+    ref_qd = np.array([drivers.reference_qd(t) for t in result.t])
+    return spec.kp * (ref_q[:, 3:] - result.q[:, 3:]) + spec.kd * (ref_qd[:, 3:] - result.qd[:, 3:])
+
+
+def _metrics(base: SimulationResult, edit: SimulationResult, fb_base, fb_edit, drivers) -> dict:
+    n = min(len(base.t), len(edit.t))
+    diff = np.degrees(edit.q[:n, 3:] - base.q[:n, 3:])
+    tau = np.array([drivers.joint_torque(t) for t in edit.t])
+    metrics = {"status": edit.status, "simulated_s": float(edit.t[-1] - edit.t[0]),
+               "time_to_fall_s": edit.time_to_fall, "baseline_time_to_fall_s": base.time_to_fall}
+    for i, joint in enumerate(("ankle", "knee")):
+        sign = JOINT_SIGN[joint]
+        metrics[f"{joint}_rms_change_deg"] = float(np.sqrt(np.mean(diff[:, i] ** 2)))
+        metrics[f"{joint}_max_change_deg"] = float(np.abs(diff[:, i]).max())
+        metrics[f"{joint}_peak_angle_deg"] = float(np.degrees(sign * edit.q[:, 3 + i]).max())
+        metrics[f"{joint}_feedback_rms_n_m"] = float(np.sqrt(np.mean(fb_edit[:, i] ** 2)))
+        metrics[f"{joint}_extra_feedback_rms_n_m"] = float(
+            np.sqrt(np.mean((fb_edit[:n, i] - fb_base[:n, i]) ** 2)))
+        power = (tau[:, i] + fb_edit[:, i]) * edit.qd[:, 3 + i]
+        metrics[f"{joint}_active_work_j"] = float(np.trapezoid(power, edit.t))
+    if edit.grf is not None:
+        metrics["peak_vertical_grf_n"] = float(edit.grf[:, 2].max())
+        metrics["baseline_peak_vertical_grf_n"] = float(base.grf[:, 2].max())
+    return metrics
+
+
+def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) -> ScenarioResult:
+    """Simulate baseline and edited leg over the window; compare."""
+    inverse = inverse or bundled_inverse(spec.side)
+    if inverse.leg is None:
+        raise InputError("scenarios need a leg built from anthropometry (not a URDF file).")
+    lo, hi = inverse.time[0], inverse.time[-1]
+    if spec.window[0] < lo or spec.window[1] > hi:
+        raise InputError(f"{spec.source}: window {spec.window} s is outside the trial "
+                         f"{lo:.3f}..{hi:.3f} s (time from heel strike).")
+    drivers = LegDrivers.from_inverse(inverse)
+    baseline = _simulate(inverse.model, drivers, spec, {}, ("ankle", "knee"))
+    params = apply_segment_edits(inverse.leg, spec.edits)
+    model = model_from_urdf(leg_urdf(params), source=f"{inverse.model.source} + {spec.name}")
+    edited_drivers, free = _locked(drivers, model,
+                                   [e for e in spec.edits if isinstance(e, LockJoint)])
+    edited = _simulate(model, edited_drivers, spec, _passive_for(spec.edits), free)
+    fb_base = _feedback_torque(baseline, drivers, spec)
+    fb_edit = _feedback_torque(edited, edited_drivers, spec)
+    metrics = _metrics(baseline, edited, fb_base, fb_edit, drivers)
+    return ScenarioResult(spec, baseline, edited, metrics, fb_base, fb_edit, model.urdf)
+
+
+def scenario_metrics(path: str | Path, point) -> dict:
+    """Sweep task: the metrics of a scenario file with a sweep point's overrides."""
+    metrics = run_scenario(load_scenario(path, point.overrides)).metrics
+    return {k: (np.nan if v is None else v) for k, v in metrics.items()
+            if isinstance(v, int | float) or v is None}
