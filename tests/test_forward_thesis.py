@@ -181,8 +181,9 @@ def test_rod_equations_equal_pinocchio(frame):
     data = model.pin_model.createData()
     for _ in range(5):
         q, v = rng.normal(0, 0.5, 3), rng.normal(0, 2, 3)
+        moment = float(rng.normal(0, 2))
         forces = RodForces(top_force=constant(rng.normal(0, 10, 2)),
-                           top_moment=lambda t, m=rng.normal(0, 2): m,
+                           top_moment=lambda t, m=moment: m,
                            bottom_force=constant(rng.normal(0, 10, 2)))
         got = rod_accelerations(model, data, q, v, rod_loads(forces, 0.0, q[2], frame))
         np.testing.assert_allclose(got, thesis_rod(model, q, forces, 0.0, frame),
