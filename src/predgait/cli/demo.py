@@ -1,8 +1,11 @@
 """``predgait demo``: the main job on the bundled real trial, with no argument.
 
 Stages (each a sub-folder of --out, then one HTML report of them all):
-  1. inverse dynamics of the bundled subject01 right leg (problems/inverse_subject01.toml).
-Later stages are added as the forward, optimisation and scenario commands land.
+  1. inverse dynamics of the bundled subject01 right leg (problems/inverse_subject01.toml);
+  2. forward re-synthesis driven by those moments, with the thesis' passive knee elements
+     (problems/resynthesis.toml);
+  5. a what-if scenario: a stiffer knee (problems/scenario_stiff_knee.toml).
+The problem files used are written into the result folder, next to their results.
 """
 
 from __future__ import annotations
@@ -14,6 +17,50 @@ from pathlib import Path
 from predgait.errors import InputError
 
 DEFAULT_OUT = Path("predgait-demo")
+
+RESYNTHESIS = """\
+# Re-synthesis of the bundled walk, right leg (thesis 4.2, Fig. 4.2.9); see problems/.
+kind = "resynthesis"
+[trial]
+source = "bundled:subject01"
+side = "right"
+[integrator]
+method = "modified_euler"
+step = 0.001
+iterations = 10
+[simulation]
+start = 0.0
+duration = 1.2
+threshold_deg = 5.0
+stick_interval = 0.05
+[fall]
+segment_angle_deg = 80.0
+[stability]
+times = [0.05, 0.2, 0.4]
+[[variants]]
+name = "knee k=10 c=20"
+passive = { knee = { k = 10.0, c = 20.0 } }
+[[variants]]
+name = "knee k=100 c=100"
+passive = { knee = { k = 100.0, c = 100.0 } }
+"""
+
+SCENARIO = """\
+# What-if: a stiffer knee; see problems/scenario_stiff_knee.toml.
+name = "stiffer knee"
+trial = "bundled:subject01"
+side = "right"
+window = [0.0, 1.0]
+[control]
+kp = 300.0
+kd = 30.0
+[[edit]]
+kind = "passive"
+joint = "knee"
+k = 100.0
+c = 2.0
+theta0_deg = 10.0
+"""
 MARKER = ".predgait-demo"
 
 
@@ -39,7 +86,11 @@ def run(args: argparse.Namespace) -> int:
     from predgait.report.html import build_report
     from predgait.workflows.inverse import bundled_inverse
     from predgait.workflows.inverse_io import write_inverse_outputs
+    from predgait.cli.scenario import write_scenario
+    from predgait.scenarios.run import load_scenario, run_scenario
     from predgait.workflows.output import staged_output
+    from predgait.workflows.simulate import parse_spec
+    from predgait.workflows.simulate_run import run_spec
 
     out = args.out
     replace = out.exists() and (out / MARKER).is_file()
@@ -52,6 +103,17 @@ def run(args: argparse.Namespace) -> int:
         result = bundled_inverse("right")
         write_inverse_outputs(result, stage / "01_inverse_dynamics")
         _stage("1 inverse dynamics", started)
+        problems = stage / "problems"
+        problems.mkdir()
+        (problems / "resynthesis.toml").write_text(RESYNTHESIS)
+        (problems / "scenario_stiff_knee.toml").write_text(SCENARIO)
+        folder = stage / "02_resynthesis"
+        folder.mkdir()
+        run_spec(parse_spec(problems / "resynthesis.toml"), folder)
+        _stage("2 forward re-synthesis", started)
+        write_scenario(run_scenario(load_scenario(problems / "scenario_stiff_knee.toml")),
+                       stage / "05_scenario_stiff_knee")
+        _stage("5 scenario: stiffer knee", started)
         write_text_atomic(build_report(stage, title="predgait demo: subject01 right leg",
                                        source=str(out.resolve())),
                           stage / "report.html")

@@ -129,6 +129,8 @@ def _section(folder: Path, title: str, level: int) -> str:
         parts.append(f"<figure><img alt='animation' src='data:image/gif;base64,{data}'>"
                      f"<figcaption>{_esc(path.name)}</figcaption></figure>")
     for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
+        if not any(sub.rglob("*.json")) and not any(sub.rglob("*.png")):
+            continue  # e.g. the problem files used
         parts.append(_section(sub, sub.name.replace("_", " "), min(level + 1, 3)))
     return "\n".join(parts)
 
