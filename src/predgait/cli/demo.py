@@ -82,12 +82,12 @@ def _stage(name: str, started: float) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run every stage into a staging folder, then write the report."""
+    from predgait.cli.scenario import write_scenario
     from predgait.models.urdf import write_text_atomic
     from predgait.report.html import build_report
+    from predgait.scenarios.run import load_scenario, run_scenario
     from predgait.workflows.inverse import bundled_inverse
     from predgait.workflows.inverse_io import write_inverse_outputs
-    from predgait.cli.scenario import write_scenario
-    from predgait.scenarios.run import load_scenario, run_scenario
     from predgait.workflows.output import staged_output
     from predgait.workflows.simulate import parse_spec
     from predgait.workflows.simulate_run import run_spec
