@@ -1,0 +1,192 @@
+"""Trapezoidal direct collocation of the leg with the foot prescribed (CasADi + Ipopt).
+
+Dynamics (symbolic, ADAM on the same URDF as Pinocchio): with the base (foot)
+coordinates q_b prescribed and the free joints q_f = (ankle, knee),
+
+    M_ff(q) a_f = tau_f + (J_H^T w_H)_f - h_f(q, v) - M_fb(q) a_b,
+
+where w_H = (F_x, F_z, M_y) is the hip load at ``hip_center`` and J_H the Jacobian of
+(hip x, hip z, thigh pitch). The same equations as
+:class:`predgait.dynamics.forward.LegSystem` (Pinocchio), which checks every result.
+
+Decision vector layout (opty-style, documented once; :meth:`LegCollocation.unpack` is the
+only place that slices it):
+
+    w = [ x_0, x_1, ..., x_N, p ]   with x_k = (q_ankle, q_knee, v_ankle, v_knee) at node k
+                                    (rad, rad/s) and p the problem's own parameters.
+
+Defects (trapezoidal): x_{k+1} - x_k - h/2 (f_k + f_{k+1}) = 0 for k = 0..N-1. The initial
+state is fixed to the measured one: the optimised trajectory is then the forward
+simulation of the optimised inputs (a simulation-based fit, as in the thesis' question
+"which inputs keep the synthesized motion near the measured one").
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from dataclasses import dataclass
+
+import casadi as cs
+import numpy as np
+
+from predgait.dynamics.drivers import LegDrivers
+from predgait.errors import InputError
+from predgait.models.loading import Model
+from predgait.models.symbolic import symbolic_model
+
+N_STATES = 4
+
+
+@functools.lru_cache(maxsize=8)
+def free_dynamics(model: Model) -> cs.Function:
+    """``free_dynamics(x, qb, vb, ab, tau, hip) -> xdot`` for the leg with the foot prescribed.
+
+    x: (4,) free state; qb, vb, ab: (3,) base coordinates, rates, accelerations;
+    tau: (2,) ankle, knee torques (model sign, N m); hip: (3,) F_x, F_z (N), M_y (N m).
+    """
+    sym = symbolic_model(model)
+    x, qb, vb, ab = cs.SX.sym("x", 4), cs.SX.sym("qb", 3), cs.SX.sym("vb", 3), cs.SX.sym("ab", 3)
+    tau, hip = cs.SX.sym("tau", 2), cs.SX.sym("hip", 3)
+    q, v = cs.vertcat(qb, x[:2]), cs.vertcat(vb, x[2:])
+    point = sym.frame_position("hip_center")(q)
+    jac = cs.jacobian(cs.vertcat(point[0], point[2], q[2] + q[3] + q[4]), q)
+    mass, bias = sym.mass_matrix(q), sym.bias_force(q, v)
+    generalized = jac.T @ hip
+    rhs = tau + generalized[3:] - bias[3:] - mass[3:, :3] @ ab
+    accel = cs.solve(mass[3:, 3:], rhs)
+    return cs.Function("free_dynamics", [x, qb, vb, ab, tau, hip], [cs.vertcat(x[2:], accel)],
+                       ["x", "qb", "vb", "ab", "tau", "hip"], ["xdot"])
+
+
+@dataclass(frozen=True)
+class NodeData:
+    """Measured inputs and reference at the collocation nodes (arrays with N+1 rows)."""
+
+    t: np.ndarray
+    qb: np.ndarray
+    vb: np.ndarray
+    ab: np.ndarray
+    tau: np.ndarray
+    hip: np.ndarray
+    x_ref: np.ndarray
+
+    @classmethod
+    def from_drivers(cls, drivers: LegDrivers, t0: float, t1: float, n: int) -> NodeData:
+        """Sample the drivers (the forward simulation's own splines) on n intervals."""
+        if drivers.time_range is not None:
+            lo, hi = drivers.time_range
+            if t0 < lo - 1e-9 or t1 > hi + 1e-9 or t1 <= t0:
+                raise InputError(f"window {t0:g}..{t1:g} s lies outside the trial "
+                                 f"{lo:.3f}..{hi:.3f} s (time from heel strike).")
+        if not 10 <= n <= 2000:
+            raise InputError(f"nodes = {n}: give 10..2000 collocation intervals.")
+        t = np.linspace(t0, t1, n + 1)
+
+        def sample(function):
+            return np.array([function(tk) for tk in t])
+
+        hip_force, hip_moment = sample(drivers.hip_force), sample(drivers.hip_moment)
+        q_ref, qd_ref = sample(drivers.reference_q), sample(drivers.reference_qd)
+        return cls(t=t, qb=sample(drivers.prescribed_q), vb=sample(drivers.prescribed_qd),
+                   ab=sample(drivers.prescribed_qdd), tau=sample(drivers.joint_torque),
+                   hip=np.column_stack([hip_force[:, 0], hip_force[:, 2], hip_moment[:, 1]]),
+                   x_ref=np.column_stack([q_ref[:, 3:], qd_ref[:, 3:]]))
+
+
+@dataclass(frozen=True)
+class Solved:
+    """Raw outcome of one Ipopt solve."""
+
+    w: np.ndarray
+    status: str
+    success: bool
+    iterations: int
+    seconds: float
+    objective: float
+    constraint_violation: float
+    hessian_lagrangian: cs.Function | None = None
+
+
+class LegCollocation:
+    """Trapezoidal collocation on a fixed grid; problems add parameters and objectives.
+
+    Args:
+        model: The leg.
+        nodes: Measured inputs on the grid.
+        n_params: Number of problem parameters appended to w.
+    """
+
+    def __init__(self, model: Model, nodes: NodeData, n_params: int):
+        self.model, self.nodes, self.n_params = model, nodes, n_params
+        self.n = len(nodes.t) - 1
+        self.w = cs.SX.sym("w", N_STATES * (self.n + 1) + n_params)
+        self.x, self.p = self.unpack(self.w)
+        self.h = float(nodes.t[1] - nodes.t[0])
+        self.f = free_dynamics(model)
+
+    def unpack(self, w):
+        """(X (4, N+1), p (n_params,)) from a decision vector (symbolic or numeric)."""
+        k = N_STATES * (self.n + 1)
+        x = cs.reshape(w[:k], N_STATES, self.n + 1) if isinstance(w, cs.SX) else \
+            np.reshape(np.asarray(w)[:k], (self.n + 1, N_STATES)).T
+        return x, w[k:]
+
+    def xdot(self, tau_extra, passive_knee=None, feedback=None):
+        """State derivatives (4, N+1) at the nodes.
+
+        Args:
+            tau_extra: Torques (2, N+1) added to the measured ones, N m (model sign).
+            passive_knee: Optional function (q_knee, v_knee) -> model knee torque.
+            feedback: Optional feedback torques (2, N+1), N m.
+        """
+        nodes = self.nodes
+        f_map = self.f.map(self.n + 1)
+        tau = cs.DM(nodes.tau.T) + tau_extra
+        if passive_knee is not None:
+            tau = cs.vertcat(tau[0, :], tau[1, :] + passive_knee(self.x[1, :], self.x[3, :]))
+        if feedback is not None:
+            tau = tau + feedback
+        return f_map(self.x, nodes.qb.T, nodes.vb.T, nodes.ab.T, tau, nodes.hip.T)
+
+    def defects(self, xdot) -> cs.SX:
+        """Trapezoidal defects (4 N,) and the fixed initial state (4,)."""
+        x = self.x
+        d = x[:, 1:] - x[:, :-1] - 0.5 * self.h * (xdot[:, 1:] + xdot[:, :-1])
+        return cs.vertcat(cs.vec(d), x[:, 0] - self.nodes.x_ref[0])
+
+    def tracking(self) -> cs.SX:
+        """Mean squared angle error over the nodes, rad^2."""
+        err = self.x[:2, :] - self.nodes.x_ref[:, :2].T
+        return cs.sumsqr(err) / (2 * (self.n + 1))
+
+    def solve(self, objective, constraints, *, p0, p_bounds, extra_g=None,
+              max_iter: int = 200, hessian: bool = False) -> Solved:
+        """Solve with Ipopt (exact Hessian), warm-started from the measured motion."""
+        g = cs.vertcat(constraints, *(extra_g or []))
+        nlp = {"x": self.w, "f": objective, "g": g}
+        opts = {"ipopt": {"print_level": 0, "max_iter": max_iter, "tol": 1e-8,
+                          "linear_solver": "mumps", "hessian_approximation": "exact"},
+                "print_time": False}
+        solver = cs.nlpsol("leg_collocation", "ipopt", nlp, opts)
+        w0 = np.concatenate([self.nodes.x_ref.ravel(), np.asarray(p0, dtype=float)])
+        lo = np.concatenate([np.full(N_STATES * (self.n + 1), -np.inf), p_bounds[0]])
+        hi = np.concatenate([np.full(N_STATES * (self.n + 1), np.inf), p_bounds[1]])
+        if np.any(w0[-self.n_params:] < lo[-self.n_params:]) if self.n_params else False:
+            raise InputError("the initial guess of a parameter lies below its lower bound.")
+        start = time.perf_counter()
+        out = solver(x0=w0, lbx=lo, ubx=hi, lbg=0, ubg=0)
+        seconds = time.perf_counter() - start
+        stats = solver.stats()
+        w = np.array(out["x"]).ravel()
+        violation = float(np.abs(np.array(out["g"])).max()) if g.shape[0] else 0.0
+        hess = None
+        if hessian:
+            lam = cs.SX.sym("lam", g.shape[0])
+            lagrangian = objective + cs.dot(lam, g)
+            hess = cs.Function("hess", [self.w, lam], [cs.hessian(lagrangian, self.w)[0]])
+            hess = (hess, np.array(out["lam_g"]).ravel())
+        return Solved(w=w, status=stats["return_status"], success=bool(stats["success"]),
+                      iterations=int(stats["iter_count"]), seconds=seconds,
+                      objective=float(out["f"]), constraint_violation=violation,
+                      hessian_lagrangian=hess)

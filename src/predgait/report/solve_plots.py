@@ -1,0 +1,47 @@
+"""Plots of an optimisation: measured vs synthesized angles, original vs corrected moments."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+JOINTS = (("ankle dorsiflexion", 3, 1.0), ("knee flexion", 4, -1.0))
+
+
+def save_solve_plots(folder: Path, inverse, fit, sim, drivers) -> None:
+    """angles.png (measured, optimised, Pinocchio re-simulation) and moments.png."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True)
+    window = (inverse.time >= fit.t[0]) & (inverse.time <= fit.t[-1])
+    for ax, (name, i, sign) in zip(axes, JOINTS, strict=True):
+        ax.plot(inverse.time[window], np.degrees(sign * inverse.q[window, i]), "k", lw=3,
+                alpha=0.3, label="measured")
+        ax.plot(fit.t, np.degrees(sign * fit.x[:, i - 3]), label="optimised (collocation)")
+        ax.plot(sim.t, np.degrees(sign * sim.q[:, i]), "--", label="re-simulated (Pinocchio)")
+        ax.set_title(name)
+        ax.set_xlabel("time from heel strike (s)")
+        ax.set_ylabel("deg")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{fit.kind.replace('_', ' ')}")
+    fig.savefig(folder / "angles.png", dpi=110)
+    plt.close(fig)
+    if fit.torque_change is None:
+        return
+    original = np.array([drivers.joint_torque(t) for t in fit.t])
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True)
+    for ax, (name, i, sign) in zip(axes, JOINTS, strict=True):
+        ax.plot(fit.t, sign * original[:, i - 3], label="inverse dynamics")
+        ax.plot(fit.t, sign * (original[:, i - 3] + fit.torque_change[:, i - 3]), "--",
+                label="corrected")
+        ax.set_title(f"{name} moment")
+        ax.set_xlabel("time from heel strike (s)")
+        ax.set_ylabel("N m")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.savefig(folder / "moments.png", dpi=110)
+    plt.close(fig)

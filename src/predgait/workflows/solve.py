@@ -1,0 +1,204 @@
+"""``predgait solve``: problem file -> spec -> collocation solve -> Pinocchio re-simulation.
+
+Every result is checked outside the optimiser: the fitted passive knee, the corrected
+torques or the fitted gains drive the numeric forward simulation
+(:func:`predgait.dynamics.forward.simulate_leg`, Pinocchio) from the measured initial
+state, and its deviation from the measured motion is reported next to the optimiser's
+own tracking error, with the uncorrected moments as the baseline. The driven leg is
+unstable (thesis 4.2), so an open-loop re-simulation drifts in the end; the time until it
+deviates by more than ``threshold_deg`` is the figure of merit.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from predgait.analysis.deviation import deviation
+from predgait.data import write_storage
+from predgait.dynamics.drivers import LegDrivers, PDFeedback
+from predgait.dynamics.forward import FallLimit, simulate_leg
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
+from predgait.errors import SimulationDiverged
+from predgait.problemfile import Table, load_problem
+from predgait.problems.collocation import NodeData
+from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
+from predgait.workflows.inverse import InverseResult, bundled_inverse, run_inverse
+from predgait.workflows.inverse_io import options_from_problem
+from predgait.workflows.output import staged_output
+
+
+class Kind(enum.Enum):
+    """The problems ``predgait solve`` knows."""
+
+    KNEE_FIT = "knee_fit"
+    TORQUE_CORRECTION = "torque_correction"
+    FEEDBACK_GAINS = "feedback_gains"
+
+
+@dataclass(frozen=True)
+class SolveSpec:
+    """A parsed problem file (see problems/knee_fit.toml and siblings)."""
+
+    kind: Kind
+    source: Path
+    inverse_problem: Path | None
+    side: str
+    window: tuple[float, float]
+    nodes: int
+    weights: dict
+    threshold_deg: float
+    perturbation_deg: float
+    max_iter: int
+
+
+WEIGHT_KEYS = {Kind.KNEE_FIT: (), Kind.TORQUE_CORRECTION: ("tracking", "effort", "smoothness"),
+               Kind.FEEDBACK_GAINS: ("regularization",)}
+
+
+def parse_solve(table: Table) -> SolveSpec:
+    """SolveSpec from a problem file (errors name the file, key and line)."""
+    table.check_keys(("kind", "trial", "window", "nodes", "weights", "check", "solver"))
+    kind = table.choice("kind", Kind)
+    trial = table.table("trial")
+    trial.check_keys(("source", "side", "inverse_problem"))
+    source = trial.get("source", str, "bundled:subject01")
+    inverse_problem = None
+    if source != "bundled:subject01":
+        raise trial.error("source", "use 'bundled:subject01' or set inverse_problem.")
+    if trial.has("inverse_problem"):
+        inverse_problem = trial.path_value("inverse_problem")
+    side = trial.get("side", str, "right")
+    if side not in ("right", "left"):
+        raise trial.error("side", f"'{side}' is not one of: right, left.")
+    window = table.get("window", list, [0.0, 1.0])
+    if len(window) != 2 or not all(isinstance(v, int | float) for v in window) \
+            or window[0] >= window[1]:
+        raise table.error("window", "give [start, end] in s from heel strike, start < end.")
+    weights = table.table("weights")
+    weights.check_keys(WEIGHT_KEYS[kind])
+    check = table.table("check")
+    check.check_keys(("threshold_deg", "perturbation_deg"))
+    solver = table.table("solver")
+    solver.check_keys(("max_iter",))
+    return SolveSpec(
+        kind=kind, source=table.path, inverse_problem=inverse_problem, side=side,
+        window=(float(window[0]), float(window[1])),
+        nodes=int(table.number("nodes", 100, low=10, high=2000)),
+        weights={k: weights.number(k, low=0.0) for k in weights.data},
+        threshold_deg=check.number("threshold_deg", 2.0, low=0.1, high=45, unit="deg"),
+        perturbation_deg=check.number("perturbation_deg", 3.0, low=0.0, high=30, unit="deg"),
+        max_iter=int(solver.number("max_iter", 300, low=1, high=10000)))
+
+
+def _inverse(spec: SolveSpec) -> InverseResult:
+    if spec.inverse_problem is not None:
+        return run_inverse(options_from_problem(load_problem(spec.inverse_problem)))
+    return bundled_inverse(spec.side)
+
+
+def solve_problem(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers) -> FitResult:
+    """Build and solve the problem of ``spec`` (raises SolveFailed when Ipopt fails)."""
+    nodes = NodeData.from_drivers(drivers, *spec.window, spec.nodes)
+    w = spec.weights
+    if spec.kind is Kind.KNEE_FIT:
+        return fit_knee(inverse.model, nodes, max_iter=spec.max_iter)
+    if spec.kind is Kind.TORQUE_CORRECTION:
+        return correct_torques(inverse.model, nodes, tracking_weight=w.get("tracking", 1e4),
+                               effort_weight=w.get("effort", 1.0),
+                               smooth_weight=w.get("smoothness", 10.0), max_iter=spec.max_iter)
+    return fit_feedback(inverse.model, nodes, perturbation_deg=spec.perturbation_deg,
+                        regularization=w.get("regularization", 1e-10), max_iter=spec.max_iter)
+
+
+def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None):
+    options = IntegratorOptions(method=Method.RK4, step=1e-3)
+    try:
+        sim = simulate_leg(inverse.model, drivers, spec.window, x0, passive=passive,
+                           feedback=feedback, options=options,
+                           fall=FallLimit(segment_angle_deg=90.0))
+    except SimulationDiverged as exc:
+        sim = exc.partial
+    dev = deviation(sim, inverse.time, inverse.q, threshold_deg=spec.threshold_deg)
+    outside = np.flatnonzero(np.degrees(np.abs(dev.error)).max(axis=1) > spec.threshold_deg)
+    within_after = None if sim.t[-1] < spec.window[1] - 1e-9 else (
+        float(dev.t[0]) if outside.size == 0 else
+        float(dev.t[outside[-1] + 1]) if outside[-1] + 1 < dev.t.size else None)
+    return sim, {"status": sim.status, "end_s": float(sim.t[-1]),
+                 "time_to_threshold_s": dev.time_to_threshold,
+                 "within_threshold_from_s": within_after,
+                 "max_deviation_deg": float(np.degrees(np.abs(dev.error)).max()),
+                 "rms_deg": {k: float(np.degrees(v)) for k, v in dev.rms.items()}}
+
+
+def check_by_resimulation(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers,
+                          fit: FitResult) -> tuple[dict, object]:
+    """Re-simulate with Pinocchio: uncorrected baseline and the optimised inputs."""
+    _, baseline = _resimulate(inverse, drivers, spec)
+    report = {"baseline_uncorrected": baseline}
+    p = fit.parameters
+    if spec.kind is Kind.KNEE_FIT:
+        passive = {"knee": PassiveJoint((LinearSpringDamper(p["k"], p["c"], p["theta0"]),))}
+        sim, report["with_fit"] = _resimulate(inverse, drivers, spec, passive=passive)
+    elif spec.kind is Kind.TORQUE_CORRECTION:
+        offsets = np.column_stack([np.interp(inverse.time, fit.t, fit.torque_change[:, i],
+                                             left=0.0, right=0.0) for i in range(2)])
+        corrected = LegDrivers.from_inverse(inverse, torque_offsets=offsets)
+        sim, report["with_fit"] = _resimulate(inverse, corrected, spec)
+    else:
+        gains = PDFeedback(np.array([p["kp_ankle"], p["kp_knee"]]),
+                           np.array([p["kd_ankle"], p["kd_knee"]]),
+                           drivers.reference_q, drivers.reference_qd)
+        sim, report["with_fit"] = _resimulate(inverse, drivers, spec, feedback=gains)
+        x0 = np.concatenate([drivers.reference_q(spec.window[0])[3:],
+                             drivers.reference_qd(spec.window[0])[3:]])
+        x0[:2] += np.radians(spec.perturbation_deg) * np.array([1.0, -1.0])
+        _, report["with_fit_perturbed_start"] = _resimulate(inverse, drivers, spec,
+                                                            feedback=gains, x0=x0)
+    return report, sim
+
+
+def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
+    """Solve, check, and write solution.json, states.sto, corrected_moments.sto, plots."""
+    inverse = _inverse(spec)
+    drivers = LegDrivers.from_inverse(inverse)
+    fit = solve_problem(spec, inverse, drivers)
+    check, sim = check_by_resimulation(spec, inverse, drivers, fit)
+    s = fit.solved
+    solution = {
+        "status": "solved" if s.success else s.status, "kind": spec.kind.value,
+        "ipopt_status": s.status, "iterations": s.iterations, "solve_time_s": s.seconds,
+        "objective": s.objective, "constraint_violation": s.constraint_violation,
+        "parameters": fit.parameters, "confidence95": fit.confidence95,
+        "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
+        "window_s": list(spec.window), "nodes": spec.nodes,
+        "provenance": {"problem": str(spec.source), "model": inverse.model.source,
+                       **inverse.provenance},
+    }
+    with staged_output(out, force=force, inputs=[spec.source]) as stage:
+        (stage / "solution.json").write_text(json.dumps(solution, indent=2, default=str) + "\n")
+        names = ("ankle", "knee", "ankle_speed", "knee_speed")
+        write_storage(stage / "states.sto", fit.t, dict(zip(names, fit.x.T, strict=True)),
+                      header={"units": "rad, rad/s (model coordinates)",
+                              "what": "optimised (collocation) states"})
+        write_storage(stage / "resimulated_states.sto", sim.t,
+                      {n: sim.q[:, i] for i, n in enumerate(sim.coordinate_names)},
+                      header={"units": "m, rad", "what": "Pinocchio re-simulation"})
+        if fit.torque_change is not None:
+            original = np.array([drivers.joint_torque(t) for t in fit.t])
+            corrected = original + fit.torque_change
+            clinical = {"ankle_dorsiflexion_moment": original[:, 0],
+                        "knee_flexion_moment": -original[:, 1],
+                        "ankle_dorsiflexion_moment_corrected": corrected[:, 0],
+                        "knee_flexion_moment_corrected": -corrected[:, 1]}
+            write_storage(stage / "corrected_moments.sto", fit.t, clinical,
+                          header={"units": "N m (clinical sign)"})
+        from predgait.report.solve_plots import save_solve_plots
+
+        save_solve_plots(stage, inverse, fit, sim, drivers)
+    return solution
