@@ -105,25 +105,43 @@ class Solved:
     seconds: float
     objective: float
     constraint_violation: float
-    hessian_lagrangian: cs.Function | None = None
 
 
 class LegCollocation:
     """Trapezoidal collocation on a fixed grid; problems add parameters and objectives.
 
+    The measured node data enter the NLP as CasADi parameters, so a problem built once
+    (cached by the problems for a model, grid size and step) is solved again on other
+    data or windows of the same length without rebuilding the solver.
+
     Args:
         model: The leg.
-        nodes: Measured inputs on the grid.
+        n: Number of intervals.
+        h: Step, s.
         n_params: Number of problem parameters appended to w.
     """
 
-    def __init__(self, model: Model, nodes: NodeData, n_params: int):
-        self.model, self.nodes, self.n_params = model, nodes, n_params
-        self.n = len(nodes.t) - 1
-        self.w = cs.SX.sym("w", N_STATES * (self.n + 1) + n_params)
+    #: Node data as NLP parameters: name -> rows per node (qb, vb, ab, tau, hip, x_ref).
+    DATA = (("qb", 3), ("vb", 3), ("ab", 3), ("tau", 2), ("hip", 3), ("x_ref", 4))
+
+    def __init__(self, model: Model, n: int, h: float, n_params: int):
+        self.model, self.n, self.h, self.n_params = model, n, h, n_params
+        self.w = cs.SX.sym("w", N_STATES * (n + 1) + n_params)
         self.x, self.p = self.unpack(self.w)
-        self.h = float(nodes.t[1] - nodes.t[0])
+        rows = sum(r for _, r in self.DATA)
+        self.data = cs.SX.sym("data", rows, n + 1)
+        offset, self.node = 0, {}
+        for name, r in self.DATA:
+            self.node[name] = self.data[offset:offset + r, :]
+            offset += r
         self.f = free_dynamics(model)
+
+    def data_values(self, nodes: NodeData) -> np.ndarray:
+        """Numeric value of the NLP parameter for these nodes (column-major)."""
+        if len(nodes.t) != self.n + 1 or abs(nodes.t[1] - nodes.t[0] - self.h) > 1e-12:
+            raise InputError("node data do not match the problem's grid.")
+        stacked = np.column_stack([getattr(nodes, name) for name, _ in self.DATA]).T
+        return stacked.ravel(order="F")
 
     def unpack(self, w):
         """(X (4, N+1), p (n_params,)) from a decision vector (symbolic or numeric)."""
@@ -140,53 +158,53 @@ class LegCollocation:
             passive_knee: Optional function (q_knee, v_knee) -> model knee torque.
             feedback: Optional feedback torques (2, N+1), N m.
         """
-        nodes = self.nodes
-        f_map = self.f.map(self.n + 1)
-        tau = cs.DM(nodes.tau.T) + tau_extra
+        node = self.node
+        tau = node["tau"] + tau_extra
         if passive_knee is not None:
             tau = cs.vertcat(tau[0, :], tau[1, :] + passive_knee(self.x[1, :], self.x[3, :]))
         if feedback is not None:
             tau = tau + feedback
-        return f_map(self.x, nodes.qb.T, nodes.vb.T, nodes.ab.T, tau, nodes.hip.T)
+        f_map = self.f.map(self.n + 1)
+        return f_map(self.x, node["qb"], node["vb"], node["ab"], tau, node["hip"])
 
-    def defects(self, xdot) -> cs.SX:
-        """Trapezoidal defects (4 N,) and the fixed initial state (4,)."""
+    def defects(self, xdot, x0=None) -> cs.SX:
+        """Trapezoidal defects (4 N,) and the initial state (4,) fixed to ``x0``.
+
+        ``x0`` defaults to the measured initial state.
+        """
         x = self.x
         d = x[:, 1:] - x[:, :-1] - 0.5 * self.h * (xdot[:, 1:] + xdot[:, :-1])
-        return cs.vertcat(cs.vec(d), x[:, 0] - self.nodes.x_ref[0])
+        start = self.node["x_ref"][:, 0] if x0 is None else x0
+        return cs.vertcat(cs.vec(d), x[:, 0] - start)
 
     def tracking(self) -> cs.SX:
         """Mean squared angle error over the nodes, rad^2."""
-        err = self.x[:2, :] - self.nodes.x_ref[:, :2].T
+        err = self.x[:2, :] - self.node["x_ref"][:2, :]
         return cs.sumsqr(err) / (2 * (self.n + 1))
 
-    def solve(self, objective, constraints, *, p0, p_bounds, extra_g=None,
-              max_iter: int = 200, hessian: bool = False) -> Solved:
-        """Solve with Ipopt (exact Hessian), warm-started from the measured motion."""
-        g = cs.vertcat(constraints, *(extra_g or []))
-        nlp = {"x": self.w, "f": objective, "g": g}
-        opts = {"ipopt": {"print_level": 0, "max_iter": max_iter, "tol": 1e-8,
+    def build(self, objective, constraints, *, max_iter: int = 200):
+        """The Ipopt solver (exact Hessian) of this problem."""
+        nlp = {"x": self.w, "p": cs.vec(self.data), "f": objective, "g": constraints}
+        opts = {"ipopt": {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-8,
                           "linear_solver": "mumps", "hessian_approximation": "exact"},
                 "print_time": False}
-        solver = cs.nlpsol("leg_collocation", "ipopt", nlp, opts)
-        w0 = np.concatenate([self.nodes.x_ref.ravel(), np.asarray(p0, dtype=float)])
+        return cs.nlpsol("leg_collocation", "ipopt", nlp, opts)
+
+    def solve(self, solver, nodes: NodeData, *, p0, p_bounds) -> Solved:
+        """Solve on ``nodes``, warm-started from the measured motion."""
+        w0 = np.concatenate([nodes.x_ref.ravel(), np.asarray(p0, dtype=float)])
         lo = np.concatenate([np.full(N_STATES * (self.n + 1), -np.inf), p_bounds[0]])
         hi = np.concatenate([np.full(N_STATES * (self.n + 1), np.inf), p_bounds[1]])
-        if np.any(w0[-self.n_params:] < lo[-self.n_params:]) if self.n_params else False:
-            raise InputError("the initial guess of a parameter lies below its lower bound.")
+        guess = w0[N_STATES * (self.n + 1):]
+        if np.any(guess < lo[N_STATES * (self.n + 1):]) or \
+                np.any(guess > hi[N_STATES * (self.n + 1):]):
+            raise InputError("the initial guess of a parameter lies outside its bounds.")
         start = time.perf_counter()
-        out = solver(x0=w0, lbx=lo, ubx=hi, lbg=0, ubg=0)
+        out = solver(x0=w0, p=self.data_values(nodes), lbx=lo, ubx=hi, lbg=0, ubg=0)
         seconds = time.perf_counter() - start
         stats = solver.stats()
-        w = np.array(out["x"]).ravel()
-        violation = float(np.abs(np.array(out["g"])).max()) if g.shape[0] else 0.0
-        hess = None
-        if hessian:
-            lam = cs.SX.sym("lam", g.shape[0])
-            lagrangian = objective + cs.dot(lam, g)
-            hess = cs.Function("hess", [self.w, lam], [cs.hessian(lagrangian, self.w)[0]])
-            hess = (hess, np.array(out["lam_g"]).ravel())
-        return Solved(w=w, status=stats["return_status"], success=bool(stats["success"]),
-                      iterations=int(stats["iter_count"]), seconds=seconds,
-                      objective=float(out["f"]), constraint_violation=violation,
-                      hessian_lagrangian=hess)
+        g = np.array(out["g"]).ravel()
+        return Solved(w=np.array(out["x"]).ravel(), status=stats["return_status"],
+                      success=bool(stats["success"]), iterations=int(stats["iter_count"]),
+                      seconds=seconds, objective=float(out["f"]),
+                      constraint_violation=float(np.abs(g).max()) if g.size else 0.0)

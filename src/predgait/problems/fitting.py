@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import casadi as cs
@@ -64,47 +65,65 @@ def _check(solved: Solved, kind: str) -> None:
                           "bounds.", best=solved)
 
 
-def _rms(col: LegCollocation, w) -> dict:
+def _rms(col: LegCollocation, w, nodes: NodeData) -> dict:
     x, _ = col.unpack(w)
-    err = np.degrees(x[:2, :].T - col.nodes.x_ref[:, :2])
+    err = np.degrees(x[:2, :].T - nodes.x_ref[:, :2])
     return {"ankle": float(np.sqrt(np.mean(err[:, 0] ** 2))),
             "knee": float(np.sqrt(np.mean(err[:, 1] ** 2)))}
 
 
-def _confidence(col: LegCollocation, constraints, residuals, w, names) -> dict:
-    """95 % half-widths of the parameters by Gauss-Newton along the dynamics."""
-    xs = col.w[: -col.n_params]
-    g_x = cs.Function("gx", [col.w], [cs.jacobian(constraints, xs)])(w)
-    g_p = cs.Function("gp", [col.w], [cs.jacobian(constraints, col.p)])(w)
-    r_x = cs.Function("rx", [col.w], [cs.jacobian(residuals, xs)])(w)
-    r = np.array(cs.Function("r", [col.w], [residuals])(w)).ravel()
-    sens = -np.linalg.solve(np.array(g_x), np.array(g_p))
-    jac = np.array(r_x) @ sens
-    dof = max(r.size - len(names), 1)
-    sigma2 = float(r @ r) / dof
+def _grid(nodes: NodeData) -> tuple[int, float]:
+    return len(nodes.t) - 1, round(float(nodes.t[1] - nodes.t[0]), 12)
+
+
+@functools.lru_cache(maxsize=16)
+def _knee_problem(model, n: int, h: float, max_iter: int):
+    col = LegCollocation(model, n, h, 3)
+    constraints = col.defects(col.xdot(0, passive_knee=_knee_passive(col.p)))
+    residuals = cs.vec(col.x[:2, :] - col.node["x_ref"][:2, :])
+    xs, data = col.w[: -col.n_params], cs.vec(col.data)
+    sensitivity = cs.Function("sensitivity", [col.w, data], [
+        cs.jacobian(constraints, xs), cs.jacobian(constraints, col.p),
+        cs.jacobian(residuals, xs), residuals])
+    return col, col.build(col.tracking(), constraints, max_iter=max_iter), sensitivity
+
+
+def _confidence(col, sensitivity, w, nodes, names) -> dict:
+    """95 % half-widths by Gauss-Newton along the dynamics: dX/dp = -G_X^-1 G_p."""
+    g_x, g_p, r_x, r = (np.array(m) for m in sensitivity(w, col.data_values(nodes)))
+    jac = r_x @ -np.linalg.solve(g_x, g_p)
+    r = r.ravel()
+    sigma2 = float(r @ r) / max(r.size - len(names), 1)
     cov = sigma2 * np.linalg.pinv(jac.T @ jac)
     return {n: float(1.96 * np.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)}
 
 
 def fit_knee(model, nodes: NodeData, *, k0: float = 10.0, c0: float = 1.0,
-             k_max: float = 2000.0, c_max: float = 200.0, fit_theta0: bool = True,
+             k_max: float = 2000.0, c_max: float = 200.0, theta0_max_deg: float = 60.0,
              max_iter: int = 200) -> FitResult:
-    """Fit k, c (and theta0) of the knee so that the synthesized motion tracks the measured."""
-    col = LegCollocation(model, nodes, 3)
-    residuals = cs.vec(col.x[:2, :] - nodes.x_ref[:, :2].T)
-    constraints = col.defects(col.xdot(0, passive_knee=_knee_passive(col.p)))
-    theta_lim = np.radians(60.0) if fit_theta0 else 0.0
-    solved = col.solve(col.tracking(), constraints, p0=[k0, c0, 0.0],
-                       p_bounds=([0.0, 0.0, -theta_lim], [k_max, c_max, theta_lim]),
-                       max_iter=max_iter)
+    """Fit k, c and theta0 of the knee so that the synthesized motion tracks the measured."""
+    col, solver, sensitivity = _knee_problem(model, *_grid(nodes), max_iter)
+    limit = np.radians(theta0_max_deg)
+    solved = col.solve(solver, nodes, p0=[k0, c0, 0.0],
+                       p_bounds=([0.0, 0.0, -limit], [k_max, c_max, limit]))
     _check(solved, "knee fit")
-    _, p = col.unpack(solved.w)
-    names = ["k", "c", "theta0"] if fit_theta0 else ["k", "c"]
-    ci = _confidence(col, constraints, residuals, solved.w, names) if fit_theta0 else \
-        _confidence(col, constraints, residuals, solved.w, ["k", "c", "theta0"])
-    x, _ = col.unpack(solved.w)
+    x, p = col.unpack(solved.w)
+    ci = _confidence(col, sensitivity, solved.w, nodes, ["k", "c", "theta0"])
     return FitResult("knee_fit", {"k": float(p[0]), "c": float(p[1]), "theta0": float(p[2])},
-                     ci, nodes.t, x.T, None, solved, _rms(col, solved.w))
+                     ci, nodes.t, x.T, None, solved, _rms(col, solved.w, nodes))
+
+
+@functools.lru_cache(maxsize=16)
+def _correction_problem(model, n: int, h: float, weights: tuple, max_iter: int):
+    tracking_weight, effort_weight, smooth_weight = weights
+    col = LegCollocation(model, n, h, 2 * (n + 1))
+    change = cs.reshape(col.p, 2, n + 1)
+    constraints = col.defects(col.xdot(change))
+    scale = 10.0
+    effort = cs.sumsqr(change / scale) / (2 * (n + 1))
+    rate = cs.sumsqr(cs.diff(change, 1, 1) * (0.01 / h) / scale) / (2 * n)
+    objective = tracking_weight * col.tracking() + effort_weight * effort + smooth_weight * rate
+    return col, col.build(objective, constraints, max_iter=max_iter)
 
 
 def correct_torques(model, nodes: NodeData, *, tracking_weight: float = 1e4,
@@ -115,48 +134,48 @@ def correct_torques(model, nodes: NodeData, *, tracking_weight: float = 1e4,
     Objective: tracking_weight * mean squared angle error (rad^2) + effort_weight * mean
     dtau^2 / (10 N m)^2 + smooth_weight * mean (d dtau / dt * 10 ms)^2 / (10 N m)^2.
     """
-    n = len(nodes.t)
-    col = LegCollocation(model, nodes, 2 * n)
-    change = cs.reshape(col.p, 2, n)
-    constraints = col.defects(col.xdot(change))
-    scale = 10.0
-    effort = cs.sumsqr(change / scale) / (2 * n)
-    rate = cs.sumsqr(cs.diff(change, 1, 1) * (0.01 / col.h) / scale) / (2 * (n - 1))
-    objective = tracking_weight * col.tracking() + effort_weight * effort + smooth_weight * rate
-    solved = col.solve(objective, constraints, p0=np.zeros(2 * n),
-                       p_bounds=(np.full(2 * n, -bound), np.full(2 * n, bound)),
-                       max_iter=max_iter)
+    n, h = _grid(nodes)
+    col, solver = _correction_problem(model, n, h, (tracking_weight, effort_weight,
+                                                    smooth_weight), max_iter)
+    size = 2 * (n + 1)
+    solved = col.solve(solver, nodes, p0=np.zeros(size),
+                       p_bounds=(np.full(size, -bound), np.full(size, bound)))
     _check(solved, "torque correction")
     x, p = col.unpack(solved.w)
-    dtau = np.reshape(p, (n, 2))
+    dtau = np.reshape(p, (n + 1, 2))
     return FitResult("torque_correction", {"mean_abs_change_n_m": float(np.abs(dtau).mean()),
                                            "max_abs_change_n_m": float(np.abs(dtau).max())},
-                     {}, nodes.t, x.T, dtau, solved, _rms(col, solved.w))
+                     {}, nodes.t, x.T, dtau, solved, _rms(col, solved.w, nodes))
+
+
+@functools.lru_cache(maxsize=16)
+def _feedback_problem(model, n: int, h: float, perturbation: float, regularization: float,
+                      max_iter: int):
+    col = LegCollocation(model, n, h, 4)
+    kp, kd = col.p[:2], col.p[2:]
+    ref = col.node["x_ref"]
+    feedback = (cs.repmat(kp, 1, n + 1) * (ref[:2, :] - col.x[:2, :])
+                + cs.repmat(kd, 1, n + 1) * (ref[2:, :] - col.x[2:, :]))
+    offset = perturbation * np.array([1.0, -1.0, 0.0, 0.0])
+    constraints = col.defects(col.xdot(0, feedback=feedback), x0=ref[:, 0] + offset)
+    objective = col.tracking() + regularization * (cs.sumsqr(kp) + cs.sumsqr(10 * kd))
+    return col, col.build(objective, constraints, max_iter=max_iter)
 
 
 def fit_feedback(model, nodes: NodeData, *, perturbation_deg: float = 3.0,
                  regularization: float = 1e-10, kp_max: float = 2000.0, kd_max: float = 200.0,
                  max_iter: int = 300) -> FitResult:
-    """PD gains that return a perturbed start (+perturbation on both joints) to the motion.
+    """PD gains that return a perturbed start (ankle +, knee - perturbation) to the motion.
 
-    The gains minimise the mean squared angle error of the perturbed trajectory plus
-    ``regularization`` * (kp^2 + (10 kd)^2) (N m/rad)^2, under the uncorrected moments.
+    The gains minimise the mean squared angle error (rad^2) of the perturbed trajectory
+    plus ``regularization`` * (kp^2 + (10 kd)^2), under the uncorrected moments.
     """
-    col = LegCollocation(model, nodes, 4)
-    kp, kd = col.p[:2], col.p[2:]
-    err_q = nodes.x_ref[:, :2].T - col.x[:2, :]
-    err_v = nodes.x_ref[:, 2:].T - col.x[2:, :]
-    feedback = cs.repmat(kp, 1, len(nodes.t)) * err_q + cs.repmat(kd, 1, len(nodes.t)) * err_v
-    offset = np.radians(perturbation_deg) * np.array([1.0, -1.0, 0.0, 0.0])
-    defects = col.defects(col.xdot(0, feedback=feedback))
-    start = col.x[:, 0] - (nodes.x_ref[0] + offset)
-    constraints = cs.vertcat(defects[:-4], start)
-    objective = col.tracking() + regularization * (cs.sumsqr(kp) + cs.sumsqr(10 * kd))
-    solved = col.solve(objective, constraints, p0=[100.0, 100.0, 10.0, 10.0],
-                       p_bounds=([0, 0, 0, 0], [kp_max, kp_max, kd_max, kd_max]),
-                       max_iter=max_iter)
+    col, solver = _feedback_problem(model, *_grid(nodes), np.radians(perturbation_deg),
+                                    regularization, max_iter)
+    solved = col.solve(solver, nodes, p0=[100.0, 100.0, 10.0, 10.0],
+                       p_bounds=([0, 0, 0, 0], [kp_max, kp_max, kd_max, kd_max]))
     _check(solved, "feedback gains")
     x, p = col.unpack(solved.w)
     names = ("kp_ankle", "kp_knee", "kd_ankle", "kd_knee")
     return FitResult("feedback_gains", dict(zip(names, map(float, p), strict=True)), {},
-                     nodes.t, x.T, None, solved, _rms(col, solved.w))
+                     nodes.t, x.T, None, solved, _rms(col, solved.w, nodes))
