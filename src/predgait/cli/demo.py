@@ -4,6 +4,8 @@ Stages (each a sub-folder of --out, then one HTML report of them all):
   1. inverse dynamics of the bundled subject01 right leg (problems/inverse_subject01.toml);
   2. forward re-synthesis driven by those moments, with the thesis' passive knee elements
      (problems/resynthesis.toml);
+  3. knee spring/damper fit (CasADi + Ipopt), checked by Pinocchio re-simulation;
+  4. torque correction, likewise (problems/knee_fit.toml, torque_correction.toml);
   5. a what-if scenario: a stiffer knee (problems/scenario_stiff_knee.toml).
 The problem files used are written into the result folder, next to their results.
 """
@@ -45,6 +47,18 @@ name = "knee k=100 c=100"
 passive = { knee = { k = 100.0, c = 100.0 } }
 """
 
+SOLVE = """\
+# {kind} of the bundled walk, right leg; see problems/{kind}.toml.
+kind = "{kind}"
+window = [0.0, 1.0]
+nodes = 200
+[trial]
+source = "bundled:subject01"
+side = "right"
+[check]
+threshold_deg = 2.0
+"""
+
 SCENARIO = """\
 # What-if: a stiffer knee; see problems/scenario_stiff_knee.toml.
 name = "stiffer knee"
@@ -84,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
     """Run every stage into a staging folder, then write the report."""
     from predgait.cli.scenario import write_scenario
     from predgait.models.urdf import write_text_atomic
+    from predgait.problemfile import load_problem
     from predgait.report.html import build_report
     from predgait.scenarios.run import load_scenario, run_scenario
     from predgait.workflows.inverse import bundled_inverse
@@ -91,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
     from predgait.workflows.output import staged_output
     from predgait.workflows.simulate import parse_spec
     from predgait.workflows.simulate_run import run_spec
+    from predgait.workflows.solve import parse_solve, run_solve
 
     out = args.out
     replace = out.exists() and (out / MARKER).is_file()
@@ -111,6 +127,11 @@ def run(args: argparse.Namespace) -> int:
         folder.mkdir()
         run_spec(parse_spec(problems / "resynthesis.toml"), folder)
         _stage("2 forward re-synthesis", started)
+        for number, kind in ((3, "knee_fit"), (4, "torque_correction")):
+            path = problems / f"{kind}.toml"
+            path.write_text(SOLVE.format(kind=kind))
+            run_solve(parse_solve(load_problem(path)), stage / f"0{number}_{kind}")
+            _stage(f"{number} {kind.replace('_', ' ')}", started)
         write_scenario(run_scenario(load_scenario(problems / "scenario_stiff_knee.toml")),
                        stage / "05_scenario_stiff_knee")
         _stage("5 scenario: stiffer knee", started)
