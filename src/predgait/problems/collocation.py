@@ -15,7 +15,15 @@ only place that slices it):
     w = [ x_0, x_1, ..., x_N, p ]   with x_k = (q_ankle, q_knee, v_ankle, v_knee) at node k
                                     (rad, rad/s) and p the problem's own parameters.
 
-Defects (trapezoidal): x_{k+1} - x_k - h/2 (f_k + f_{k+1}) = 0 for k = 0..N-1. The initial
+Defects on the grid t_0..t_N of step h (:class:`Transcription`):
+
+* trapezoidal: x_{k+1} - x_k - h/2 (f_k + f_{k+1}) = 0 for k = 0..N-1 (error O(h^2));
+* Hermite-Simpson (separated form; N even, the odd points are the interval midpoints,
+  intervals of length H = 2h): for each interval (a, m, b) = (2j, 2j+1, 2j+2)
+  x_m - (x_a + x_b)/2 - H/8 (f_a - f_b) = 0 and x_b - x_a - H/6 (f_a + 4 f_m + f_b) = 0
+  (error O(H^4)). Inputs (torque changes) live on every grid point, midpoints included.
+
+The initial
 state is fixed to the measured one: the optimised trajectory is then the forward
 simulation of the optimised inputs (a simulation-based fit, as in the thesis' question
 "which inputs keep the synthesized motion near the measured one").
@@ -23,6 +31,7 @@ simulation of the optimised inputs (a simulation-based fit, as in the thesis' qu
 
 from __future__ import annotations
 
+import enum
 import functools
 import time
 from dataclasses import dataclass
@@ -36,6 +45,17 @@ from predgait.models.loading import Model
 from predgait.models.symbolic import symbolic_model
 
 N_STATES = 4
+
+
+class Transcription(enum.Enum):
+    """How the dynamics are discretised between grid points."""
+
+    TRAPEZOIDAL = "trapezoidal"
+    HERMITE_SIMPSON = "hermite_simpson"
+
+    def grid_intervals(self, intervals: int) -> int:
+        """Grid steps for ``intervals`` collocation intervals (HS adds the midpoints)."""
+        return 2 * intervals if self is Transcription.HERMITE_SIMPSON else intervals
 
 
 @functools.lru_cache(maxsize=8)
@@ -116,16 +136,21 @@ class LegCollocation:
 
     Args:
         model: The leg.
-        n: Number of intervals.
-        h: Step, s.
+        n: Number of grid steps (even for Hermite-Simpson: 2 per interval).
+        h: Grid step, s.
         n_params: Number of problem parameters appended to w.
+        transcription: Trapezoidal or Hermite-Simpson defects.
     """
 
     #: Node data as NLP parameters: name -> rows per node (qb, vb, ab, tau, hip, x_ref).
     DATA = (("qb", 3), ("vb", 3), ("ab", 3), ("tau", 2), ("hip", 3), ("x_ref", 4))
 
-    def __init__(self, model: Model, n: int, h: float, n_params: int):
+    def __init__(self, model: Model, n: int, h: float, n_params: int,
+                 transcription: Transcription = Transcription.TRAPEZOIDAL):
+        if transcription is Transcription.HERMITE_SIMPSON and n % 2:
+            raise InputError(f"Hermite-Simpson needs an even number of grid steps, not {n}.")
         self.model, self.n, self.h, self.n_params = model, n, h, n_params
+        self.transcription = transcription
         self.w = cs.SX.sym("w", N_STATES * (n + 1) + n_params)
         self.x, self.p = self.unpack(self.w)
         rows = sum(r for _, r in self.DATA)
@@ -168,12 +193,19 @@ class LegCollocation:
         return f_map(self.x, node["qb"], node["vb"], node["ab"], tau, node["hip"])
 
     def defects(self, xdot, x0=None) -> cs.SX:
-        """Trapezoidal defects (4 N,) and the initial state (4,) fixed to ``x0``.
+        """Collocation defects (4 N,) and the initial state (4,) fixed to ``x0``.
 
         ``x0`` defaults to the measured initial state.
         """
         x = self.x
-        d = x[:, 1:] - x[:, :-1] - 0.5 * self.h * (xdot[:, 1:] + xdot[:, :-1])
+        if self.transcription is Transcription.HERMITE_SIMPSON:
+            big = 2 * self.h
+            xa, xm, xb = x[:, 0:-1:2], x[:, 1::2], x[:, 2::2]
+            fa, fm, fb = xdot[:, 0:-1:2], xdot[:, 1::2], xdot[:, 2::2]
+            d = cs.vertcat(xm - 0.5 * (xa + xb) - big / 8 * (fa - fb),
+                           xb - xa - big / 6 * (fa + 4 * fm + fb))
+        else:
+            d = x[:, 1:] - x[:, :-1] - 0.5 * self.h * (xdot[:, 1:] + xdot[:, :-1])
         start = self.node["x_ref"][:, 0] if x0 is None else x0
         return cs.vertcat(cs.vec(d), x[:, 0] - start)
 

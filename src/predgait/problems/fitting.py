@@ -19,10 +19,12 @@ from dataclasses import dataclass, field
 
 import casadi as cs
 import numpy as np
+import scipy.sparse
+import scipy.sparse.linalg
 
 from predgait.dynamics.passive import LinearSpringDamper
 from predgait.errors import SolveFailed
-from predgait.problems.collocation import LegCollocation, NodeData, Solved
+from predgait.problems.collocation import LegCollocation, NodeData, Solved, Transcription
 
 
 @dataclass(frozen=True)
@@ -38,6 +40,10 @@ class FitResult:
         torque_change: (N+1, 2) N m added to the measured moments (torque correction).
         solved: Ipopt outcome.
         rms_deg: RMS angle error (ankle, knee) of the optimised motion vs measured, deg.
+        diagnostics: Further figures (knee fit: ``sensitivity_deg`` = largest change of
+            a joint angle, deg, per unit change of each parameter along the optimised
+            motion; huge values mean the open-loop fit balances on the leg's instability
+            and its intervals are formal only).
     """
 
     kind: str
@@ -48,6 +54,7 @@ class FitResult:
     torque_change: np.ndarray | None
     solved: Solved
     rms_deg: dict = field(default_factory=dict)
+    diagnostics: dict = field(default_factory=dict)
 
 
 def _knee_passive(params):
@@ -76,9 +83,12 @@ def _grid(nodes: NodeData) -> tuple[int, float]:
     return len(nodes.t) - 1, round(float(nodes.t[1] - nodes.t[0]), 12)
 
 
+TRAPEZOIDAL = Transcription.TRAPEZOIDAL
+
+
 @functools.lru_cache(maxsize=16)
-def _knee_problem(model, n: int, h: float, max_iter: int):
-    col = LegCollocation(model, n, h, 3)
+def _knee_problem(model, n: int, h: float, max_iter: int, transcription: Transcription):
+    col = LegCollocation(model, n, h, 3, transcription)
     constraints = col.defects(col.xdot(0, passive_knee=_knee_passive(col.p)))
     residuals = cs.vec(col.x[:2, :] - col.node["x_ref"][:2, :])
     xs, data = col.w[: -col.n_params], cs.vec(col.data)
@@ -88,35 +98,45 @@ def _knee_problem(model, n: int, h: float, max_iter: int):
     return col, col.build(col.tracking(), constraints, max_iter=max_iter), sensitivity
 
 
-def _confidence(col, sensitivity, w, nodes, names) -> dict:
+def _confidence(col, sensitivity, w, nodes, names) -> tuple[dict, dict]:
     """95 % half-widths by Gauss-Newton along the dynamics: dX/dp = -G_X^-1 G_p."""
-    g_x, g_p, r_x, r = (np.array(m) for m in sensitivity(w, col.data_values(nodes)))
-    jac = r_x @ -np.linalg.solve(g_x, g_p)
-    r = r.ravel()
+    g_x, g_p, r_x, r = sensitivity(w, col.data_values(nodes))
+    g_x = scipy.sparse.csc_matrix(g_x.sparse() if hasattr(g_x, "sparse") else g_x)
+    dx_dp = scipy.sparse.linalg.splu(g_x).solve(-np.array(g_p))
+    jac = scipy.sparse.csr_matrix(r_x.sparse()) @ dx_dp
+    r = np.array(r).ravel()
     sigma2 = float(r @ r) / max(r.size - len(names), 1)
     cov = sigma2 * np.linalg.pinv(jac.T @ jac)
-    return {n: float(1.96 * np.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)}
+    half = {n: float(1.96 * np.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)}
+    largest = np.degrees(np.abs(np.asarray(jac)).max(axis=0))
+    return half, {"sensitivity_deg": dict(zip(names, map(float, largest), strict=True)),
+                  "residual_sd_deg": float(np.degrees(np.sqrt(sigma2)))}
 
 
 def fit_knee(model, nodes: NodeData, *, k0: float = 10.0, c0: float = 1.0,
              k_max: float = 2000.0, c_max: float = 200.0, theta0_max_deg: float = 60.0,
-             max_iter: int = 200) -> FitResult:
-    """Fit k, c and theta0 of the knee so that the synthesized motion tracks the measured."""
-    col, solver, sensitivity = _knee_problem(model, *_grid(nodes), max_iter)
+             max_iter: int = 200, transcription: Transcription = TRAPEZOIDAL) -> FitResult:
+    """Fit k, c and theta0 of the knee so that the synthesized motion tracks the measured.
+
+    ``nodes`` holds every grid point (for Hermite-Simpson the midpoints too, see
+    :meth:`Transcription.grid_intervals`).
+    """
+    col, solver, sensitivity = _knee_problem(model, *_grid(nodes), max_iter, transcription)
     limit = np.radians(theta0_max_deg)
     solved = col.solve(solver, nodes, p0=[k0, c0, 0.0],
                        p_bounds=([0.0, 0.0, -limit], [k_max, c_max, limit]))
     _check(solved, "knee fit")
     x, p = col.unpack(solved.w)
-    ci = _confidence(col, sensitivity, solved.w, nodes, ["k", "c", "theta0"])
+    ci, diagnostics = _confidence(col, sensitivity, solved.w, nodes, ["k", "c", "theta0"])
     return FitResult("knee_fit", {"k": float(p[0]), "c": float(p[1]), "theta0": float(p[2])},
-                     ci, nodes.t, x.T, None, solved, _rms(col, solved.w, nodes))
+                     ci, nodes.t, x.T, None, solved, _rms(col, solved.w, nodes), diagnostics)
 
 
 @functools.lru_cache(maxsize=16)
-def _correction_problem(model, n: int, h: float, weights: tuple, max_iter: int):
+def _correction_problem(model, n: int, h: float, weights: tuple, max_iter: int,
+                        transcription: Transcription):
     tracking_weight, effort_weight, smooth_weight = weights
-    col = LegCollocation(model, n, h, 2 * (n + 1))
+    col = LegCollocation(model, n, h, 2 * (n + 1), transcription)
     change = cs.reshape(col.p, 2, n + 1)
     constraints = col.defects(col.xdot(change))
     scale = 10.0
@@ -128,7 +148,8 @@ def _correction_problem(model, n: int, h: float, weights: tuple, max_iter: int):
 
 def correct_torques(model, nodes: NodeData, *, tracking_weight: float = 1e4,
                     effort_weight: float = 1.0, smooth_weight: float = 10.0,
-                    bound: float = 200.0, max_iter: int = 200) -> FitResult:
+                    bound: float = 200.0, max_iter: int = 200,
+                    transcription: Transcription = TRAPEZOIDAL) -> FitResult:
     """Smallest smooth torque changes (N m) that keep the motion on the measured one.
 
     Objective: tracking_weight * mean squared angle error (rad^2) + effort_weight * mean
@@ -136,7 +157,7 @@ def correct_torques(model, nodes: NodeData, *, tracking_weight: float = 1e4,
     """
     n, h = _grid(nodes)
     col, solver = _correction_problem(model, n, h, (tracking_weight, effort_weight,
-                                                    smooth_weight), max_iter)
+                                                    smooth_weight), max_iter, transcription)
     size = 2 * (n + 1)
     solved = col.solve(solver, nodes, p0=np.zeros(size),
                        p_bounds=(np.full(size, -bound), np.full(size, bound)))
@@ -150,8 +171,8 @@ def correct_torques(model, nodes: NodeData, *, tracking_weight: float = 1e4,
 
 @functools.lru_cache(maxsize=16)
 def _feedback_problem(model, n: int, h: float, perturbation: float, regularization: float,
-                      max_iter: int):
-    col = LegCollocation(model, n, h, 4)
+                      max_iter: int, transcription: Transcription):
+    col = LegCollocation(model, n, h, 4, transcription)
     kp, kd = col.p[:2], col.p[2:]
     ref = col.node["x_ref"]
     feedback = (cs.repmat(kp, 1, n + 1) * (ref[:2, :] - col.x[:2, :])
@@ -164,14 +185,14 @@ def _feedback_problem(model, n: int, h: float, perturbation: float, regularizati
 
 def fit_feedback(model, nodes: NodeData, *, perturbation_deg: float = 3.0,
                  regularization: float = 1e-10, kp_max: float = 2000.0, kd_max: float = 200.0,
-                 max_iter: int = 300) -> FitResult:
+                 max_iter: int = 300, transcription: Transcription = TRAPEZOIDAL) -> FitResult:
     """PD gains that return a perturbed start (ankle +, knee - perturbation) to the motion.
 
     The gains minimise the mean squared angle error (rad^2) of the perturbed trajectory
     plus ``regularization`` * (kp^2 + (10 kd)^2), under the uncorrected moments.
     """
     col, solver = _feedback_problem(model, *_grid(nodes), np.radians(perturbation_deg),
-                                    regularization, max_iter)
+                                    regularization, max_iter, transcription)
     solved = col.solve(solver, nodes, p0=[100.0, 100.0, 10.0, 10.0],
                        p_bounds=([0, 0, 0, 0], [kp_max, kp_max, kd_max, kd_max]))
     _check(solved, "feedback gains")

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import enum
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +26,7 @@ from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import SimulationDiverged
 from predgait.problemfile import Table, load_problem
-from predgait.problems.collocation import NodeData
+from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
 from predgait.workflows.inverse import InverseResult, bundled_inverse, run_inverse
 from predgait.workflows.inverse_io import options_from_problem
@@ -51,10 +51,12 @@ class SolveSpec:
     side: str
     window: tuple[float, float]
     nodes: int
+    transcription: Transcription
     weights: dict
     threshold_deg: float
     perturbation_deg: float
     max_iter: int
+    check_step: float = 2.5e-4
 
 
 WEIGHT_KEYS = {Kind.KNEE_FIT: (), Kind.TORQUE_CORRECTION: ("tracking", "effort", "smoothness"),
@@ -63,7 +65,8 @@ WEIGHT_KEYS = {Kind.KNEE_FIT: (), Kind.TORQUE_CORRECTION: ("tracking", "effort",
 
 def parse_solve(table: Table) -> SolveSpec:
     """SolveSpec from a problem file (errors name the file, key and line)."""
-    table.check_keys(("kind", "trial", "window", "nodes", "weights", "check", "solver"))
+    table.check_keys(("kind", "trial", "window", "nodes", "transcription", "weights", "check",
+                      "solver"))
     kind = table.choice("kind", Kind)
     trial = table.table("trial")
     trial.check_keys(("source", "side", "inverse_problem"))
@@ -83,17 +86,20 @@ def parse_solve(table: Table) -> SolveSpec:
     weights = table.table("weights")
     weights.check_keys(WEIGHT_KEYS[kind])
     check = table.table("check")
-    check.check_keys(("threshold_deg", "perturbation_deg"))
+    check.check_keys(("threshold_deg", "perturbation_deg", "step"))
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
     return SolveSpec(
         kind=kind, source=table.path, inverse_problem=inverse_problem, side=side,
         window=(float(window[0]), float(window[1])),
         nodes=int(table.number("nodes", 100, low=10, high=2000)),
+        transcription=table.choice("transcription", Transcription,
+                                   Transcription.HERMITE_SIMPSON),
         weights={k: weights.number(k, low=0.0) for k in weights.data},
         threshold_deg=check.number("threshold_deg", 2.0, low=0.1, high=45, unit="deg"),
         perturbation_deg=check.number("perturbation_deg", 3.0, low=0.0, high=30, unit="deg"),
-        max_iter=int(solver.number("max_iter", 300, low=1, high=10000)))
+        max_iter=int(solver.number("max_iter", 300, low=1, high=10000)),
+        check_step=check.number("step", 2.5e-4, low=1e-5, high=5e-3, unit="s"))
 
 
 def _inverse(spec: SolveSpec) -> InverseResult:
@@ -104,20 +110,33 @@ def _inverse(spec: SolveSpec) -> InverseResult:
 
 def solve_problem(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers) -> FitResult:
     """Build and solve the problem of ``spec`` (raises SolveFailed when Ipopt fails)."""
-    nodes = NodeData.from_drivers(drivers, *spec.window, spec.nodes)
+    nodes = NodeData.from_drivers(drivers, *spec.window,
+                                  spec.transcription.grid_intervals(spec.nodes))
     w = spec.weights
+    common = {"max_iter": spec.max_iter, "transcription": spec.transcription}
     if spec.kind is Kind.KNEE_FIT:
-        return fit_knee(inverse.model, nodes, max_iter=spec.max_iter)
+        return fit_knee(inverse.model, nodes, **common)
     if spec.kind is Kind.TORQUE_CORRECTION:
         return correct_torques(inverse.model, nodes, tracking_weight=w.get("tracking", 1e4),
                                effort_weight=w.get("effort", 1.0),
-                               smooth_weight=w.get("smoothness", 10.0), max_iter=spec.max_iter)
+                               smooth_weight=w.get("smoothness", 10.0), **common)
     return fit_feedback(inverse.model, nodes, perturbation_deg=spec.perturbation_deg,
-                        regularization=w.get("regularization", 1e-10), max_iter=spec.max_iter)
+                        regularization=w.get("regularization", 1e-10), **common)
+
+
+def corrected_drivers(drivers: LegDrivers, fit: FitResult) -> LegDrivers:
+    """The drivers with the fitted torque changes (linear between grid points) added."""
+    change = fit.torque_change
+
+    def joint_torque(t):
+        return drivers.joint_torque(t) + np.array(
+            [np.interp(t, fit.t, change[:, 0]), np.interp(t, fit.t, change[:, 1])])
+
+    return replace(drivers, joint_torque=joint_torque)
 
 
 def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None):
-    options = IntegratorOptions(method=Method.RK4, step=1e-3)
+    options = IntegratorOptions(method=Method.RK4, step=spec.check_step)
     try:
         sim = simulate_leg(inverse.model, drivers, spec.window, x0, passive=passive,
                            feedback=feedback, options=options,
@@ -146,10 +165,7 @@ def check_by_resimulation(spec: SolveSpec, inverse: InverseResult, drivers: LegD
         passive = {"knee": PassiveJoint((LinearSpringDamper(p["k"], p["c"], p["theta0"]),))}
         sim, report["with_fit"] = _resimulate(inverse, drivers, spec, passive=passive)
     elif spec.kind is Kind.TORQUE_CORRECTION:
-        offsets = np.column_stack([np.interp(inverse.time, fit.t, fit.torque_change[:, i],
-                                             left=0.0, right=0.0) for i in range(2)])
-        corrected = LegDrivers.from_inverse(inverse, torque_offsets=offsets)
-        sim, report["with_fit"] = _resimulate(inverse, corrected, spec)
+        sim, report["with_fit"] = _resimulate(inverse, corrected_drivers(drivers, fit), spec)
     else:
         gains = PDFeedback(np.array([p["kp_ankle"], p["kp_knee"]]),
                            np.array([p["kd_ankle"], p["kd_knee"]]),
@@ -177,6 +193,7 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         "parameters": fit.parameters, "confidence95": fit.confidence95,
         "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
         "window_s": list(spec.window), "nodes": spec.nodes,
+        "transcription": spec.transcription.value, "diagnostics": fit.diagnostics,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
