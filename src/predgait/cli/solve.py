@@ -29,6 +29,8 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a key of the file, e.g. --set nodes=200 (repeatable)")
     cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    cmd.add_argument("--every", type=int, default=5, metavar="N",
+                     help="show Ipopt's progress every N iterations (0: summary only)")
     cmd.set_defaults(run=run)
 
 
@@ -46,6 +48,14 @@ def run(args: argparse.Namespace) -> int:
     except SolveFailed as exc:
         print(f"predgait: solve failed: {exc}", file=sys.stderr)
         return 3
+    if args.every > 0:
+        from types import SimpleNamespace
+
+        from predgait.problems.diagnostics import ipopt_lines
+
+        for line in ipopt_lines(SimpleNamespace(history=solution["ipopt_history"]),
+                                every=args.every):
+            print(line)
     check = solution["resimulation_check"]
     params = ", ".join(f"{k} = {v:.4g}" for k, v in solution["parameters"].items())
     print(f"{spec.kind.value}: {solution['ipopt_status']} in {solution['iterations']} "

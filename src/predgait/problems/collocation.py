@@ -34,7 +34,7 @@ from __future__ import annotations
 import enum
 import functools
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as cs
 import numpy as np
@@ -116,7 +116,11 @@ class NodeData:
 
 @dataclass(frozen=True)
 class Solved:
-    """Raw outcome of one Ipopt solve."""
+    """Raw outcome of one Ipopt solve.
+
+    ``history``: per Ipopt iteration (iteration 0 = the start) ``objective``,
+    ``constraint_violation`` (inf_pr) and ``dual_infeasibility`` (inf_du).
+    """
 
     w: np.ndarray
     status: str
@@ -125,6 +129,7 @@ class Solved:
     seconds: float
     objective: float
     constraint_violation: float
+    history: dict = field(default_factory=dict)
 
 
 class LegCollocation:
@@ -239,4 +244,13 @@ class LegCollocation:
         return Solved(w=np.array(out["x"]).ravel(), status=stats["return_status"],
                       success=bool(stats["success"]), iterations=int(stats["iter_count"]),
                       seconds=seconds, objective=float(out["f"]),
-                      constraint_violation=float(np.abs(g).max()) if g.size else 0.0)
+                      constraint_violation=float(np.abs(g).max()) if g.size else 0.0,
+                      history=_history(stats))
+
+
+def _history(stats: dict) -> dict:
+    """Objective and infeasibilities per Ipopt iteration, from the solver statistics."""
+    its = stats.get("iterations") or {}
+    names = (("objective", "obj"), ("constraint_violation", "inf_pr"),
+             ("dual_infeasibility", "inf_du"))
+    return {name: [float(v) for v in its.get(key, ())] for name, key in names}

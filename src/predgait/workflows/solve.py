@@ -27,6 +27,7 @@ from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import SimulationDiverged
 from predgait.problemfile import Table, load_problem
 from predgait.problems.collocation import NodeData, Transcription
+from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
 from predgait.workflows.inverse import InverseResult, bundled_inverse, run_inverse
 from predgait.workflows.inverse_io import options_from_problem
@@ -157,9 +158,20 @@ def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None)
 
 def check_by_resimulation(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers,
                           fit: FitResult) -> tuple[dict, object]:
-    """Re-simulate with Pinocchio: uncorrected baseline and the optimised inputs."""
-    _, baseline = _resimulate(inverse, drivers, spec)
-    report = {"baseline_uncorrected": baseline}
+    """Re-simulate with Pinocchio: uncorrected baseline and the optimised inputs.
+
+    Returns:
+        (report, the re-simulation with the fitted inputs).
+    """
+    report, sims = resimulations(spec, inverse, drivers, fit)
+    return report, sims["with_fit"]
+
+
+def resimulations(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers,
+                  fit: FitResult) -> tuple[dict, dict]:
+    """Like :func:`check_by_resimulation`, with every re-simulation: (report, name -> sim)."""
+    baseline_sim, baseline = _resimulate(inverse, drivers, spec)
+    report, sims = {"baseline_uncorrected": baseline}, {"baseline_uncorrected": baseline_sim}
     p = fit.parameters
     if spec.kind is Kind.KNEE_FIT:
         passive = {"knee": PassiveJoint((LinearSpringDamper(p["k"], p["c"], p["theta0"]),))}
@@ -174,9 +186,10 @@ def check_by_resimulation(spec: SolveSpec, inverse: InverseResult, drivers: LegD
         x0 = np.concatenate([drivers.reference_q(spec.window[0])[3:],
                              drivers.reference_qd(spec.window[0])[3:]])
         x0[:2] += np.radians(spec.perturbation_deg) * np.array([1.0, -1.0])
-        _, report["with_fit_perturbed_start"] = _resimulate(inverse, drivers, spec,
-                                                            feedback=gains, x0=x0)
-    return report, sim
+        sims["with_fit_perturbed_start"], report["with_fit_perturbed_start"] = _resimulate(
+            inverse, drivers, spec, feedback=gains, x0=x0)
+    sims["with_fit"] = sim
+    return report, sims
 
 
 def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
@@ -184,13 +197,15 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
     inverse = _inverse(spec)
     drivers = LegDrivers.from_inverse(inverse)
     fit = solve_problem(spec, inverse, drivers)
-    check, sim = check_by_resimulation(spec, inverse, drivers, fit)
+    check, sims = resimulations(spec, inverse, drivers, fit)
+    sim = sims["with_fit"]
     s = fit.solved
     solution = {
         "status": "solved" if s.success else s.status, "kind": spec.kind.value,
         "ipopt_status": s.status, "iterations": s.iterations, "solve_time_s": s.seconds,
         "objective": s.objective, "constraint_violation": s.constraint_violation,
         "parameters": fit.parameters, "confidence95": fit.confidence95,
+        "ipopt_history": s.history,
         "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
         "window_s": list(spec.window), "nodes": spec.nodes,
         "transcription": spec.transcription.value, "diagnostics": fit.diagnostics,
@@ -218,4 +233,9 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         from predgait.report.solve_plots import save_solve_plots
 
         save_solve_plots(stage, inverse, fit, sim, drivers)
+        labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
+                  "with_fit": "re-simulated, fitted (after)",
+                  "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}
+        save_diagnostics(stage, inverse.time, inverse.q, fit,
+                         {labels[k]: v for k, v in sims.items()})
     return solution
