@@ -91,19 +91,19 @@ def _knee_problem(model, n: int, h: float, max_iter: int, transcription: Transcr
     col = LegCollocation(model, n, h, 3, transcription)
     constraints = col.defects(col.xdot(0, passive_knee=_knee_passive(col.p)))
     residuals = cs.vec(col.x[:2, :] - col.node["x_ref"][:2, :])
-    xs, data = col.w[: -col.n_params], cs.vec(col.data)
-    sensitivity = cs.Function("sensitivity", [col.w, data], [
-        cs.jacobian(constraints, xs), cs.jacobian(constraints, col.p),
-        cs.jacobian(residuals, xs), residuals])
+    sensitivity = cs.Function("sensitivity", [col.w, cs.vec(col.data)], [
+        cs.jacobian(constraints, col.w), cs.jacobian(residuals, col.w), residuals],
+        ["w", "data"], ["G_w", "R_w", "r"])
     return col, col.build(col.tracking(), constraints, max_iter=max_iter), sensitivity
 
 
 def _confidence(col, sensitivity, w, nodes, names) -> tuple[dict, dict]:
     """95 % half-widths by Gauss-Newton along the dynamics: dX/dp = -G_X^-1 G_p."""
-    g_x, g_p, r_x, r = sensitivity(w, col.data_values(nodes))
-    g_x = scipy.sparse.csc_matrix(g_x.sparse() if hasattr(g_x, "sparse") else g_x)
-    dx_dp = scipy.sparse.linalg.splu(g_x).solve(-np.array(g_p))
-    jac = scipy.sparse.csr_matrix(r_x.sparse()) @ dx_dp
+    g_w, r_w, r = sensitivity(w, col.data_values(nodes))
+    g_w, r_w = scipy.sparse.csc_matrix(g_w.sparse()), scipy.sparse.csc_matrix(r_w.sparse())
+    k = g_w.shape[1] - col.n_params
+    dx_dp = scipy.sparse.linalg.splu(g_w[:, :k].tocsc()).solve(-g_w[:, k:].toarray())
+    jac = r_w[:, :k] @ dx_dp
     r = np.array(r).ravel()
     sigma2 = float(r @ r) / max(r.size - len(names), 1)
     cov = sigma2 * np.linalg.pinv(jac.T @ jac)
