@@ -11,12 +11,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from predgait.dynamics.drivers import LegDrivers
+from predgait.dynamics.drivers import LegDrivers, PDFeedback
 from predgait.dynamics.forward import simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.problems.collocation import NodeData, Transcription
-from predgait.problems.fitting import correct_torques, fit_knee
+from predgait.problems.fitting import correct_torques, fit_feedback, fit_knee
 from predgait.workflows.inverse import bundled_inverse
 from predgait.workflows.solve import Kind, SolveSpec, resimulations, solve_problem
 
@@ -93,6 +93,22 @@ def test_torque_correction_recovers_a_known_smooth_offset_from_noisy_data(trial)
     # RMS error < 0.2 N m on offsets of 1-3.5 N m (noise 0.02 deg; the residual = noise)
     assert np.sqrt(np.mean(error ** 2, axis=0)).max() < 0.2, error.max(axis=0)
     assert max(fit.rms_deg.values()) == pytest.approx(0.02, rel=0.25)
+
+
+def test_feedback_fit_recovers_known_gains_from_a_noisy_perturbed_response(trial):
+    inverse, drivers = trial
+    kp, kd = np.array([150.0, 250.0]), np.array([5.0, 8.0])
+    gains = PDFeedback(kp, kd, drivers.reference_q, drivers.reference_qd)
+    x0 = np.concatenate([drivers.reference_q(0.0)[3:] + np.radians([3.0, -3.0]),
+                         drivers.reference_qd(0.0)[3:]])
+    nodes = noisy_nodes(trial, 60, 0.4, noise_deg=0.02, seed=5, feedback=gains, x0=x0)
+    reference = np.column_stack([[drivers.reference_q(t)[3:] for t in nodes.t],
+                                 [drivers.reference_qd(t)[3:] for t in nodes.t]])
+    fit = fit_feedback(inverse.model, replace(nodes, feedback_ref=reference),
+                       perturbation_deg=0.0, regularization=1e-14, transcription=HS)
+    p = fit.parameters
+    np.testing.assert_allclose([p["kp_ankle"], p["kp_knee"]], kp, rtol=0.02)
+    np.testing.assert_allclose([p["kd_ankle"], p["kd_knee"]], kd, rtol=0.05)
 
 
 def _spec(kind, **changes):

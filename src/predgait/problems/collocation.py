@@ -81,7 +81,12 @@ def free_dynamics(model: Model) -> cs.Function:
 
 @dataclass(frozen=True)
 class NodeData:
-    """Measured inputs and reference at the collocation nodes (arrays with N+1 rows)."""
+    """Measured inputs and reference at the collocation nodes (arrays with N+1 rows).
+
+    ``x_ref`` (N+1, 4) is the motion to track (and its first row the initial state);
+    ``feedback_ref`` (N+1, 4), when given, is the reference of the PD feedback law
+    (default: ``x_ref``), so gains can be identified from a measured closed-loop response.
+    """
 
     t: np.ndarray
     qb: np.ndarray
@@ -90,6 +95,7 @@ class NodeData:
     tau: np.ndarray
     hip: np.ndarray
     x_ref: np.ndarray
+    feedback_ref: np.ndarray | None = None
 
     @classmethod
     def from_drivers(cls, drivers: LegDrivers, t0: float, t1: float, n: int) -> NodeData:
@@ -153,7 +159,8 @@ class LegCollocation:
     SYM = cs.SX
 
     #: Node data as NLP parameters: name -> rows per node (qb, vb, ab, tau, hip, x_ref).
-    DATA = (("qb", 3), ("vb", 3), ("ab", 3), ("tau", 2), ("hip", 3), ("x_ref", 4))
+    DATA = (("qb", 3), ("vb", 3), ("ab", 3), ("tau", 2), ("hip", 3), ("x_ref", 4),
+            ("feedback_ref", 4))
 
     def __init__(self, model: Model, n: int, h: float, n_params: int,
                  transcription: Transcription = Transcription.TRAPEZOIDAL):
@@ -175,7 +182,10 @@ class LegCollocation:
         """Numeric value of the NLP parameter for these nodes (column-major)."""
         if len(nodes.t) != self.n + 1 or abs(nodes.t[1] - nodes.t[0] - self.h) > 1e-12:
             raise InputError("node data do not match the problem's grid.")
-        stacked = np.column_stack([getattr(nodes, name) for name, _ in self.DATA]).T
+        values = {name: getattr(nodes, name) for name, _ in self.DATA}
+        if values["feedback_ref"] is None:
+            values["feedback_ref"] = nodes.x_ref
+        stacked = np.column_stack([values[name] for name, _ in self.DATA]).T
         return stacked.ravel(order="F")
 
     def unpack(self, w):

@@ -174,11 +174,12 @@ def _feedback_problem(model, n: int, h: float, perturbation: float, regularizati
                       max_iter: int, transcription: Transcription):
     col = LegCollocation(model, n, h, 4, transcription)
     kp, kd = col.p[:2], col.p[2:]
-    ref = col.node["x_ref"]
+    ref = col.node["feedback_ref"]
     feedback = (cs.repmat(kp, 1, n + 1) * (ref[:2, :] - col.x[:2, :])
                 + cs.repmat(kd, 1, n + 1) * (ref[2:, :] - col.x[2:, :]))
     offset = perturbation * np.array([1.0, -1.0, 0.0, 0.0])
-    constraints = col.defects(col.xdot(0, feedback=feedback), x0=ref[:, 0] + offset)
+    constraints = col.defects(col.xdot(0, feedback=feedback),
+                              x0=col.node["x_ref"][:, 0] + offset)
     objective = col.tracking() + regularization * (cs.sumsqr(kp) + cs.sumsqr(10 * kd))
     return col, col.build(objective, constraints, max_iter=max_iter)
 
@@ -187,6 +188,9 @@ def fit_feedback(model, nodes: NodeData, *, perturbation_deg: float = 3.0,
                  regularization: float = 1e-10, kp_max: float = 2000.0, kd_max: float = 200.0,
                  max_iter: int = 300, transcription: Transcription = TRAPEZOIDAL) -> FitResult:
     """PD gains that return a perturbed start (ankle +, knee - perturbation) to the motion.
+
+    With ``nodes.feedback_ref`` set and ``perturbation_deg=0`` this identifies the gains
+    of a measured closed-loop response ``x_ref`` around the reference ``feedback_ref``.
 
     The gains minimise the mean squared angle error (rad^2) of the perturbed trajectory
     plus ``regularization`` * (kp^2 + (10 kd)^2), under the uncorrected moments.
