@@ -56,6 +56,11 @@ def run(args: argparse.Namespace) -> int:
         for line in ipopt_lines(SimpleNamespace(history=solution["ipopt_history"]),
                                 every=args.every):
             print(line)
+    sensitivity = solution.get("diagnostics", {}).get("sensitivity_deg", {})
+    if sensitivity and max(sensitivity.values()) > 1e4:
+        print(f"  note: the angles change by up to {max(sensitivity.values()):.1e} deg per unit "
+              "of a parameter: the open-loop fit balances on the leg's instability, the 95 % "
+              "intervals are formal only (try a shorter window)")
     check = solution["resimulation_check"]
     params = ", ".join(f"{k} = {v:.4g}" for k, v in solution["parameters"].items())
     print(f"{spec.kind.value}: {solution['ipopt_status']} in {solution['iterations']} "
