@@ -31,6 +31,18 @@ def test_no_edit_reproduces_the_baseline(spec):
     assert result.metrics["knee_feedback_rms_n_m"] < 5.0
 
 
+def test_corrected_torques_and_fitted_gains(spec):
+    from predgait.scenarios.run import Gains, Torques
+
+    fitted = replace(spec, torques=Torques.CORRECTED, gains=Gains.FITTED)
+    null = run_scenario(fitted)
+    np.testing.assert_allclose(null.edited.q, null.baseline.q, atol=1e-12)
+    assert null.metrics["kp_knee"] != spec.kp          # the gains were fitted
+    assert null.metrics["knee_feedback_rms_n_m"] < 5.0
+    stiff = run_scenario(replace(fitted, edits=(PassiveEdit("knee", 80.0, 0.0, 0.0),)))
+    assert stiff.metrics["knee_rms_change_deg"] > 0.1
+
+
 def test_zero_mass_and_zero_spring_are_null_edits(spec):
     result = run_scenario(replace(spec, edits=(AddMass("shank", 0.0, 0.5),
                                                PassiveEdit("knee", 0.0, 0.0, 0.0))))

@@ -1,9 +1,11 @@
 """A what-if scenario: edit the leg, re-simulate the measured gait, compare with baseline.
 
 The baseline is the measured trial's leg driven forward by its inverse-dynamics torques
-(plus optional torque offsets, e.g. a torque correction), the hip load, the prescribed
-foot motion and the baseline passive elements, with PD feedback toward the measured
-motion standing in for the subject's control (thesis 4.2 future work). The scenario keeps
+(``torques = "measured"``) or by the torques after predgait's torque correction
+(``"corrected"``), the hip load and the prescribed foot motion, with PD feedback toward
+the measured motion standing in for the subject's control (thesis 4.2 future work); the
+gains are the scenario file's (``gains = "fixed"``) or fitted on the measured trial
+(``"fitted"``, as ``predgait solve feedback_gains``). The scenario keeps
 that same drive and control and changes the body: segment edits regenerate the URDF,
 joint edits change passive elements, ranges of motion or lock a joint. What changes is
 the prediction: joint angles, ground reaction, time to fall, and the feedback torque the
@@ -12,6 +14,7 @@ subject would need to keep walking the same way (a measure of the extra effort).
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -41,6 +44,22 @@ ROM_STIFFNESS = (2.0, 30.0)
 #: A shank or thigh pitch past this (deg from vertical) counts as a fall; in normal swing
 #: the shank reaches about 60 deg behind the vertical, so the thesis-style 60 deg is too tight.
 FALL_ANGLE_DEG = 90.0
+#: Collocation intervals of the torque correction / gain fit a scenario may run.
+FIT_INTERVALS = 100
+
+
+class Torques(enum.Enum):
+    """Which joint torques drive baseline and edited leg."""
+
+    MEASURED = "measured"      # inverse-dynamics moments
+    CORRECTED = "corrected"    # after predgait's torque correction over the window
+
+
+class Gains(enum.Enum):
+    """Where the PD gains of the stand-in control come from."""
+
+    FIXED = "fixed"            # kp, kd of the scenario file
+    FITTED = "fitted"          # fitted on the measured trial (predgait solve feedback_gains)
 
 
 @dataclass(frozen=True)
@@ -55,6 +74,8 @@ class ScenarioSpec:
     kd: float
     options: IntegratorOptions
     edits: tuple
+    torques: Torques = Torques.MEASURED
+    gains: Gains = Gains.FIXED
 
 
 @dataclass(frozen=True)
@@ -84,7 +105,7 @@ def parse_scenario(table: Table) -> ScenarioSpec:
             not window[0] < window[1]:
         raise table.error("window", "give [start, end] in s from heel strike, start < end.")
     control = table.table("control")
-    control.check_keys(("kp", "kd"))
+    control.check_keys(("kp", "kd", "torques", "gains"))
     integrator = table.table("integrator")
     integrator.check_keys(("method", "step"))
     options = IntegratorOptions(method=integrator.choice("method", Method, "rk4"),
@@ -99,7 +120,9 @@ def parse_scenario(table: Table) -> ScenarioSpec:
         window=(float(window[0]), float(window[1])),
         kp=control.number("kp", 300.0, low=0, high=1e4, unit="N m/rad"),
         kd=control.number("kd", 30.0, low=0, high=1e3, unit="N m s/rad"),
-        options=options, edits=tuple(edits))
+        options=options, edits=tuple(edits),
+        torques=control.choice("torques", Torques, "measured"),
+        gains=control.choice("gains", Gains, "fixed"))
 
 
 def load_scenario(path: str | Path, overrides=()) -> ScenarioSpec:
@@ -144,10 +167,10 @@ def _locked(drivers: LegDrivers, model, locks) -> tuple[LegDrivers, tuple[str, .
                    reference_qdd=hold(drivers.reference_qdd, True)), free
 
 
-def _simulate(model, drivers, spec: ScenarioSpec, passive, free) -> SimulationResult:
-    n = len(free)
+def _simulate(model, drivers, spec: ScenarioSpec, passive, free, gains) -> SimulationResult:
     free_index = [model.coordinate_index(j) for j in free]
-    feedback = PDFeedback(np.full(n, spec.kp), np.full(n, spec.kd), drivers.reference_q,
+    joint = [i - 3 for i in free_index]
+    feedback = PDFeedback(gains[0][joint], gains[1][joint], drivers.reference_q,
                           drivers.reference_qd)
     x0 = np.concatenate([drivers.reference_q(spec.window[0])[free_index],
                          drivers.reference_qd(spec.window[0])[free_index]])
@@ -159,11 +182,30 @@ def _simulate(model, drivers, spec: ScenarioSpec, passive, free) -> SimulationRe
         return exc.partial
 
 
-def _feedback_torque(result: SimulationResult, drivers: LegDrivers, spec) -> np.ndarray:
+def _feedback_torque(result: SimulationResult, drivers: LegDrivers, gains) -> np.ndarray:
     """PD torque (n, 2) N m (ankle, knee; model sign) along a simulated motion."""
     ref_q = np.array([drivers.reference_q(t) for t in result.t])
     ref_qd = np.array([drivers.reference_qd(t) for t in result.t])
-    return spec.kp * (ref_q[:, 3:] - result.q[:, 3:]) + spec.kd * (ref_qd[:, 3:] - result.qd[:, 3:])
+    return gains[0] * (ref_q[:, 3:] - result.q[:, 3:]) + gains[1] * (ref_qd[:, 3:]
+                                                                    - result.qd[:, 3:])
+
+
+def _drive_and_gains(spec: ScenarioSpec, inverse: InverseResult, drivers: LegDrivers):
+    """Drivers (measured or corrected torques) and PD gains (fixed or fitted), arrays (2,)."""
+    gains = (np.full(2, spec.kp), np.full(2, spec.kd))
+    if spec.torques is Torques.MEASURED and spec.gains is Gains.FIXED:
+        return drivers, gains
+    from predgait.problems.collocation import NodeData
+    from predgait.problems.fitting import correct_torques, fit_feedback
+    from predgait.workflows.solve import corrected_drivers
+
+    nodes = NodeData.from_drivers(drivers, *spec.window, FIT_INTERVALS)
+    if spec.gains is Gains.FITTED:
+        p = fit_feedback(inverse.model, nodes).parameters
+        gains = (np.array([p["kp_ankle"], p["kp_knee"]]), np.array([p["kd_ankle"], p["kd_knee"]]))
+    if spec.torques is Torques.CORRECTED:
+        drivers = corrected_drivers(drivers, correct_torques(inverse.model, nodes))
+    return drivers, gains
 
 
 def _metrics(base: SimulationResult, edit: SimulationResult, fb_base, fb_edit, drivers) -> dict:
@@ -197,16 +239,18 @@ def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) ->
     if spec.window[0] < lo or spec.window[1] > hi:
         raise InputError(f"{spec.source}: window {spec.window} s is outside the trial "
                          f"{lo:.3f}..{hi:.3f} s (time from heel strike).")
-    drivers = LegDrivers.from_inverse(inverse)
-    baseline = _simulate(inverse.model, drivers, spec, {}, ("ankle", "knee"))
+    drivers, gains = _drive_and_gains(spec, inverse, LegDrivers.from_inverse(inverse))
+    baseline = _simulate(inverse.model, drivers, spec, {}, ("ankle", "knee"), gains)
     params = apply_segment_edits(inverse.leg, spec.edits)
     model = model_from_urdf(leg_urdf(params), source=f"{inverse.model.source} + {spec.name}")
     edited_drivers, free = _locked(drivers, model,
                                    [e for e in spec.edits if isinstance(e, LockJoint)])
-    edited = _simulate(model, edited_drivers, spec, _passive_for(spec.edits), free)
-    fb_base = _feedback_torque(baseline, drivers, spec)
-    fb_edit = _feedback_torque(edited, edited_drivers, spec)
+    edited = _simulate(model, edited_drivers, spec, _passive_for(spec.edits), free, gains)
+    fb_base = _feedback_torque(baseline, drivers, gains)
+    fb_edit = _feedback_torque(edited, edited_drivers, gains)
     metrics = _metrics(baseline, edited, fb_base, fb_edit, drivers)
+    metrics.update({"kp_ankle": float(gains[0][0]), "kp_knee": float(gains[0][1]),
+                    "kd_ankle": float(gains[1][0]), "kd_knee": float(gains[1][1])})
     return ScenarioResult(spec, baseline, edited, metrics, fb_base, fb_edit, model.urdf)
 
 
