@@ -6,7 +6,8 @@ Stages (each a sub-folder of --out, then one HTML report of them all):
      (problems/resynthesis.toml);
   3. knee spring/damper fit (CasADi + Ipopt), checked by Pinocchio re-simulation;
   4. torque correction, likewise (problems/knee_fit.toml, torque_correction.toml);
-  5. a what-if scenario: a stiffer knee (problems/scenario_stiff_knee.toml).
+  5. a what-if scenario: a stiffer knee, driven by the corrected torques with fitted
+     feedback gains (problems/scenario_stiff_knee.toml).
 The problem files used are written into the result folder, next to their results.
 """
 
@@ -66,8 +67,8 @@ trial = "bundled:subject01"
 side = "right"
 window = [0.0, 1.0]
 [control]
-kp = 300.0
-kd = 30.0
+torques = "corrected"
+gains = "fitted"
 [[edit]]
 kind = "passive"
 joint = "knee"
