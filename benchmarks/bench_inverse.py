@@ -155,7 +155,7 @@ def stage_rows(options, label):
     """Time run_inverse and its main stages on one trial."""
     total = best_of(lambda: run_inverse(options), repeat=3)
     result = run_inverse(options)
-    trial = read_trial(options)
+    trial, _ = read_trial(options)
     markers = fill_gaps(trial.markers, names=_needed_markers(options.points),
                         max_gap_frames=options.max_gap_frames, edges="trim")
     read = best_of(lambda: (read_trial(options),
