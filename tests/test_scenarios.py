@@ -43,6 +43,16 @@ def test_corrected_torques_and_fitted_gains(spec):
     assert stiff.metrics["knee_rms_change_deg"] > 0.1
 
 
+def test_reoptimized_torques_after_adding_mass(spec):
+    cast = replace(spec, edits=(AddMass("shank", 2.0, 0.5),))
+    plain = run_scenario(cast)
+    again = run_scenario(replace(cast, reoptimize=True))
+    # Re-optimised torques carry the cast: less correction is left to the feedback.
+    assert again.metrics["knee_extra_feedback_rms_n_m"] < plain.metrics["knee_extra_feedback_rms_n_m"]
+    with pytest.raises(Exception, match="reoptimize works with both joints free"):
+        run_scenario(replace(spec, edits=(LockJoint("knee", 0.1),), reoptimize=True))
+
+
 def test_zero_mass_and_zero_spring_are_null_edits(spec):
     result = run_scenario(replace(spec, edits=(AddMass("shank", 0.0, 0.5),
                                                PassiveEdit("knee", 0.0, 0.0, 0.0))))

@@ -5,7 +5,9 @@ The baseline is the measured trial's leg driven forward by its inverse-dynamics 
 (``"corrected"``), the hip load and the prescribed foot motion, with PD feedback toward
 the measured motion standing in for the subject's control (thesis 4.2 future work); the
 gains are the scenario file's (``gains = "fixed"``) or fitted on the measured trial
-(``"fitted"``, as ``predgait solve feedback_gains``). The scenario keeps
+(``"fitted"``, as ``predgait solve feedback_gains``). With ``reoptimize = true`` the
+edited leg's torques are corrected again toward the measured motion (segment edits only),
+so the metrics then tell the change in joint moments the edit demands. The scenario keeps
 that same drive and control and changes the body: segment edits regenerate the URDF,
 joint edits change passive elements, ranges of motion or lock a joint. What changes is
 the prediction: joint angles, ground reaction, time to fall, and the feedback torque the
@@ -76,6 +78,7 @@ class ScenarioSpec:
     edits: tuple
     torques: Torques = Torques.MEASURED
     gains: Gains = Gains.FIXED
+    reoptimize: bool = False
 
 
 @dataclass(frozen=True)
@@ -105,7 +108,7 @@ def parse_scenario(table: Table) -> ScenarioSpec:
             not window[0] < window[1]:
         raise table.error("window", "give [start, end] in s from heel strike, start < end.")
     control = table.table("control")
-    control.check_keys(("kp", "kd", "torques", "gains"))
+    control.check_keys(("kp", "kd", "torques", "gains", "reoptimize"))
     integrator = table.table("integrator")
     integrator.check_keys(("method", "step"))
     options = IntegratorOptions(method=integrator.choice("method", Method, "rk4"),
@@ -122,7 +125,8 @@ def parse_scenario(table: Table) -> ScenarioSpec:
         kd=control.number("kd", 30.0, low=0, high=1e3, unit="N m s/rad"),
         options=options, edits=tuple(edits),
         torques=control.choice("torques", Torques, "measured"),
-        gains=control.choice("gains", Gains, "fixed"))
+        gains=control.choice("gains", Gains, "fixed"),
+        reoptimize=control.get("reoptimize", bool, False))
 
 
 def load_scenario(path: str | Path, overrides=()) -> ScenarioSpec:
@@ -230,6 +234,22 @@ def _metrics(base: SimulationResult, edit: SimulationResult, fb_base, fb_edit, d
     return metrics
 
 
+def _reoptimized(spec: ScenarioSpec, model, drivers: LegDrivers, locks) -> LegDrivers:
+    """Torque correction on the edited leg toward the measured motion (the new target)."""
+    if locks:
+        raise InputError(f"{spec.source}: reoptimize works with both joints free; drop "
+                         "reoptimize or the lock_joint edit.")
+    if _passive_for(spec.edits):
+        raise InputError(f"{spec.source}: reoptimize does not yet include passive-element "
+                         "edits; drop reoptimize or those edits.")
+    from predgait.problems.collocation import NodeData
+    from predgait.problems.fitting import correct_torques
+    from predgait.workflows.solve import corrected_drivers
+
+    nodes = NodeData.from_drivers(drivers, *spec.window, FIT_INTERVALS)
+    return corrected_drivers(drivers, correct_torques(model, nodes))
+
+
 def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) -> ScenarioResult:
     """Simulate baseline and edited leg over the window; compare."""
     inverse = inverse or bundled_inverse(spec.side)
@@ -243,8 +263,10 @@ def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) ->
     baseline = _simulate(inverse.model, drivers, spec, {}, ("ankle", "knee"), gains)
     params = apply_segment_edits(inverse.leg, spec.edits)
     model = model_from_urdf(leg_urdf(params), source=f"{inverse.model.source} + {spec.name}")
-    edited_drivers, free = _locked(drivers, model,
-                                   [e for e in spec.edits if isinstance(e, LockJoint)])
+    locks = [e for e in spec.edits if isinstance(e, LockJoint)]
+    edited_drivers, free = _locked(drivers, model, locks)
+    if spec.reoptimize:
+        edited_drivers = _reoptimized(spec, model, edited_drivers, locks)
     edited = _simulate(model, edited_drivers, spec, _passive_for(spec.edits), free, gains)
     fb_base = _feedback_torque(baseline, drivers, gains)
     fb_edit = _feedback_torque(edited, edited_drivers, gains)
