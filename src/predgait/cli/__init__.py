@@ -10,6 +10,7 @@ import argparse
 import logging
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from predgait import __version__
 from predgait.errors import PredgaitError
@@ -26,6 +27,17 @@ Lab frame: X forward, Y lateral (left), Z up; planar models turn about +Y.
 Clinical angles: hip flexion, knee flexion and ankle dorsiflexion are positive; a
 joint moment is positive when it acts toward the positive angle.
 """
+
+
+def add_output_options(command: argparse.ArgumentParser, *, overrides: str | None = None
+                       ) -> None:
+    """--out DIR and --force (and --set KEY=VALUE when ``overrides`` gives an example)."""
+    command.add_argument("--out", type=Path, required=True, metavar="DIR", help="result folder")
+    if overrides:
+        command.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                             help=f"override a key of the file, e.g. --set {overrides} "
+                                  "(repeatable)")
+    command.add_argument("--force", action="store_true", help="replace an existing --out folder")
 
 
 def build_parser() -> argparse.ArgumentParser:

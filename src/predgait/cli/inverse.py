@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from predgait.cli import add_output_options
 from predgait.data import Side
 from predgait.errors import InputError
 
@@ -54,8 +55,7 @@ def register(commands: argparse._SubParsersAction) -> None:
                      help="marker low-pass cut-off, Hz (default 6)")
     cmd.add_argument("--grf-cutoff", type=float, default=6.0, metavar="HZ",
                      help="ground-reaction low-pass cut-off, Hz (default 6; 0 = unfiltered)")
-    cmd.add_argument("--out", type=Path, required=True, metavar="DIR", help="result folder")
-    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    add_output_options(cmd)
     cmd.set_defaults(run=run)
 
 

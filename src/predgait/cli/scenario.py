@@ -6,6 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+from predgait.cli import add_output_options
+
 DESCRIPTION = """\
 Edit the leg (scale a segment, move a COM, add mass, add a passive element such as an
 ankle-foot orthosis or a stiffer knee, restrict a range of motion, lock a joint), re-simulate
@@ -21,10 +23,7 @@ def register(commands: argparse._SubParsersAction) -> None:
                               description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("scenario", type=Path, help="SCENARIO.toml")
-    cmd.add_argument("--out", type=Path, required=True, metavar="DIR")
-    cmd.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a key of the file, e.g. --set edit.0.k=200 (repeatable)")
-    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    add_output_options(cmd, overrides="edit.0.k=200")
     cmd.set_defaults(run=run)
 
 

@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from predgait.cli import add_output_options
+
 DESCRIPTION = """\
 Forward dynamic synthesis (thesis 3.2.4, 3.3.4, 4.1-4.2). PROBLEM.toml says the kind:
   rod          the thesis rod experiment on a synthetic trial: end forces given in the lab
@@ -26,10 +28,7 @@ def register(commands: argparse._SubParsersAction) -> None:
                               description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("problem", type=Path, help="problem file (problems/rod.toml, ...)")
-    cmd.add_argument("--out", type=Path, required=True, metavar="DIR", help="result folder")
-    cmd.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a value of the problem file (repeatable)")
-    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    add_output_options(cmd, overrides="passive.knee.k=100")
     cmd.set_defaults(run=run)
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from predgait.cli import add_output_options
+
 DESCRIPTION = """\
 Optimisation of the leg driven by the measured moments (CasADi direct collocation on the
 ADAM dynamics, Ipopt with exact Hessians), then a check by Pinocchio re-simulation.
@@ -25,10 +27,7 @@ def register(commands: argparse._SubParsersAction) -> None:
                               description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("problem", type=Path, help="PROBLEM.toml")
-    cmd.add_argument("--out", type=Path, required=True, metavar="DIR")
-    cmd.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a key of the file, e.g. --set nodes=200 (repeatable)")
-    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    add_output_options(cmd, overrides="nodes=200")
     cmd.add_argument("--every", type=int, default=5, metavar="N",
                      help="show Ipopt's progress every N iterations (0: summary only)")
     cmd.set_defaults(run=run)

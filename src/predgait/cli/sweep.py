@@ -9,6 +9,8 @@ import json
 import time
 from pathlib import Path
 
+from predgait.cli import add_output_options
+
 DESCRIPTION = """\
 Run a scenario file over a grid or a random sample of its parameters (any key that
 'predgait scenario --set' accepts, e.g. edit.0.k). Runs in local processes (--workers)
@@ -26,11 +28,10 @@ def register(commands: argparse._SubParsersAction) -> None:
                               description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("sweep", type=Path, help="SWEEP.toml")
-    cmd.add_argument("--out", type=Path, required=True, metavar="DIR")
     cmd.add_argument("--workers", type=int, default=2, metavar="N",
                      help="local worker processes (default 2)")
     cmd.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address")
-    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    add_output_options(cmd)
     cmd.set_defaults(run=run)
 
 
