@@ -338,6 +338,11 @@ def run_inverse(options: InverseOptions) -> InverseResult:
     if not 0.5 <= options.cutoff < 0.5 * markers.rate:
         raise InputError(f"--cutoff {options.cutoff} Hz must lie in 0.5..{0.5 * markers.rate} Hz "
                          f"(below the Nyquist frequency of {markers.rate} Hz markers).")
+    for plate in trial.plates:
+        if options.grf_cutoff is not None and not 0.5 <= options.grf_cutoff < 0.5 * plate.rate:
+            raise InputError(f"--grf-cutoff {options.grf_cutoff} Hz must lie in 0.5..."
+                             f"{0.5 * plate.rate:g} Hz (below the Nyquist frequency of the "
+                             f"{plate.rate:g} Hz plate '{plate.name}').")
     markers = markers.with_xyz(lowpass(markers.xyz, markers.rate, options.cutoff))
     static = None
     static_points = None
