@@ -1,0 +1,159 @@
+"""Load a 3D predgait URDF (whole body) into Pinocchio with a free-flyer pelvis, and ADAM.
+
+Pinocchio: root joint ``pin.JointModelFreeFlyer()`` named ``root``; q = (x, y, z of the
+pelvis origin in the lab, m; quaternion qx, qy, qz, qw of the pelvis orientation) then
+the 29 revolute joints; v = (linear velocity of the pelvis origin in the PELVIS frame,
+angular velocity in the pelvis frame) then the joint rates (nq = 36, nv = 35).
+
+ADAM (:func:`adam_kindyn`) is built from the same URDF with the joints in Pinocchio's
+order and ``Representations.BODY_FIXED_REPRESENTATION``, whose base velocity is the
+body-fixed twist (linear, angular), i.e. Pinocchio's free-flyer velocity: mass matrix,
+bias force and RNEA agree term by term (``tests/test_fullbody.py``).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.errors import InputError
+from predgait.models import urdf as urdf_info
+from predgait.models.fullbody import build_fullbody_urdf
+from predgait.models.loading import DEFAULT_SUBJECT, GRAVITY
+
+ROOT_COORDINATES = ("pelvis_x", "pelvis_y", "pelvis_z", "pelvis_qx", "pelvis_qy",
+                    "pelvis_qz", "pelvis_qw")
+ROOT_VELOCITIES = ("pelvis_vx", "pelvis_vy", "pelvis_vz", "pelvis_wx", "pelvis_wy",
+                   "pelvis_wz")
+DEFAULT_SEX = "male"
+
+
+@dataclass(frozen=True, eq=False)
+class Model3D:
+    """A 3D predgait model with a free-flyer root.
+
+    Attributes:
+        urdf: URDF text.
+        kind: ``fullbody`` (or another 3D kind).
+        pin_model: Pinocchio model (nq = nv + 1).
+        gravity: m/s^2 along -Z.
+        source: path or generator description.
+    """
+
+    urdf: str
+    kind: str
+    pin_model: pin.Model = field(repr=False)
+    gravity: float
+    source: str
+
+    @property
+    def nq(self) -> int:
+        """Configuration size (7 + joints)."""
+        return self.pin_model.nq
+
+    @property
+    def nv(self) -> int:
+        """Velocity size (6 + joints)."""
+        return self.pin_model.nv
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Revolute joints in coordinate order."""
+        return tuple(self.pin_model.names[2:])
+
+    @property
+    def velocity_names(self) -> tuple[str, ...]:
+        """Names of the nv velocity (and generalised force) entries."""
+        return ROOT_VELOCITIES + self.joint_names
+
+    def frame_id(self, name: str) -> int:
+        """Pinocchio frame index, with a clear error."""
+        if not self.pin_model.existFrame(name):
+            raise InputError(f"model '{self.kind}' has no frame '{name}'; frames: "
+                             f"{', '.join(sorted(self.frame_names()))}.")
+        return self.pin_model.getFrameId(name)
+
+    def frame_names(self) -> list[str]:
+        """All frame names but the universe."""
+        return [f.name for f in self.pin_model.frames if f.name != "universe"]
+
+    def joint_velocity_index(self, name: str) -> int:
+        """Index in v (and tau) of revolute joint ``name``."""
+        pm = self.pin_model
+        if not pm.existJointName(name):
+            raise InputError(f"model '{self.kind}' has no joint '{name}'.")
+        return pm.joints[pm.getJointId(name)].idx_v
+
+    def total_mass(self) -> float:
+        """Total mass, kg."""
+        return float(sum(inertia.mass for inertia in self.pin_model.inertias))
+
+    def neutral(self) -> np.ndarray:
+        """Upright standing configuration with the pelvis at the origin, (nq,)."""
+        return pin.neutral(self.pin_model)
+
+
+def model3d_from_urdf(text: str, *, source: str = "URDF", gravity: float = GRAVITY) -> Model3D:
+    """Build a :class:`Model3D` from predgait URDF text with a free-flyer base."""
+    info = urdf_info.read_urdf_info(text, source=source)
+    if info.base != "free_flyer":
+        raise InputError(f"{source}: base '{info.base}' is not a 3D free-flyer model; load it "
+                         "with predgait.models.loading.load_model.")
+    if not np.isfinite(gravity) or not 0.0 <= gravity <= 30.0:
+        raise InputError(f"gravity = {gravity!r} m/s^2 is out of range 0..30.")
+    try:
+        pin_model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer(), "root")
+    except (RuntimeError, ValueError) as exc:
+        raise InputError(f"{source}: Pinocchio cannot read this URDF ({exc}).") from None
+    pin_model.gravity.linear = np.array([0.0, 0.0, -gravity])
+    return Model3D(urdf=text, kind=info.kind, pin_model=pin_model, gravity=gravity,
+                   source=source)
+
+
+@functools.lru_cache(maxsize=8)
+def _default(gravity: float) -> Model3D:
+    text = build_fullbody_urdf(DEFAULT_SUBJECT["mass"], DEFAULT_SUBJECT["height"], DEFAULT_SEX)
+    return model3d_from_urdf(text, source="default fullbody", gravity=gravity)
+
+
+def load_fullbody(source: str | Path = "fullbody", *, gravity: float = GRAVITY) -> Model3D:
+    """Load ``"fullbody"`` (subject01: 72.6 kg, 1.8034 m, male) or a 3D URDF path."""
+    if str(source) == "fullbody":
+        return _default(gravity)
+    path = Path(source)
+    if not path.is_file():
+        raise InputError(f"{path}: model file not found; give a URDF made by "
+                         "'predgait model build fullbody', or 'fullbody'.")
+    return model3d_from_urdf(path.read_text(), source=str(path), gravity=gravity)
+
+
+def fullbody_for_subject(mass: float, height: float, sex: str = DEFAULT_SEX, *,
+                         gravity: float = GRAVITY) -> Model3D:
+    """Whole body generated for a subject (not cached)."""
+    return model3d_from_urdf(build_fullbody_urdf(mass, height, sex),
+                             source=f"fullbody {mass:g} kg {height:g} m {sex}", gravity=gravity)
+
+
+def adam_kindyn(model: Model3D, *, backend: str = "casadi"):
+    """ADAM KinDynComputations (``casadi`` or ``numpy``) in the body-fixed representation."""
+    from adam.core.constants import Representations
+
+    if backend == "casadi":
+        from adam.casadi import KinDynComputations
+    elif backend == "numpy":
+        from adam.numpy import KinDynComputations
+    else:
+        raise ValueError(f"unknown ADAM backend {backend!r}")
+    gravity = np.array([0.0, 0.0, -model.gravity, 0.0, 0.0, 0.0])
+    kindyn = KinDynComputations(model.urdf, list(model.joint_names), gravity=gravity)
+    kindyn.set_frame_velocity_representation(Representations.BODY_FIXED_REPRESENTATION)
+    return kindyn
+
+
+def base_transform(q: np.ndarray) -> np.ndarray:
+    """4x4 world-from-pelvis transform of a configuration (numpy)."""
+    return pin.XYZQUATToSE3(np.asarray(q[:7], dtype=float)).homogeneous
