@@ -1,0 +1,260 @@
+"""3D inverse kinematics: weighted least-squares fit of model marker frames to markers.
+
+Per frame, minimise ``sum_i w_i |p_i(q) - m_i|^2`` over the configuration q (free-flyer
+pelvis + 29 Cardan/hinge angles) by Levenberg-Marquardt: with the stacked marker
+residual r and the frame Jacobians J (``LOCAL_WORLD_ALIGNED`` linear rows, w.r.t. the
+velocity v), solve ``(J^T W J + lambda I) dv = -J^T W r`` and update ``q <- integrate(q,
+dv)`` (the quaternion stays on its manifold), then clamp the joint angles to their limits
+(projected Gauss-Newton). Frames are warm-started from the previous solution; markers
+missing in a frame (NaN) are left out of that frame. A frame that hits the iteration cap
+without the step falling below the tolerance is flagged (``converged`` False) and the
+run goes on.
+
+Output coordinates are the model's: the joint coordinates ARE the Cardan X-Y-Z angles
+(thesis 2.3.2); :func:`pelvis_cardan` gives the pelvis orientation in the lab the same way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.errors import InputError
+from predgait.models.loading3d import Model3D
+
+
+@dataclass(frozen=True)
+class IKOptions:
+    """Solver settings.
+
+    Attributes:
+        max_iterations: per frame (the first frame gets 5x).
+        tolerance: stop when |dv| < tolerance (rad or m).
+        damping: Levenberg-Marquardt lambda, m^2 (regularises unobserved directions).
+        flag_rms: m; frames whose marker RMS exceeds it are flagged too.
+    """
+
+    max_iterations: int = 30
+    tolerance: float = 1e-5
+    damping: float = 1e-6
+    flag_rms: float = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class IKResult:
+    """Inverse-kinematics solution.
+
+    Attributes:
+        time: (n,) s.
+        q: (n, nq) configurations.
+        marker_frames: model frames fitted, length m.
+        marker_names: trial markers they were fitted to.
+        residuals: (n, m) m, distance model-measured per marker (NaN if missing).
+        rms: (n,) m, RMS marker distance per frame.
+        iterations: (n,) iterations used.
+        converged: (n,) bool; False for frames flagged (see ``failed_frames``).
+    """
+
+    time: np.ndarray
+    q: np.ndarray
+    marker_frames: tuple[str, ...]
+    marker_names: tuple[str, ...]
+    residuals: np.ndarray
+    rms: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+
+    @property
+    def failed_frames(self) -> np.ndarray:
+        """Indices of flagged frames."""
+        return np.flatnonzero(~self.converged)
+
+
+def pelvis_cardan(q: np.ndarray) -> np.ndarray:
+    """Pelvis orientation as Cardan X-Y-Z angles (R = Rx Ry Rz), (n, 3) rad."""
+    q = np.atleast_2d(q)
+    out = np.empty((q.shape[0], 3))
+    for k, row in enumerate(q):
+        rot = pin.Quaternion(row[6], *row[3:6]).toRotationMatrix()
+        beta = np.arcsin(np.clip(rot[0, 2], -1.0, 1.0))
+        out[k] = (np.arctan2(-rot[1, 2], rot[2, 2]), beta, np.arctan2(-rot[0, 1], rot[0, 0]))
+    return out
+
+
+def _limits(model: Model3D) -> tuple[np.ndarray, np.ndarray]:
+    pm = model.pin_model
+    lower = np.array(pm.lowerPositionLimit, dtype=float)
+    upper = np.array(pm.upperPositionLimit, dtype=float)
+    lower[:7], upper[:7] = -np.inf, np.inf
+    return lower, upper
+
+
+def initial_pose(model: Model3D, frame_ids, targets: np.ndarray) -> np.ndarray:
+    """Neutral posture translated so that the fitted markers' centroids coincide."""
+    pm, data = model.pin_model, model.pin_model.createData()
+    q = model.neutral()
+    pin.framesForwardKinematics(pm, data, q)
+    ok = np.isfinite(targets).all(axis=1)
+    if not ok.any():
+        raise InputError("inverse kinematics: no marker is visible in the first frame.")
+    model_pts = np.array([data.oMf[f].translation for f in frame_ids])
+    q[:3] = targets[ok].mean(axis=0) - model_pts[ok].mean(axis=0)
+    return q
+
+
+class _Fitter:
+    def __init__(self, model: Model3D, frame_ids, weights, options: IKOptions):
+        self.pm = model.pin_model
+        self.data = self.pm.createData()
+        self.ids = list(frame_ids)
+        self.w = np.repeat(np.sqrt(np.asarray(weights, dtype=float)), 3)
+        self.lower, self.upper = _limits(model)
+        self.options = options
+
+    def residual(self, q, targets):
+        pin.framesForwardKinematics(self.pm, self.data, q)
+        pts = np.array([self.data.oMf[f].translation for f in self.ids])
+        return pts - targets
+
+    def solve(self, q, targets, max_iterations):
+        pm, data, opts = self.pm, self.data, self.options
+        ok = np.repeat(np.isfinite(targets).all(axis=1), 3)
+        w = self.w[ok]
+        flat_targets = np.where(np.isfinite(targets), targets, 0.0)
+        converged = False
+        it = 0
+        for it in range(1, max_iterations + 1):  # noqa: B007
+            pin.computeJointJacobians(pm, data, q)
+            pin.updateFramePlacements(pm, data)
+            r = (np.array([data.oMf[f].translation for f in self.ids]) - flat_targets).ravel()
+            jac = np.vstack([pin.getFrameJacobian(pm, data, f, pin.LOCAL_WORLD_ALIGNED)[:3]
+                             for f in self.ids])
+            jw = jac[ok] * w[:, None]
+            rw = r[ok] * w
+            step = np.linalg.solve(jw.T @ jw + opts.damping * np.eye(pm.nv), -jw.T @ rw)
+            q = np.clip(pin.integrate(pm, q, step), self.lower, self.upper)
+            if np.linalg.norm(step) < opts.tolerance:
+                converged = True
+                break
+        res = self.residual(q, targets)
+        return q, np.linalg.norm(res, axis=1), it, converged
+
+
+def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
+             marker_frames: tuple[str, ...], *, marker_names: tuple[str, ...] | None = None,
+             weights: Mapping[str, float] | None = None, q0: np.ndarray | None = None,
+             options: IKOptions = IKOptions()) -> IKResult:
+    """Fit the model's ``marker_frames`` to measured markers, frame by frame.
+
+    Args:
+        model: 3D model.
+        time: (n,) s.
+        xyz: (n, m, 3) m, lab frame, measured positions of the markers matched to
+            ``marker_frames`` (same order); NaN where missing.
+        marker_frames: model frame names, length m.
+        marker_names: trial marker names (for reporting), defaults to the frame names.
+        weights: frame name -> weight (default 1).
+        q0: (nq,) start of the first frame; default: neutral posture at the markers.
+        options: solver settings.
+
+    Returns:
+        IKResult (flagged frames are kept, with ``converged`` False).
+    """
+    xyz = np.asarray(xyz, dtype=float)
+    if xyz.ndim != 3 or xyz.shape[1] != len(marker_frames) or xyz.shape[2] != 3:
+        raise InputError(f"inverse kinematics: markers have shape {xyz.shape}; expected "
+                         f"(n, {len(marker_frames)}, 3).")
+    ids = [model.frame_id(f) for f in marker_frames]
+    weights = dict(weights or {})
+    unknown = set(weights) - set(marker_frames)
+    if unknown:
+        raise InputError(f"inverse kinematics: weights for unfitted frames "
+                         f"{', '.join(sorted(unknown))}.")
+    fitter = _Fitter(model, ids, [weights.get(f, 1.0) for f in marker_frames], options)
+    n = xyz.shape[0]
+    q = initial_pose(model, ids, xyz[0]) if q0 is None else np.array(q0, dtype=float)
+    qs = np.empty((n, model.nq))
+    residuals = np.full((n, len(ids)), np.nan)
+    iterations = np.zeros(n, dtype=int)
+    converged = np.zeros(n, dtype=bool)
+    for k in range(n):
+        cap = options.max_iterations * (5 if k == 0 else 1)
+        q, dist, iterations[k], converged[k] = fitter.solve(q, xyz[k], cap)
+        qs[k] = q
+        visible = np.isfinite(xyz[k]).all(axis=1)
+        residuals[k, visible] = dist[visible]
+    rms = np.sqrt(np.nanmean(residuals**2, axis=1))
+    converged &= rms <= options.flag_rms
+    return IKResult(time=np.asarray(time, dtype=float), q=qs, marker_frames=tuple(marker_frames),
+                    marker_names=tuple(marker_names or marker_frames), residuals=residuals,
+                    rms=rms, iterations=iterations, converged=converged)
+
+
+def with_marker_frames(model: Model3D, placements: Mapping[str, tuple[str, np.ndarray]]
+                       ) -> Model3D:
+    """Copy of ``model`` with marker frames added or moved.
+
+    Args:
+        model: the model (not changed).
+        placements: frame name -> (parent body frame name, (3,) position in that frame, m).
+            An existing frame of that name is moved; a new one is added.
+    """
+    pm = pin.Model(model.pin_model)
+    for name, (parent, xyz) in placements.items():
+        parent_frame = pm.frames[model.frame_id(parent)]
+        placement = parent_frame.placement * pin.SE3(np.eye(3), np.asarray(xyz, dtype=float))
+        if pm.existFrame(name):
+            fid = pm.getFrameId(name)
+            frame = pm.frames[fid]
+            frame.placement = placement
+            frame.parentJoint = parent_frame.parentJoint
+            pm.frames[fid] = frame
+        else:
+            pm.addFrame(pin.Frame(name, parent_frame.parentJoint, model.frame_id(parent),
+                                  placement, pin.FrameType.OP_FRAME))
+    return Model3D(urdf=model.urdf, kind=model.kind, pin_model=pm, gravity=model.gravity,
+                   source=f"{model.source}, calibrated marker frames")
+
+
+def body_of(model: Model3D, frame: str) -> str:
+    """Name of the body (link) frame a frame is attached to (its parent joint's body)."""
+    pm = model.pin_model
+    joint = pm.frames[model.frame_id(frame)].parentJoint
+    for f in pm.frames:
+        if f.parentJoint == joint and f.type == pin.FrameType.BODY:
+            return f.name
+    raise InputError(f"frame {frame!r} has no body.")
+
+
+def calibrate_markers(model: Model3D, q: np.ndarray, xyz: np.ndarray,
+                      frames: tuple[str, ...], segments: Mapping[str, str]) -> Model3D:
+    """Move marker frames to the measured markers, averaged over calibration frames.
+
+    Args:
+        model: model whose body placement the poses ``q`` describe.
+        q: (n, nq) poses (e.g. IK of a static trial or of the first frames).
+        xyz: (n, m, 3) m, measured markers, ``frames[i]`` <-> ``xyz[:, i]``.
+        frames: frame names to place (existing or new).
+        segments: frame -> body frame it rides on (for frames not yet in the model).
+
+    Returns:
+        Model with each frame at the mean position of its marker in its body frame.
+    """
+    pm, data = model.pin_model, model.pin_model.createData()
+    parents = {f: segments.get(f) or body_of(model, f) for f in frames}
+    sums = {f: np.zeros(3) for f in frames}
+    counts = dict.fromkeys(frames, 0)
+    for k in range(q.shape[0]):
+        pin.framesForwardKinematics(pm, data, q[k])
+        for i, f in enumerate(frames):
+            if np.isfinite(xyz[k, i]).all():
+                sums[f] += data.oMf[model.frame_id(parents[f])].actInv(xyz[k, i])
+                counts[f] += 1
+    missing = [f for f in frames if counts[f] == 0]
+    if missing:
+        raise InputError(f"marker calibration: no frame shows the markers for "
+                         f"{', '.join(missing)}.")
+    return with_marker_frames(model, {f: (parents[f], sums[f] / counts[f]) for f in frames})
