@@ -1,0 +1,182 @@
+"""3D inverse dynamics of the whole body: RNEA with force plates assigned to the feet.
+
+With the pelvis a free flyer, ``tau = RNEA(q, v, a, f_ext)`` has 6 root rows: the
+wrench (pelvis frame, about the pelvis origin) that would have to act on the pelvis from
+outside for the measured motion and ground reactions to agree. With perfect data it is
+zero; its size shows the dynamic inconsistency of the data (model inertia, marker
+kinematics, plate calibration). The other rows are the joint moments about each Cardan
+axis (revolute joints ``<joint>_x/_y/_z``, N m).
+
+Plates are assigned per stance: every contiguous run of samples with vertical force
+above a threshold goes to the foot whose sole (mid-point of ``heel_contact_*`` and
+``toe_contact_*``) is closest, on average, to the plate's COP during that run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.data.trial import ForcePlate
+from predgait.dynamics.external import Load, joint_forces
+from predgait.errors import InputError
+from predgait.models.loading3d import Model3D
+
+FEET = ("r", "l")
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
+    return list(zip(edges[::2], edges[1::2], strict=True))
+
+
+def sole_points(model: Model3D, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Lab position of each foot's sole mid-point per frame, side -> (n, 3) m."""
+    pm, data = model.pin_model, model.pin_model.createData()
+    ids = {s: (model.frame_id(f"heel_contact_{s}"), model.frame_id(f"toe_contact_{s}"))
+           for s in FEET}
+    out = {s: np.empty((q.shape[0], 3)) for s in FEET}
+    for k, row in enumerate(q):
+        pin.framesForwardKinematics(pm, data, row)
+        for s, (heel, toe) in ids.items():
+            out[s][k] = 0.5 * (data.oMf[heel].translation + data.oMf[toe].translation)
+    return out
+
+
+@dataclass(frozen=True)
+class Stance:
+    """One plate contact assigned to a foot.
+
+    Attributes:
+        plate: plate name.
+        side: ``r`` or ``l``.
+        start, stop: s (first and last loaded sample).
+        distance: m, mean horizontal COP-to-sole distance of the chosen foot.
+    """
+
+    plate: str
+    side: str
+    start: float
+    stop: float
+    distance: float
+
+
+def assign_plates(model: Model3D, q: np.ndarray, plates: Sequence[ForcePlate], *,
+                  threshold: float = 20.0, max_distance: float = 0.25
+                  ) -> tuple[np.ndarray, list[Stance]]:
+    """Assign each plate's stances to a foot by COP proximity.
+
+    Args:
+        model: whole-body model.
+        q: (n, nq) configurations at the plates' sample times (plates resampled to q).
+        plates: plates at the same n times.
+        threshold: N, vertical force defining contact.
+        max_distance: m; a stance whose nearest sole is farther is an error.
+
+    Returns:
+        (side per plate and frame (p, n) of "r"/"l"/"" , list of stances).
+
+    Raises:
+        InputError: a plate is loaded while no foot is near its COP.
+    """
+    soles = sole_points(model, q)
+    sides = np.full((len(plates), q.shape[0]), "", dtype="<U1")
+    stances = []
+    for p, plate in enumerate(plates):
+        if plate.time.shape[0] != q.shape[0]:
+            raise InputError(f"plate {plate.name!r} has {plate.time.shape[0]} samples but "
+                             f"there are {q.shape[0]} poses; resample it to the marker times.")
+        for start, stop in _runs(plate.force[:, 2] > threshold):
+            cop = plate.cop[start:stop, :2]
+            dist = {s: float(np.mean(np.linalg.norm(soles[s][start:stop, :2] - cop, axis=1)))
+                    for s in FEET}
+            side = min(dist, key=dist.get)
+            t0, t1 = plate.time[start], plate.time[stop - 1]
+            if dist[side] > max_distance:
+                raise InputError(
+                    f"plate {plate.name!r} is loaded from t = {t0:.3f} to {t1:.3f} s but no "
+                    f"foot is near its COP (nearest: {side} foot, {dist[side]:.2f} m > "
+                    f"{max_distance} m). Check the marker map, the plate corners or the lab "
+                    "frame.")
+            sides[p, start:stop] = side
+            stances.append(Stance(plate.name, side, float(t0), float(t1), dist[side]))
+    return sides, stances
+
+
+@dataclass(frozen=True, eq=False)
+class InverseDynamics3D:
+    """Result of :func:`inverse_dynamics_3d`.
+
+    Attributes:
+        tau: (n, nv) generalised forces: 6 pelvis rows (residual wrench, pelvis frame),
+            then the joint moments per Cardan axis, N m.
+        residual_force: (n, 3) N, pelvis residual force in the lab frame.
+        residual_moment: (n, 3) N m, pelvis residual moment about the pelvis origin, lab.
+        joint_names: names of the joint rows (tau[:, 6:]).
+    """
+
+    tau: np.ndarray
+    residual_force: np.ndarray
+    residual_moment: np.ndarray
+    joint_names: tuple[str, ...]
+
+    @property
+    def joint_moments(self) -> dict[str, np.ndarray]:
+        """Joint name -> (n,) moment about its Cardan axis, N m."""
+        return {name: self.tau[:, 6 + i] for i, name in enumerate(self.joint_names)}
+
+
+def inverse_dynamics_3d(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                        plates: Sequence[ForcePlate] = (), sides: np.ndarray | None = None
+                        ) -> InverseDynamics3D:
+    """RNEA per frame with the plate loads on the assigned feet.
+
+    Args:
+        model: whole-body model.
+        q: (n, nq) configurations.
+        v: (n, nv) velocities (Pinocchio's: pelvis twist in the pelvis frame, joint rates).
+        a: (n, nv) their time derivatives.
+        plates: plates at the same n times (force on the foot, COP, free moment; lab).
+        sides: (len(plates), n) foot per plate and frame ("r", "l" or ""), e.g. from
+            :func:`assign_plates`.
+    """
+    pm, data = model.pin_model, model.pin_model.createData()
+    n = q.shape[0]
+    if plates and sides is None:
+        raise InputError("inverse_dynamics_3d: plates given without their foot assignment.")
+    tau = np.empty((n, pm.nv))
+    force, moment = np.empty((n, 3)), np.empty((n, 3))
+    for k in range(n):
+        pin.framesForwardKinematics(pm, data, q[k])
+        loads = [Load(f"foot_{sides[p, k]}", plate.force[k], plate.cop[k],
+                      plate.free_moment[k])
+                 for p, plate in enumerate(plates) if sides[p, k]]
+        fext = joint_forces(model, data, loads) if loads else None
+        tau[k] = (pin.rnea(pm, data, q[k], v[k], a[k], fext) if fext is not None
+                  else pin.rnea(pm, data, q[k], v[k], a[k]))
+        rot = data.oMi[1].rotation
+        force[k], moment[k] = rot @ tau[k, :3], rot @ tau[k, 3:6]
+    return InverseDynamics3D(tau=tau, residual_force=force, residual_moment=moment,
+                             joint_names=model.joint_names)
+
+
+def velocities(model: Model3D, time: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Velocities and accelerations by central differences on the configuration manifold.
+
+    v_k = difference(q_{k-1}, q_{k+1}) / (t_{k+1} - t_{k-1}) (one-sided at the ends);
+    a is the same difference of v (component-wise, as Pinocchio's free-flyer expects).
+    Filter q first (the markers or the coordinates) if the data are noisy.
+    """
+    pm = model.pin_model
+    n = q.shape[0]
+    if n < 3:
+        raise InputError("inverse dynamics needs at least 3 frames.")
+    v = np.empty((n, pm.nv))
+    for k in range(n):
+        lo, hi = max(k - 1, 0), min(k + 1, n - 1)
+        v[k] = pin.difference(pm, q[lo], q[hi]) / (time[hi] - time[lo])
+    a = np.gradient(v, time, axis=0)
+    return v, a
