@@ -37,8 +37,8 @@ class IKOptions:
         flag_rms: m; frames whose marker RMS exceeds it are flagged too.
     """
 
-    max_iterations: int = 30
-    tolerance: float = 1e-5
+    max_iterations: int = 50
+    tolerance: float = 1e-4
     damping: float = 1e-6
     flag_rms: float = 0.05
 
@@ -93,20 +93,27 @@ def _limits(model: Model3D) -> tuple[np.ndarray, np.ndarray]:
 
 
 def initial_pose(model: Model3D, frame_ids, targets: np.ndarray) -> np.ndarray:
-    """Neutral posture translated so that the fitted markers' centroids coincide."""
+    """Neutral posture moved rigidly onto the markers (Kabsch fit of all visible ones)."""
     pm, data = model.pin_model, model.pin_model.createData()
     q = model.neutral()
     pin.framesForwardKinematics(pm, data, q)
     ok = np.isfinite(targets).all(axis=1)
-    if not ok.any():
-        raise InputError("inverse kinematics: no marker is visible in the first frame.")
-    model_pts = np.array([data.oMf[f].translation for f in frame_ids])
-    q[:3] = targets[ok].mean(axis=0) - model_pts[ok].mean(axis=0)
+    if ok.sum() < 3:
+        raise InputError("inverse kinematics: fewer than 3 markers visible in the first frame.")
+    model_pts = np.array([data.oMf[f].translation for f in frame_ids])[ok]
+    pts = targets[ok]
+    mc, tc = model_pts.mean(axis=0), pts.mean(axis=0)
+    u, _, vt = np.linalg.svd((model_pts - mc).T @ (pts - tc))
+    fix = np.diag([1.0, 1.0, np.sign(np.linalg.det(vt.T @ u.T))])
+    rot = vt.T @ fix @ u.T
+    q[:3] = tc - rot @ mc
+    q[3:7] = pin.Quaternion(rot).coeffs()
     return q
 
 
 class _Fitter:
-    def __init__(self, model: Model3D, frame_ids, weights, options: IKOptions):
+    def __init__(self, model: Model3D, frame_ids, weights, options: IKOptions, free=None):
+        self.free = np.ones(model.nv) if free is None else free
         self.pm = model.pin_model
         self.data = self.pm.createData()
         self.ids = list(frame_ids)
@@ -120,33 +127,52 @@ class _Fitter:
         return pts - targets
 
     def solve(self, q, targets, max_iterations):
+        """Levenberg-Marquardt with adaptive damping (a step is kept if the cost drops)."""
         pm, data, opts = self.pm, self.data, self.options
         ok = np.repeat(np.isfinite(targets).all(axis=1), 3)
         w = self.w[ok]
-        flat_targets = np.where(np.isfinite(targets), targets, 0.0)
+        flat = np.where(np.isfinite(targets), targets, 0.0).ravel()[ok]
+        lam = opts.damping
         converged = False
         it = 0
+        pin.computeJointJacobians(pm, data, q)
+        pin.updateFramePlacements(pm, data)
+        r = self._points(data).ravel()[ok] - flat
+        cost = float(np.sum((w * r) ** 2))
         for it in range(1, max_iterations + 1):  # noqa: B007
+            jac = np.vstack([pin.getFrameJacobian(pm, data, f, pin.LOCAL_WORLD_ALIGNED)[:3]
+                             for f in self.ids])[ok] * w[:, None] * self.free
+            jtj, grad = jac.T @ jac, jac.T @ (w * r)
+            for _ in range(12):
+                step = np.linalg.solve(jtj + lam * np.eye(pm.nv), -grad)
+                trial = np.clip(pin.integrate(pm, q, step), self.lower, self.upper)
+                pin.framesForwardKinematics(pm, data, trial)
+                r_new = self._points(data).ravel()[ok] - flat
+                cost_new = float(np.sum((w * r_new) ** 2))
+                if cost_new <= cost:
+                    lam = max(lam / 3.0, opts.damping)
+                    break
+                lam *= 4.0
+            else:
+                converged = np.linalg.norm(step) < 1e3 * opts.tolerance
+                break
+            q, r, cost = trial, r_new, cost_new
             pin.computeJointJacobians(pm, data, q)
             pin.updateFramePlacements(pm, data)
-            r = (np.array([data.oMf[f].translation for f in self.ids]) - flat_targets).ravel()
-            jac = np.vstack([pin.getFrameJacobian(pm, data, f, pin.LOCAL_WORLD_ALIGNED)[:3]
-                             for f in self.ids])
-            jw = jac[ok] * w[:, None]
-            rw = r[ok] * w
-            step = np.linalg.solve(jw.T @ jw + opts.damping * np.eye(pm.nv), -jw.T @ rw)
-            q = np.clip(pin.integrate(pm, q, step), self.lower, self.upper)
             if np.linalg.norm(step) < opts.tolerance:
                 converged = True
                 break
         res = self.residual(q, targets)
         return q, np.linalg.norm(res, axis=1), it, converged
 
+    def _points(self, data):
+        return np.array([data.oMf[f].translation for f in self.ids])
+
 
 def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
              marker_frames: tuple[str, ...], *, marker_names: tuple[str, ...] | None = None,
              weights: Mapping[str, float] | None = None, q0: np.ndarray | None = None,
-             options: IKOptions = IKOptions()) -> IKResult:
+             locked: tuple[str, ...] = (), options: IKOptions | None = None) -> IKResult:
     """Fit the model's ``marker_frames`` to measured markers, frame by frame.
 
     Args:
@@ -158,11 +184,13 @@ def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
         marker_names: trial marker names (for reporting), defaults to the frame names.
         weights: frame name -> weight (default 1).
         q0: (nq,) start of the first frame; default: neutral posture at the markers.
+        locked: joints held at their start value (e.g. the legs at 0 in a static trial).
         options: solver settings.
 
     Returns:
         IKResult (flagged frames are kept, with ``converged`` False).
     """
+    options = options or IKOptions()
     xyz = np.asarray(xyz, dtype=float)
     if xyz.ndim != 3 or xyz.shape[1] != len(marker_frames) or xyz.shape[2] != 3:
         raise InputError(f"inverse kinematics: markers have shape {xyz.shape}; expected "
@@ -173,7 +201,10 @@ def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
     if unknown:
         raise InputError(f"inverse kinematics: weights for unfitted frames "
                          f"{', '.join(sorted(unknown))}.")
-    fitter = _Fitter(model, ids, [weights.get(f, 1.0) for f in marker_frames], options)
+    free = np.ones(model.nv)
+    for name in locked:
+        free[model.joint_velocity_index(name)] = 0.0
+    fitter = _Fitter(model, ids, [weights.get(f, 1.0) for f in marker_frames], options, free)
     n = xyz.shape[0]
     q = initial_pose(model, ids, xyz[0]) if q0 is None else np.array(q0, dtype=float)
     qs = np.empty((n, model.nq))

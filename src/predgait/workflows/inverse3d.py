@@ -1,0 +1,270 @@
+"""Whole-body 3D inverse kinematics and dynamics of a trial, file to file.
+
+Steps: read the markers (TRC or C3D) and plates (GRF .mot or the C3D's), read the marker
+map, build the 35-DOF body for the subject, calibrate the marker frames on a static trial
+(or on the first frames of the walk), fit every frame (:mod:`predgait.kinematics.ik3d`),
+low-pass the coordinates, differentiate, assign the plates to the feet and run RNEA
+(:mod:`predgait.dynamics.inverse3d`). Outputs (one folder, written whole or not at all):
+``kinematics3d.sto`` (deg, m), ``inverse_dynamics3d.sto`` and ``.csv`` (N m per Cardan
+axis, pelvis residual force N and moment N m in the lab), ``ik_residuals.csv`` (m per
+marker, RMS, flag) and ``summary.json``.
+
+Marker map (TOML, read with :func:`predgait.problemfile.load_problem`)::
+
+    [markers]     # model marker frame = trial marker (fitted from the start)
+    asis_r = "R.ASIS"
+    [segments]    # further trial markers riding on a model segment (placed by calibration)
+    "R.Thigh.Upper" = "thigh_r"
+    [weights]     # optional, model frame or trial marker = weight (default 1)
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.data import (
+    lowpass,
+    read_c3d,
+    read_grf_mot,
+    read_trc,
+    resample_plate,
+    write_csv,
+    write_storage,
+)
+from predgait.data.trial import ForcePlate, Markers
+from predgait.dynamics.inverse3d import (
+    InverseDynamics3D,
+    Stance,
+    assign_plates,
+    inverse_dynamics_3d,
+    velocities,
+)
+from predgait.errors import InputError
+from predgait.kinematics.ik3d import (
+    IKOptions,
+    IKResult,
+    calibrate_markers,
+    pelvis_cardan,
+    solve_ik,
+    with_marker_frames,
+)
+from predgait.models.fullbody import MARKERS
+from predgait.models.loading3d import Model3D, fullbody_for_subject
+from predgait.problemfile import load_problem
+
+BODIES = ("pelvis", "torso", "thigh_r", "thigh_l", "shank_r", "shank_l", "foot_r", "foot_l",
+          "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l")
+
+
+@dataclass(frozen=True)
+class MarkerMap:
+    """Model frame <-> trial marker pairs, extra segment markers and weights."""
+
+    frames: dict[str, str]                 # model frame -> trial marker
+    segments: dict[str, str]               # trial marker -> body
+    weights: dict[str, float] = field(default_factory=dict)  # frame or marker -> weight
+    source: str = ""
+
+    def fitted(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """(model frames, trial markers) fitted after calibration.
+
+        Segment markers become frames named after the trial marker.
+        """
+        frames = tuple(self.frames) + tuple(self.segments)
+        return frames, tuple(self.frames.values()) + tuple(self.segments)
+
+    def check(self, names: Sequence[str], where: str) -> None:
+        """InputError naming every mapped marker the trial lacks."""
+        missing = [m for m in list(self.frames.values()) + list(self.segments) if m not in names]
+        if missing:
+            raise InputError(f"{self.source}: marker(s) {', '.join(missing)} are not in {where} "
+                             f"(it has {', '.join(names)}). Fix the marker map.")
+
+
+def read_marker_map(path: str | Path) -> MarkerMap:
+    """Read a marker map TOML (see module docstring)."""
+    table = load_problem(path)
+    table.check_keys(["markers", "segments", "weights"])
+    markers, segments, weights = (table.table(k) for k in ("markers", "segments", "weights"))
+    frames = {k: markers.get(k, str) for k in markers.data}
+    unknown = [k for k in frames if k not in MARKERS]
+    if unknown:
+        raise markers.error(unknown[0], f"not a model marker frame; frames: {', '.join(MARKERS)}.")
+    segs = {k: segments.get(k, str) for k in segments.data}
+    for name, body in segs.items():
+        if body not in BODIES:
+            raise segments.error(name, f"segment {body!r} unknown; choose from "
+                                       f"{', '.join(BODIES)}.")
+    if not frames:
+        raise table.error("markers", "the map needs at least one model marker frame.")
+    w = {k: weights.number(k, low=0.0, high=1e3) for k in weights.data}
+    return MarkerMap(frames, segs, w, source=str(path))
+
+
+def read_trial(files: Sequence[str | Path]) -> tuple[Markers, tuple[ForcePlate, ...]]:
+    """Markers and plates from a .trc (+ .mot) or a .c3d, lab frame, SI."""
+    files = [Path(f) for f in files]
+    by_ext = {f.suffix.lower(): f for f in files}
+    if ".c3d" in by_ext:
+        trial = read_c3d(by_ext[".c3d"])
+        return trial.markers, trial.plates
+    if ".trc" not in by_ext:
+        raise InputError(f"trial files {', '.join(map(str, files))}: give a .trc (with its "
+                         "GRF .mot) or a .c3d.")
+    markers = read_trc(by_ext[".trc"])
+    plates = read_grf_mot(by_ext[".mot"]) if ".mot" in by_ext else ()
+    return markers, plates
+
+
+def _filter_q(model: Model3D, time: np.ndarray, q: np.ndarray, cutoff: float | None):
+    if not cutoff:
+        return q
+    rate = 1.0 / float(np.median(np.diff(time)))
+    out = q.copy()
+    out[:, :3] = lowpass(q[:, :3], rate, cutoff)
+    out[:, 7:] = lowpass(q[:, 7:], rate, cutoff)
+    ref = pin.Quaternion(q[0, 6], *q[0, 3:6]).toRotationMatrix()
+    logs = np.array([pin.log3(ref.T @ pin.Quaternion(r[6], *r[3:6]).toRotationMatrix())
+                     for r in q])
+    for k, w in enumerate(lowpass(logs, rate, cutoff)):
+        out[k, 3:7] = pin.Quaternion(ref @ pin.exp3(w)).coeffs()
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Inverse3DResult:
+    """Everything the whole-body pipeline computed."""
+
+    model: Model3D
+    ik: IKResult
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    dynamics: InverseDynamics3D
+    plates: tuple[ForcePlate, ...]
+    stances: list[Stance]
+    provenance: dict
+
+
+def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map: MarkerMap, *,
+                     mass: float, height: float, sex: str = "male",
+                     static: Markers | None = None, window: tuple[float, float] | None = None,
+                     cutoff: float | None = 6.0, options: IKOptions | None = None
+                     ) -> Inverse3DResult:
+    """IK + ID of a trial with the whole body (in memory; see :func:`run_inverse_fullbody`)."""
+    options = options or IKOptions()
+    marker_map.check(markers.names, markers.source or "the trial")
+    model = fullbody_for_subject(mass, height, sex)
+    model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
+    base_frames = tuple(marker_map.frames)
+    if static is not None:  # about 20 frames of the static trial
+        marker_map.check(static.names, static.source or "the static trial")
+        step = max(1, static.n_frames // 20)
+        calib = Markers(static.time[::step], static.names, static.xyz[::step],
+                        static.rate / step, static.source)
+    else:
+        calib = markers.window(markers.time[0], markers.time[min(9, markers.n_frames - 1)])
+    # Static pose: standing upright (legs, lumbar at 0), pelvis and arms fitted.
+    locked = tuple(j for j in model.joint_names if not j.startswith(("shoulder", "elbow")))
+    first = solve_ik(model, calib.time, calib.select(list(marker_map.frames.values())).xyz,
+                     base_frames, locked=locked, options=options)
+    frames, names = marker_map.fitted()
+    model = calibrate_markers(model, first.q, calib.select(list(names)).xyz, frames,
+                              marker_map.segments)
+    if window is not None:
+        markers = markers.window(*window)
+    weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
+               for f, m in zip(frames, names, strict=True)}
+    ik = solve_ik(model, markers.time, markers.select(list(names)).xyz, frames,
+                  marker_names=names, weights=weights, options=options)
+    q = _filter_q(model, ik.time, ik.q, cutoff)
+    v, a = velocities(model, ik.time, q)
+    at_markers = tuple(resample_plate(p, ik.time) for p in plates)
+    sides, stances = assign_plates(model, q, at_markers)
+    dynamics = inverse_dynamics_3d(model, q, v, a, at_markers, sides)
+    provenance = {
+        "trial": markers.source, "static": static.source if static is not None else
+        "first 10 frames of the trial", "marker_map": marker_map.source,
+        "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}",
+        "coordinate_cutoff_hz": cutoff, "window_s": [float(ik.time[0]), float(ik.time[-1])],
+    }
+    return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance)
+
+
+def summary(result: Inverse3DResult) -> dict:
+    """Headline numbers: IK RMS, pelvis residuals, peak joint moments."""
+    dyn, ik = result.dynamics, result.ik
+    fmag = np.linalg.norm(dyn.residual_force, axis=1)
+    mmag = np.linalg.norm(dyn.residual_moment, axis=1)
+    peaks = {k: float(np.abs(v).max()) for k, v in dyn.joint_moments.items()}
+    return {
+        "frames": int(ik.time.size),
+        "ik_rms_m": {"mean": float(ik.rms.mean()), "max": float(ik.rms.max())},
+        "ik_flagged_frames": [float(ik.time[i]) for i in ik.failed_frames],
+        "ik_marker_rms_m": {m: float(np.sqrt(np.nanmean(ik.residuals[:, i] ** 2)))
+                            for i, m in enumerate(ik.marker_names)},
+        "pelvis_residual_force_N": {"rms": float(np.sqrt(np.mean(fmag**2))),
+                                    "max": float(fmag.max())},
+        "pelvis_residual_moment_Nm": {"rms": float(np.sqrt(np.mean(mmag**2))),
+                                      "max": float(mmag.max())},
+        "peak_joint_moments_Nm": peaks,
+        "stances": [vars(s) for s in result.stances],
+        "provenance": result.provenance,
+    }
+
+
+def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
+    """Write the output files into an existing (staging) folder; returns the summary."""
+    time, model, dyn = result.ik.time, result.model, result.dynamics
+    prov = "; ".join(f"{k}={v}" for k, v in result.provenance.items())
+    kin = {"pelvis_tx": result.q[:, 0], "pelvis_ty": result.q[:, 1], "pelvis_tz": result.q[:, 2]}
+    kin |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(result.q).T,
+                                                        strict=True)}
+    kin |= {n: np.degrees(result.q[:, 7 + i]) for i, n in enumerate(model.joint_names)}
+    write_storage(folder / "kinematics3d.sto", time, kin, in_degrees=True,
+                  header={"units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
+                          "provenance": prov})
+    cols = {f"{n}_moment": m for n, m in dyn.joint_moments.items()}
+    cols |= {"pelvis_residual_force": dyn.residual_force,
+             "pelvis_residual_moment": dyn.residual_moment}
+    write_storage(folder / "inverse_dynamics3d.sto", time, cols,
+                  header={"units": "N m (moments), N (pelvis_residual_force, lab frame)",
+                          "provenance": prov})
+    units = {k: "N m" for k in cols} | {"pelvis_residual_force": "N"}
+    write_csv(folder / "inverse_dynamics3d.csv", time, cols, units=units, provenance=prov)
+    res = {f"{m}": result.ik.residuals[:, i] for i, m in enumerate(result.ik.marker_names)}
+    res |= {"rms": result.ik.rms, "flagged": (~result.ik.converged).astype(float)}
+    write_csv(folder / "ik_residuals.csv", time, res, units=dict.fromkeys(res, "m") |
+              {"flagged": "1"}, provenance=prov)
+    info = summary(result)
+    (folder / "summary.json").write_text(json.dumps(info, indent=1, default=str) + "\n")
+    return info
+
+
+def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Path, *,
+                         mass: float, height: float, sex: str = "male",
+                         out_dir: str | Path, static: str | Path | None = None,
+                         window: tuple[float, float] | None = None,
+                         cutoff: float | None = 6.0, force: bool = False) -> dict:
+    """Whole-body IK and ID of a trial, written to ``out_dir`` (see module docstring).
+
+    Returns:
+        The summary (also written as summary.json).
+    """
+    from predgait.workflows.output import staged_output
+
+    markers, plates = read_trial(trial_files)
+    static_markers = read_trc(static) if static is not None else None
+    mmap = read_marker_map(marker_map)
+    result = inverse_fullbody(markers, plates, mmap, mass=mass, height=height, sex=sex,
+                              static=static_markers, window=window, cutoff=cutoff)
+    inputs = [*trial_files, marker_map] + ([static] if static else [])
+    with staged_output(out_dir, force=force, inputs=inputs) as stage:
+        info = write_outputs(result, stage)
+    return info
