@@ -1,0 +1,99 @@
+"""Whole-body (35 DOF) speed: 3D inverse dynamics of 1000 frames, IK per frame, 1 s of
+forward dynamics; ratio against OpenSim 4.6's InverseDynamicsTool.
+
+OpenSim is not installable here: the ratio uses the quoted reference figure, about 140 ms
+for the 73 frames of the example trial with its 23-DOF model (~1.9 ms a frame).
+Run: .venv/bin/python benchmarks/bench_fullbody.py
+"""
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.models.fullbody import MARKERS
+from predgait.models.loading3d import load_fullbody
+
+OPENSIM_ID_MS_PER_FRAME = 140.0 / 73
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"
+
+
+def best(fn, repeat=5):
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def main():
+    model = load_fullbody()
+    pm, data = model.pin_model, model.pin_model.createData()
+    rng = np.random.default_rng(0)
+    n = 1000
+    q = np.array([pin.randomConfiguration(pm, -np.ones(pm.nq), np.ones(pm.nq))
+                  for _ in range(n)])
+    v, a = rng.normal(size=(n, pm.nv)), rng.normal(size=(n, pm.nv))
+    tau = np.empty((n, pm.nv))
+
+    def rnea_loop():
+        for k in range(n):
+            tau[k] = pin.rnea(pm, data, q[k], v[k], a[k])
+
+    t_id = best(rnea_loop)
+    per = t_id / n * 1e3
+    print(f"3D inverse dynamics, {n} frames of the 35-DOF body (pin.rnea loop): "
+          f"{t_id * 1e3:.2f} ms ({per * 1e3:.1f} us/frame; target < 20 ms)")
+    print(f"  vs OpenSim 4.6 InverseDynamicsTool (quoted ~{OPENSIM_ID_MS_PER_FRAME:.2f} ms/frame,"
+          f" not run here): {OPENSIM_ID_MS_PER_FRAME / per:.0f}x faster per frame")
+
+    from predgait.kinematics.ik3d import solve_ik
+    ids = [model.frame_id(f) for f in MARKERS]
+    base = model.neutral()
+    frames = 100
+    xyz = np.empty((frames, len(ids), 3))
+    qs = np.tile(base, (frames, 1))
+    qs[:, 7:] = 0.3 * np.sin(np.linspace(0, 3, frames))[:, None] * rng.uniform(-1, 1, 29)
+    qs[:, 7:] = np.clip(qs[:, 7:], pm.lowerPositionLimit[7:], pm.upperPositionLimit[7:])
+    for k in range(frames):
+        pin.framesForwardKinematics(pm, data, qs[k])
+        xyz[k] = [data.oMf[i].translation for i in ids]
+    xyz += rng.normal(0, 0.002, xyz.shape)
+    t_ik = best(lambda: solve_ik(model, np.arange(frames) / 100, xyz, MARKERS), 2)
+    print(f"3D IK, {len(ids)} markers: {t_ik / frames * 1e3:.2f} ms/frame")
+
+    def forward():  # 1 s, semi-implicit Euler at 1 kHz, gravity-compensated PD hold
+        x, dx = base.copy(), np.zeros(pm.nv)
+        hold = pin.rnea(pm, data, base, np.zeros(pm.nv), np.zeros(pm.nv))
+        for _ in range(1000):
+            torque = np.zeros(pm.nv)
+            torque[6:] = hold[6:] - 200.0 * pin.difference(pm, base, x)[6:] - 20.0 * dx[6:]
+            dx = dx + 1e-3 * pin.aba(pm, data, x, dx, torque)
+            x = pin.integrate(pm, x, 1e-3 * dx)
+
+    t_fd = best(forward, 3)
+    print(f"Forward dynamics, 1 s at 1 kHz (ABA, 35 DOF): {t_fd * 1e3:.1f} ms "
+          f"({1.0 / t_fd:.0f}x real time)")
+
+    if DATA.is_dir():
+        import tempfile
+
+        from predgait.workflows.inverse3d import run_inverse_fullbody
+        repo = Path(__file__).resolve().parents[1]
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            run_inverse_fullbody([DATA / "subject01_walk1.trc", DATA / "subject01_walk1_grf.mot"],
+                                 repo / "problems" / "markers_fullbody_subject01.toml",
+                                 mass=72.6, height=1.8034, out_dir=Path(tmp) / "o",
+                                 static=DATA / "subject01_static.trc")
+            whole = time.perf_counter() - t0
+        print(f"Whole pipeline on subject01_walk1 (151 frames, static calibration, IK, ID, "
+              f"files): {whole * 1e3:.0f} ms = {whole / 151 * 1e3:.2f} ms/frame; OpenSim ID "
+              f"alone (quoted) {OPENSIM_ID_MS_PER_FRAME:.2f} ms/frame -> "
+              f"{OPENSIM_ID_MS_PER_FRAME / (whole / 151 * 1e3):.1f}x")
+
+
+if __name__ == "__main__":
+    main()
