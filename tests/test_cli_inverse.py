@@ -91,3 +91,28 @@ def test_problem_file_typo(tmp_path):
     result = run_cli("inverse", str(bad), "--out", str(tmp_path / "o"))
     assert result.returncode == 2
     assert "options.cutof" in result.stderr and "unknown key" in result.stderr
+
+
+def test_fullbody_from_the_command_line(tmp_path, shared_data):
+    d = shared_data / "opensim_subject01_walk1"
+    out = tmp_path / "fb"
+    result = run_cli("inverse", str(d / "subject01_walk1.trc"), "--grf",
+                     str(d / "subject01_walk1_grf.mot"), "--static",
+                     str(d / "subject01_static.trc"),
+                     "--mass", "72.6", "--height", "1.8034", "--model", "fullbody",
+                     "--marker-map", str(REPO / "problems" / "markers_fullbody_subject01.toml"),
+                     "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert (out / "inverse_dynamics3d.sto").is_file()
+    missing = run_cli("inverse", str(d / "subject01_walk1.trc"), "--mass", "72.6", "--height",
+                      "1.8", "--model", "fullbody", "--out", str(tmp_path / "x"))
+    assert missing.returncode == 2 and "needs --marker-map" in missing.stderr
+
+
+def test_model_build_fullbody_and_gait7(tmp_path):
+    for kind in ("fullbody", "gait7"):
+        out = tmp_path / f"{kind}.urdf"
+        result = run_cli("model", "build", kind, "--mass", "70", "--height", "1.75", "-o", str(out))
+        assert result.returncode == 0, result.stderr
+        shown = run_cli("model", "show", str(out))
+        assert shown.returncode == 0 and "70.0" in shown.stdout, shown.stderr

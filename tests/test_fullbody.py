@@ -156,7 +156,5 @@ def test_bad_inputs():
 
 def test_shipped_fullbody_urdf_is_the_generated_one():
     path = REPO / "urdf" / "fullbody.urdf"
-    if not path.exists():
-        pytest.skip("urdf/fullbody.urdf not checked in")
     assert path.read_text() == build_fullbody_urdf(72.6, 1.8034, "male"), f"regenerate {path}"
     assert load_fullbody(path).total_mass() == pytest.approx(72.6)

@@ -59,7 +59,5 @@ def test_gait7_pinocchio_equals_adam():
 
 def test_shipped_gait7_urdf_is_the_generated_one():
     path = REPO / "urdf" / "gait7.urdf"
-    if not path.exists():
-        pytest.skip("urdf/gait7.urdf not checked in")
     assert path.read_text() == build_gait7_urdf(72.6, 1.8034), f"regenerate {path}"
     assert load_model(path).kind == "gait7"

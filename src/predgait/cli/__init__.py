@@ -76,6 +76,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except PredgaitError as exc:
         print(f"predgait: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # e.g. piped into head
+        sys.stderr.close()
+        return 0
     except KeyboardInterrupt:
         print("predgait: interrupted; no output was completed.", file=sys.stderr)
         return 130

@@ -49,8 +49,15 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("--side", choices=("right", "left"), default="right")
     cmd.add_argument("--markers", metavar="hip=NAME,knee=NAME,ankle=NAME,heel=NAME,toe=NAME",
                      help="trial markers (joint centres) of the leg; heel may be omitted")
-    cmd.add_argument("--model", type=Path, metavar="LEG.urdf",
-                     help="leg from 'predgait model build leg' (e.g. custom segments)")
+    cmd.add_argument("--model", type=Path, metavar="LEG.urdf|fullbody",
+                     help="leg from 'predgait model build leg' (e.g. custom segments), or "
+                          "'fullbody' for 3D inverse kinematics and dynamics of the 35-DOF body "
+                          "(needs --marker-map)")
+    cmd.add_argument("--marker-map", type=Path, metavar="FILE.toml",
+                     help="fullbody: model marker frames -> trial markers "
+                          "(problems/markers_fullbody_subject01.toml)")
+    cmd.add_argument("--sex", choices=("male", "female"), default="male",
+                     help="fullbody: de Leva (1996) segment parameters (default male)")
     cmd.add_argument("--cutoff", type=float, default=6.0, metavar="HZ",
                      help="marker low-pass cut-off, Hz (default 6)")
     cmd.add_argument("--grf-cutoff", type=float, default=6.0, metavar="HZ",
@@ -80,11 +87,33 @@ def options_from_args(args: argparse.Namespace):
                           grf_cutoff=args.grf_cutoff or None)
 
 
+def run_fullbody(args: argparse.Namespace) -> int:
+    """3D inverse kinematics and dynamics of the whole body (35 DOF)."""
+    from predgait.workflows.inverse3d import run_inverse_fullbody
+
+    if args.marker_map is None:
+        raise InputError("--model fullbody needs --marker-map FILE.toml (see "
+                         "problems/markers_fullbody_subject01.toml).")
+    if args.mass is None or args.height is None:
+        raise InputError("--model fullbody needs --mass (kg) and --height (m).")
+    files = [args.input] + ([args.grf] if args.grf else [])
+    summary = run_inverse_fullbody(files, args.marker_map, mass=args.mass, height=args.height,
+                                   sex=args.sex, out_dir=args.out, static=args.static,
+                                   cutoff=args.cutoff, force=args.force)
+    print(f"3D inverse dynamics of the full body; wrote {args.out}/")
+    for key in ("ik_rms_m", "ik_flagged_frames", "pelvis_residual_force_N",
+                "pelvis_residual_moment_Nm"):
+        print(f"  {key}: {summary.get(key)}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and write the result folder."""
     from predgait.workflows.inverse import run_inverse
     from predgait.workflows.inverse_io import summary, write_inverse_outputs
 
+    if args.model is not None and str(args.model) == "fullbody":
+        return run_fullbody(args)
     options = options_from_args(args)
     result = run_inverse(options)
     inputs = [p for p in (options.markers, options.grf, options.static) if p]

@@ -17,6 +17,9 @@ Generate a URDF from anthropometry (SI units).
        segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2 (rows foot, shank, thigh;
        foot length is heel to toe and its COM fraction is from the heel).
   rod: the thesis' uniform slender rod (section 3.2), from --mass (kg) and --length (m).
+  gait7: planar two-leg model with HAT (thesis 2.3.1), from --mass and --height.
+  fullbody: 3D 35-DOF body in the ADAMS/Android layout (thesis 2.3.2), segments by
+       de Leva (1996), from --mass, --height and --sex.
 """
 
 
@@ -28,7 +31,7 @@ def register(commands: argparse._SubParsersAction) -> None:
     build = sub.add_parser("build", help="generate a URDF from anthropometry",
                            description=BUILD_HELP,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
-    build.add_argument("kind", choices=("rod", "leg"), help="model kind")
+    build.add_argument("kind", choices=("rod", "leg", "gait7", "fullbody"), help="model kind")
     build.add_argument("--mass", type=float, metavar="KG",
                        help=f"body mass in kg, 20-300 (leg; default {DEFAULT_SUBJECT['mass']}) "
                             "or rod mass in kg (default: the thesis rod)")
@@ -36,6 +39,8 @@ def register(commands: argparse._SubParsersAction) -> None:
                        help=f"standing height in m, 0.5-2.5 (leg; default "
                             f"{DEFAULT_SUBJECT['height']})")
     build.add_argument("--length", type=float, metavar="M", help="rod length in m (rod only)")
+    build.add_argument("--sex", choices=("male", "female"), default="male",
+                       help="de Leva (1996) column (fullbody only; default male)")
     build.add_argument("--segments", type=Path, metavar="CSV",
                        help="segment parameter table (leg only) instead of regressions")
     build.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.urdf",
@@ -58,6 +63,26 @@ def run_build(args: argparse.Namespace) -> int:
         raise InputError("the rod takes --mass and --length, not --height or --segments.")
     if args.kind == "leg" and args.length is not None:
         raise InputError("the leg takes --mass and --height (or --segments), not --length.")
+    if args.kind in ("gait7", "fullbody"):
+        if args.length is not None or args.segments is not None:
+            raise InputError(f"{args.kind} takes --mass and --height, not --length or "
+                             "--segments.")
+        mass = DEFAULT_SUBJECT["mass"] if args.mass is None else args.mass
+        height = DEFAULT_SUBJECT["height"] if args.height is None else args.height
+        if args.kind == "gait7":
+            from predgait.models.gait7 import build_gait7_urdf
+
+            text = build_gait7_urdf(mass, height)
+            model_from_urdf(text, source=str(args.output))
+        else:
+            from predgait.models.fullbody import build_fullbody_urdf
+            from predgait.models.loading3d import model3d_from_urdf
+
+            text = build_fullbody_urdf(mass, height, args.sex)
+            model3d_from_urdf(text, source=str(args.output))
+        write_text_atomic(text, args.output, force=args.force)
+        print(f"wrote {args.output}")
+        return 0
     text = generate_urdf(args.kind, mass=args.mass, height=args.height, length=args.length,
                          segments=args.segments)
     model_from_urdf(text, source=str(args.output))
@@ -67,6 +92,21 @@ def run_build(args: argparse.Namespace) -> int:
 
 
 def run_show(args: argparse.Namespace) -> int:
-    """Print the model tables."""
+    """Print the model tables (a 3D model: its segments with mass and COM)."""
+    path = Path(args.urdf)
+    if path.is_file() and "base=free_flyer" in path.read_text()[:1000]:
+        from predgait.models.loading3d import load_fullbody
+
+        model = load_fullbody(path)
+        pm = model.pin_model
+        print(f"model: {model.kind} ({model.source}); total mass {model.total_mass():.3f} kg; "
+              f"{pm.nv} degrees of freedom (6 at the pelvis)")
+        print(f"{'body':<22}{'mass kg':>10}{'COM x, y, z in the body frame (m)':>40}")
+        for j in range(1, pm.njoints):
+            inertia = pm.inertias[j]
+            if inertia.mass > 0:
+                com = ", ".join(f"{v:+.3f}" for v in inertia.lever)
+                print(f"{pm.names[j]:<22}{inertia.mass:>10.3f}{com:>40}")
+        return 0
     print(format_model(load_model(args.urdf)))
     return 0
