@@ -33,13 +33,11 @@ from dataclasses import dataclass
 import casadi as cs
 import numpy as np
 
-
-def _is_casadi(*values) -> bool:
-    return any(isinstance(v, cs.SX | cs.MX | cs.DM) for v in values)
+from predgait.dynamics.backend import is_casadi
 
 
 def _ops(*values):
-    if _is_casadi(*values):
+    if is_casadi(*values):
         return cs.fmax, cs.fmin, cs.if_else, cs.tanh, cs.sqrt, cs.exp, cs.log1p, cs.fabs
     return (np.maximum, np.minimum, np.where, np.tanh, np.sqrt, np.exp, np.log1p, np.abs)
 

@@ -24,16 +24,13 @@ from typing import Any
 
 import numpy as np
 
+from predgait.dynamics.backend import is_casadi
 from predgait.errors import InputError
-
-
-def _is_casadi(*values) -> bool:
-    return any(type(v).__module__.startswith("casadi") for v in values)
 
 
 def _exp(x, *like):
     """Exp of a numpy value or a CasADi expression (casadi imported only when needed)."""
-    if _is_casadi(x, *like):
+    if is_casadi(x, *like):
         import casadi
 
         return casadi.exp(x)
@@ -108,7 +105,7 @@ class ExponentialLimits:
         below = _exp(-self.b_lower * (angle - self.lower), angle, rate)
         above = _exp(-self.b_upper * (self.upper - angle), angle, rate)
         moment = self.k_lower * below - self.k_upper * above
-        if _is_casadi(self.c_limit) or self.c_limit != 0:
+        if is_casadi(self.c_limit) or self.c_limit != 0:
             # s(b (lower - theta)) = below / (1 + below); written so exp never overflows
             # in the middle of the range, where both terms are tiny.
             switch = below / (1 + below) + above / (1 + above)

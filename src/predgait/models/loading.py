@@ -30,13 +30,13 @@ BASE_COORDINATES = ("base_x", "base_z", "base_pitch")
 
 
 @dataclass(frozen=True, eq=False)
-class Model:
-    """A planar predgait model: the URDF text and its Pinocchio model.
+class RigidBodyModel:
+    """A predgait model: the URDF text and its Pinocchio model (planar or 3D base).
 
     Attributes:
         urdf: URDF text (the single source of geometry and inertia).
-        kind: ``rod`` or ``leg``.
-        pin_model: Pinocchio model with the planar root joint (nq = nv).
+        kind: ``rod``, ``leg``, ``gait7`` or ``fullbody``.
+        pin_model: Pinocchio model with the root joint added by the loader.
         gravity: Magnitude of gravity along -Z, m/s^2.
         source: Where the URDF came from (path or generator description).
     """
@@ -49,13 +49,33 @@ class Model:
 
     @property
     def nq(self) -> int:
-        """Number of generalised coordinates (= velocities)."""
+        """Number of generalised coordinates."""
         return self.pin_model.nq
 
     @property
     def joint_names(self) -> tuple[str, ...]:
         """Names of the URDF (revolute) joints, in coordinate order."""
         return tuple(self.pin_model.names[2:])
+
+    def frame_names(self) -> list[str]:
+        """All frame names but the universe."""
+        return [f.name for f in self.pin_model.frames if f.name != "universe"]
+
+    def frame_id(self, name: str) -> int:
+        """Pinocchio frame index of a named frame or link, with a clear error."""
+        if not self.pin_model.existFrame(name):
+            raise InputError(f"model '{self.kind}' has no frame '{name}'; it has "
+                             f"{', '.join(sorted(set(self.frame_names())))}.")
+        return self.pin_model.getFrameId(name)
+
+    def total_mass(self) -> float:
+        """Total mass, kg."""
+        return float(sum(inertia.mass for inertia in self.pin_model.inertias))
+
+
+@dataclass(frozen=True, eq=False)
+class Model(RigidBodyModel):
+    """A planar model (rod, leg, gait7): nq = nv, base coordinates x, z, pitch."""
 
     @property
     def coordinate_names(self) -> tuple[str, ...]:
@@ -74,18 +94,6 @@ class Model:
         except ValueError:
             raise InputError(f"model '{self.kind}' has no coordinate '{name}'; it has "
                              f"{', '.join(self.coordinate_names)}.") from None
-
-    def frame_id(self, name: str) -> int:
-        """Pinocchio frame index of a named frame or link."""
-        if not self.pin_model.existFrame(name):
-            names = sorted({f.name for f in self.pin_model.frames if f.name != "universe"})
-            raise InputError(f"model '{self.kind}' has no frame '{name}'; it has "
-                             f"{', '.join(names)}.")
-        return self.pin_model.getFrameId(name)
-
-    def total_mass(self) -> float:
-        """Total mass, kg."""
-        return float(sum(inertia.mass for inertia in self.pin_model.inertias))
 
 
 def planar_root_joint() -> pin.JointModelComposite:

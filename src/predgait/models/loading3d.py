@@ -14,7 +14,7 @@ bias force and RNEA agree term by term (``tests/test_fullbody.py``).
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +23,7 @@ import pinocchio as pin
 from predgait.errors import InputError
 from predgait.models import urdf as urdf_info
 from predgait.models.fullbody import build_fullbody_urdf
-from predgait.models.loading import DEFAULT_SUBJECT, GRAVITY
+from predgait.models.loading import DEFAULT_SUBJECT, GRAVITY, RigidBodyModel
 
 ROOT_COORDINATES = ("pelvis_x", "pelvis_y", "pelvis_z", "pelvis_qx", "pelvis_qy",
                     "pelvis_qz", "pelvis_qw")
@@ -33,27 +33,11 @@ DEFAULT_SEX = "male"
 
 
 @dataclass(frozen=True, eq=False)
-class Model3D:
-    """A 3D predgait model with a free-flyer root.
+class Model3D(RigidBodyModel):
+    """A 3D model with a free-flyer pelvis.
 
-    Attributes:
-        urdf: URDF text.
-        kind: ``fullbody`` (or another 3D kind).
-        pin_model: Pinocchio model (nq = nv + 1).
-        gravity: m/s^2 along -Z.
-        source: path or generator description.
+    nq = nv + 1: the pelvis orientation is a quaternion in q, an angular velocity in v.
     """
-
-    urdf: str
-    kind: str
-    pin_model: pin.Model = field(repr=False)
-    gravity: float
-    source: str
-
-    @property
-    def nq(self) -> int:
-        """Configuration size (7 + joints)."""
-        return self.pin_model.nq
 
     @property
     def nv(self) -> int:
@@ -61,25 +45,9 @@ class Model3D:
         return self.pin_model.nv
 
     @property
-    def joint_names(self) -> tuple[str, ...]:
-        """Revolute joints in coordinate order."""
-        return tuple(self.pin_model.names[2:])
-
-    @property
     def velocity_names(self) -> tuple[str, ...]:
         """Names of the nv velocity (and generalised force) entries."""
         return ROOT_VELOCITIES + self.joint_names
-
-    def frame_id(self, name: str) -> int:
-        """Pinocchio frame index, with a clear error."""
-        if not self.pin_model.existFrame(name):
-            raise InputError(f"model '{self.kind}' has no frame '{name}'; frames: "
-                             f"{', '.join(sorted(self.frame_names()))}.")
-        return self.pin_model.getFrameId(name)
-
-    def frame_names(self) -> list[str]:
-        """All frame names but the universe."""
-        return [f.name for f in self.pin_model.frames if f.name != "universe"]
 
     def joint_velocity_index(self, name: str) -> int:
         """Index in v (and tau) of revolute joint ``name``."""
@@ -87,10 +55,6 @@ class Model3D:
         if not pm.existJointName(name):
             raise InputError(f"model '{self.kind}' has no joint '{name}'.")
         return pm.joints[pm.getJointId(name)].idx_v
-
-    def total_mass(self) -> float:
-        """Total mass, kg."""
-        return float(sum(inertia.mass for inertia in self.pin_model.inertias))
 
     def neutral(self) -> np.ndarray:
         """Upright standing configuration with the pelvis at the origin, (nq,)."""
