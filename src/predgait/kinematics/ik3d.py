@@ -7,8 +7,9 @@ velocity v), solve ``(J^T W J + lambda I) dv = -J^T W r`` and update ``q <- inte
 dv)`` (the quaternion stays on its manifold), then clamp the joint angles to their limits
 (projected Gauss-Newton). Frames are warm-started from the previous solution; markers
 missing in a frame (NaN) are left out of that frame. A frame that hits the iteration cap
-without the step falling below the tolerance is flagged (``converged`` False) and the
-run goes on.
+without the step or the relative cost decrease falling below its tolerance is flagged
+(``converged`` False) and the run goes on. Marker positions and Jacobians are computed
+for all markers at once from the joint placements and ``data.J`` (see ``_Fitter``).
 
 Output coordinates are the model's: the joint coordinates ARE the Cardan X-Y-Z angles
 (thesis 2.3.2); :func:`pelvis_cardan` gives the pelvis orientation in the lab the same way.
@@ -33,6 +34,8 @@ class IKOptions:
     Attributes:
         max_iterations: per frame (the first frame gets 5x).
         tolerance: stop when |dv| < tolerance (rad or m).
+        cost_tolerance: or when a step lowers the cost by less than this fraction (the
+            large-residual arm fit creeps along flat valleys otherwise).
         damping: Levenberg-Marquardt lambda, m^2 (regularises unobserved directions).
         flag_rms: m; frames whose marker RMS exceeds it are flagged too.
     """
@@ -41,6 +44,7 @@ class IKOptions:
     tolerance: float = 1e-4
     damping: float = 1e-6
     flag_rms: float = 0.05
+    cost_tolerance: float = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,43 +116,75 @@ def initial_pose(model: Model3D, frame_ids, targets: np.ndarray) -> np.ndarray:
 
 
 class _Fitter:
+    """One frame's fit; marker positions and Jacobians vectorised over the markers.
+
+    A marker frame rides on a joint's body at a fixed offset, so with the joint
+    placements and the world-frame joint Jacobian ``data.J`` (``computeJointJacobians``)
+    its position is p = R_j c + t_j and its linear Jacobian is J_lin + J_ang x p on the
+    columns supporting joint j (the velocity of a point: v_O + omega x p).
+    """
+
     def __init__(self, model: Model3D, frame_ids, weights, options: IKOptions, free=None):
-        self.free = np.ones(model.nv) if free is None else free
-        self.pm = model.pin_model
-        self.data = self.pm.createData()
-        self.ids = list(frame_ids)
+        pm = model.pin_model
+        self.pm, self.data, self.options = pm, pm.createData(), options
+        self.free = np.ones(pm.nv) if free is None else np.asarray(free, dtype=float)
+        joint = np.array([pm.frames[f].parentJoint for f in frame_ids])
+        joints, self.of_marker = np.unique(joint, return_inverse=True)
+        self.joints = [int(j) for j in joints]
+        self.offset = np.array([pm.frames[f].placement.translation for f in frame_ids])
+        self.support = np.zeros((len(joint), pm.nv), dtype=bool)
+        for i, j in enumerate(joint):
+            for s in pm.supports[int(j)][1:]:
+                start = pm.joints[s].idx_v
+                self.support[i, start:start + pm.joints[s].nv] = True
         self.w = np.repeat(np.sqrt(np.asarray(weights, dtype=float)), 3)
         self.lower, self.upper = _limits(model)
-        self.options = options
+
+    def points(self, q, *, jacobians: bool = False) -> np.ndarray:
+        """(m, 3) marker-frame positions at q; with ``jacobians`` also data.J is updated."""
+        pm, data = self.pm, self.data
+        if jacobians:
+            pin.computeJointJacobians(pm, data, q)
+        else:
+            pin.forwardKinematics(pm, data, q)
+        rot = np.array([data.oMi[j].rotation for j in self.joints])[self.of_marker]
+        pos = np.array([data.oMi[j].translation for j in self.joints])[self.of_marker]
+        return np.einsum("mij,mj->mi", rot, self.offset) + pos
+
+    def jacobian(self, points: np.ndarray) -> np.ndarray:
+        """(3m, nv) linear Jacobians of the marker frames (after ``points(jacobians=True)``)."""
+        world = self.data.J
+        jac = world[:3][None] + np.cross(world[3:].T[None], points[:, None, :]).transpose(0, 2, 1)
+        return (jac * self.support[:, None, :]).reshape(-1, self.pm.nv)
 
     def residual(self, q, targets):
-        pin.framesForwardKinematics(self.pm, self.data, q)
-        pts = np.array([self.data.oMf[f].translation for f in self.ids])
-        return pts - targets
+        return self.points(q) - targets
 
     def solve(self, q, targets, max_iterations):
         """Levenberg-Marquardt with adaptive damping (a step is kept if the cost drops)."""
-        pm, data, opts = self.pm, self.data, self.options
+        pm, opts = self.pm, self.options
         ok = np.repeat(np.isfinite(targets).all(axis=1), 3)
         w = self.w[ok]
         flat = np.where(np.isfinite(targets), targets, 0.0).ravel()[ok]
+        eye = np.eye(pm.nv)
+
+        def stacked(pts):
+            return w * (pts.ravel()[ok] - flat)
+
         lam = opts.damping
         converged = False
         it = 0
-        pin.computeJointJacobians(pm, data, q)
-        pin.updateFramePlacements(pm, data)
-        r = self._points(data).ravel()[ok] - flat
-        cost = float(np.sum((w * r) ** 2))
+        pts = self.points(q, jacobians=True)
+        r = stacked(pts)
+        cost = float(r @ r)
         for it in range(1, max_iterations + 1):  # noqa: B007
-            jac = np.vstack([pin.getFrameJacobian(pm, data, f, pin.LOCAL_WORLD_ALIGNED)[:3]
-                             for f in self.ids])[ok] * w[:, None] * self.free
-            jtj, grad = jac.T @ jac, jac.T @ (w * r)
+            jac = self.jacobian(pts)[ok] * w[:, None] * self.free
+            jtj, grad = jac.T @ jac, jac.T @ r
             for _ in range(12):
-                step = np.linalg.solve(jtj + lam * np.eye(pm.nv), -grad)
+                step = np.linalg.solve(jtj + lam * eye, -grad)
                 trial = np.clip(pin.integrate(pm, q, step), self.lower, self.upper)
-                pin.framesForwardKinematics(pm, data, trial)
-                r_new = self._points(data).ravel()[ok] - flat
-                cost_new = float(np.sum((w * r_new) ** 2))
+                r_new = stacked(self.points(trial))
+                cost_new = float(r_new @ r_new)
                 if cost_new <= cost:
                     lam = max(lam / 3.0, opts.damping)
                     break
@@ -156,17 +192,14 @@ class _Fitter:
             else:
                 converged = np.linalg.norm(step) < 1e3 * opts.tolerance
                 break
-            q, r, cost = trial, r_new, cost_new
-            pin.computeJointJacobians(pm, data, q)
-            pin.updateFramePlacements(pm, data)
-            if np.linalg.norm(step) < opts.tolerance:
+            q, r, cost, previous = trial, r_new, cost_new, cost
+            if (np.linalg.norm(step) < opts.tolerance
+                    or previous - cost <= opts.cost_tolerance * previous):
                 converged = True
                 break
+            pts = self.points(q, jacobians=True)
         res = self.residual(q, targets)
         return q, np.linalg.norm(res, axis=1), it, converged
-
-    def _points(self, data):
-        return np.array([data.oMf[f].translation for f in self.ids])
 
 
 def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
