@@ -10,6 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse3d import velocities
 from predgait.dynamics.partitioned import (
@@ -18,7 +19,6 @@ from predgait.dynamics.partitioned import (
     PartitionedSystem,
     simulate_partitioned,
 )
-from predgait.dynamics.contact import ImpactContact
 from predgait.errors import InputError
 from predgait.models.loading import load_model
 from predgait.models.loading3d import load_fullbody
@@ -85,8 +85,8 @@ def test_standing_on_contact_carries_body_weight():
     data = pm.createData()
     pin.framesForwardKinematics(pm, data, q)
     sole = min(data.oMf[model.frame_id(f)].translation[2] for f in ("heel_r", "toe_r"))
-    contact = GroundContact(model, ("heel_r", "toe_r", "heel_l", "toe_l"), ImpactContact(damping_depth=5e-4),
-                            ground_z=sole, planar=True)
+    contact = GroundContact(model, ("heel_r", "toe_r", "heel_l", "toe_l"),
+                            ImpactContact(damping_depth=5e-4), ground_z=sole, planar=True)
     motion = lambda t: (q.copy(), np.zeros(pm.nv), np.zeros(pm.nv))  # noqa: E731
     system = PartitionedSystem(model, [1], motion, [contact])  # only the height is free
     run = simulate_partitioned(system, (0.0, 1.5), system.state(q, np.zeros(pm.nv)),
