@@ -20,10 +20,16 @@ Geometry that de Leva does not give (documented estimates, fractions of height H
       22 % PW posterior and 36 % PW lateral of the mid-ASIS point (Bell, Pedersen & Brand
       1990, J Biomech 23:617-621); ASIS-PSIS depth 0.65 PW, PSIS 0.18 PW off the midline.
     * Shoulder joint centres 0.094 H lateral of the midline at the suprasternale level.
+
+Subject-specific lengths (e.g. measured on a static trial, :mod:`predgait.kinematics.scaling`)
+replace the height-scaled ones through ``lengths`` mappings keyed like
+:func:`default_lengths`; masses stay fractions of body mass and radii of gyration stay
+fractions of the (new) length.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -31,10 +37,10 @@ import numpy as np
 
 from predgait.errors import InputError
 from predgait.models.anthropometry import (
-    ANKLE_FROM_HEEL_FRACTION,
     ANKLE_HEIGHT_FRACTION,
-    FOOT_COM_HEIGHT_FRACTION,
+    FootGeometry,
     check_subject,
+    foot_geometry,
 )
 
 
@@ -139,15 +145,29 @@ def scaled_length(name: str, height: float, sex: Sex) -> float:
     return DE_LEVA_TABLE4[sex][name].length_mm / 1000.0 * height / REFERENCE_STATURE[sex]
 
 
+def default_lengths(height: float, sex: Sex) -> dict[str, float]:
+    """Lengths (m) scaled to ``height``.
+
+    Keys: every Table 4 row, ``pelvis_width`` (inter-ASIS) and ``shoulder_width``
+    (between the shoulder joint centres).
+    """
+    out = {name: scaled_length(name, height, sex) for name in DE_LEVA_TABLE4[sex]}
+    out["pelvis_width"] = PELVIS_WIDTH_FRACTION * height
+    out["shoulder_width"] = 2.0 * SHOULDER_HALF_WIDTH_FRACTION * height
+    return out
+
+
 def segment(name: str, mass: float, height: float, sex: Sex, *,
-            com_vector: np.ndarray, long_axis: str = "z") -> Segment3D:
+            com_vector: np.ndarray, long_axis: str = "z", length: float | None = None
+            ) -> Segment3D:
     """Segment ``name`` with its COM at ``com_vector`` (m, segment frame).
 
-    Radii of gyration scale with the segment length; ``long_axis`` is the frame axis
-    of the segment's length (z, or x for the foot).
+    Radii of gyration scale with the segment ``length`` (m; default: de Leva's scaled
+    to ``height``); ``long_axis`` is the frame axis of the segment's length (z, or x for
+    the foot).
     """
     row = DE_LEVA_TABLE4[sex][name]
-    length = scaled_length(name, height, sex)
+    length = scaled_length(name, height, sex) if length is None else length
     seg_mass = row.mass * mass
     sag, trans, lon = (seg_mass * (r * length) ** 2 for r in (row.r_sag, row.r_trans,
                                                               row.r_long))
@@ -160,9 +180,6 @@ class BodyGeometry:
     """Landmark distances (m) used by the whole-body generator."""
 
     ankle_height: float
-    heel_x: float
-    toe_x: float
-    foot_com: tuple[float, float, float]
     pelvis_width: float
     hip_half_width: float
     vertex_above_lumbar: float
@@ -170,27 +187,36 @@ class BodyGeometry:
     shoulder_half_width: float
 
 
-def body_geometry(mass: float, height: float, sex: Sex) -> BodyGeometry:
-    """Landmark geometry for a subject (see module docstring for the sources)."""
+def body_geometry(mass: float, height: float, sex: Sex,
+                  lengths: Mapping[str, float] | None = None) -> BodyGeometry:
+    """Landmark geometry for a subject (see module docstring for the sources).
+
+    Args:
+        mass: Body mass, kg.
+        height: Standing height, m.
+        sex: de Leva column.
+        lengths: m, keyed like :func:`default_lengths`; given ones replace the defaults.
+            The vertex stays above the suprasternale by the height-based distance scaled
+            by ``head`` / default head length.
+    """
     check_subject(mass, height)
+    base = default_lengths(height, sex)
+    size = base | dict(lengths or {})
     ankle_height = ANKLE_HEIGHT_FRACTION * height
-    foot_len = scaled_length("foot", height, sex)
-    heel_x = -ANKLE_FROM_HEEL_FRACTION * foot_len
-    foot_com = (heel_x + DE_LEVA_TABLE4[sex]["foot"].com * foot_len, 0.0,
-                -ankle_height + FOOT_COM_HEIGHT_FRACTION * ankle_height)
-    hip_height = (ankle_height + scaled_length("shank", height, sex)
-                  + scaled_length("thigh", height, sex))
-    lumbar = hip_height + scaled_length("lower_trunk", height, sex)
-    pw = PELVIS_WIDTH_FRACTION * height
+    lumbar = ankle_height + base["shank"] + base["thigh"] + base["lower_trunk"]
+    supr = size["middle_trunk"] + size["upper_trunk"]
+    neck_head = height - lumbar - (base["middle_trunk"] + base["upper_trunk"])
     return BodyGeometry(
         ankle_height=ankle_height,
-        heel_x=heel_x,
-        toe_x=heel_x + foot_len,
-        foot_com=foot_com,
-        pelvis_width=pw,
-        hip_half_width=HJC_FROM_MID_ASIS[1] * pw,
-        vertex_above_lumbar=height - lumbar,
-        suprasternale_above_lumbar=(scaled_length("middle_trunk", height, sex)
-                                    + scaled_length("upper_trunk", height, sex)),
-        shoulder_half_width=SHOULDER_HALF_WIDTH_FRACTION * height,
+        pelvis_width=size["pelvis_width"],
+        hip_half_width=HJC_FROM_MID_ASIS[1] * size["pelvis_width"],
+        vertex_above_lumbar=supr + neck_head * size["head"] / base["head"],
+        suprasternale_above_lumbar=supr,
+        shoulder_half_width=0.5 * size["shoulder_width"],
     )
+
+
+def foot(foot_length: float, height: float, sex: Sex) -> FootGeometry:
+    """Heel, toe (sole) and COM of the foot relative to the ankle centre, m."""
+    return foot_geometry(foot_length, ANKLE_HEIGHT_FRACTION * height,
+                         DE_LEVA_TABLE4[sex]["foot"].com)

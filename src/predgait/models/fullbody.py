@@ -27,8 +27,12 @@ joint-centre frames are massless links on fixed joints (names in :data:`MARKERS`
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from xml.sax.saxutils import escape
 
+import numpy as np
+
+from predgait.errors import InputError
 from predgait.models import anthropometry_3d as a3
 from predgait.models.anthropometry_3d import Segment3D, Sex
 
@@ -119,56 +123,89 @@ def _cardan(joint: str, kind: str, parent: str, child: str, xyz) -> str:
     )
 
 
-def fullbody_segments(mass: float, height: float, sex: Sex | str) -> dict[str, Segment3D]:
-    """All segments (one side's limbs named ``*_r``/``*_l``), COM in their link frames."""
+#: Per-body lengths the builder takes (m) -> key of :func:`a3.default_lengths`:
+#: pelvis = lower trunk (hip centres to lumbar joint), torso = middle trunk, upper_trunk,
+#: head (scales the suprasternale-vertex distance), pelvis_width (inter-ASIS, places the
+#: hips, ASIS, PSIS, sacrum), shoulder_width (between the shoulder joint centres), and per
+#: side thigh (hip-knee), shank (knee-ankle), foot (heel-toe tip), upper_arm (shoulder-
+#: elbow), forearm (elbow-wrist), hand.
+LENGTHS: dict[str, str] = {
+    "pelvis": "lower_trunk", "torso": "middle_trunk", "upper_trunk": "upper_trunk",
+    "head": "head", "pelvis_width": "pelvis_width", "shoulder_width": "shoulder_width",
+    **{f"{seg}_{side}": seg for seg in ("thigh", "shank", "foot", "upper_arm", "forearm", "hand")
+       for side in SIDES},
+}
+
+
+def segment_lengths(height: float, sex: Sex | str,
+                    lengths: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Lengths of :data:`LENGTHS` (m): de Leva's scaled to ``height``, or ``lengths``.
+
+    Raises:
+        InputError: an unknown name or a length outside 0.01 m .. ``height``.
+    """
     sex = a3.parse_sex(sex)
-    geo = a3.body_geometry(mass, height, sex)
+    base = a3.default_lengths(height, sex)
+    out = {name: base[key] for name, key in LENGTHS.items()}
+    for name, value in (lengths or {}).items():
+        if name not in out:
+            raise InputError(f"segment length {name!r} unknown; lengths: {', '.join(LENGTHS)}.")
+        if not np.isfinite(value) or not 0.01 <= value <= height:
+            raise InputError(f"segment length {name} = {value!r} m is outside 0.01..{height:g} m.")
+        out[name] = float(value)
+    return out
+
+
+def _geometry(mass: float, height: float, sex: Sex, size: dict[str, float]) -> a3.BodyGeometry:
+    return a3.body_geometry(mass, height, sex, {LENGTHS[k]: v for k, v in size.items()
+                                                if not k.endswith(("_r", "_l"))})
+
+
+def fullbody_segments(mass: float, height: float, sex: Sex | str,
+                      lengths: Mapping[str, float] | None = None) -> dict[str, Segment3D]:
+    """All segments (one side's limbs named ``*_r``/``*_l``), COM in their link frames.
+
+    ``lengths`` (m, names of :data:`LENGTHS`) replace the height-scaled lengths.
+    """
+    sex = a3.parse_sex(sex)
+    size = segment_lengths(height, sex, lengths)
+    geo = _geometry(mass, height, sex, size)
     t4 = a3.DE_LEVA_TABLE4[sex]
 
-    def length(name):
-        return a3.scaled_length(name, height, sex)
+    def seg(body, **kw):
+        return a3.segment(LENGTHS[body], mass, height, sex, length=size[body], **kw)
 
-    def down(name, frac=None):  # COM below the proximal joint, first endpoint at top
-        return (0.0, 0.0, -(t4[name].com if frac is None else frac) * length(name))
+    def down(body):  # COM below the proximal joint, first endpoint at top
+        return (0.0, 0.0, -t4[LENGTHS[body]].com * size[body])
 
-    lpt, mpt, upt = length("lower_trunk"), length("middle_trunk"), length("upper_trunk")
-    supr = mpt + upt
+    lpt, mpt, upt = size["pelvis"], size["torso"], size["upper_trunk"]
+    supr = geo.suprasternale_above_lumbar
     segs = {
         # LPT: OMPH (top, z = lpt) -> MIDH (origin).
-        "pelvis": a3.segment("lower_trunk", mass, height, sex,
-                             com_vector=(0, 0, lpt * (1 - t4["lower_trunk"].com))),
+        "pelvis": seg("pelvis", com_vector=(0, 0, lpt * (1 - t4["lower_trunk"].com))),
         # Torso frame at the lumbar joint (OMPH). MPT: XYPH (z = mpt) -> OMPH.
-        "torso": a3.segment("middle_trunk", mass, height, sex,
-                            com_vector=(0, 0, mpt * (1 - t4["middle_trunk"].com))),
-        "upper_trunk": a3.segment("upper_trunk", mass, height, sex,
-                                  com_vector=(0, 0, supr - t4["upper_trunk"].com * upt)),
-        "head": a3.segment("head", mass, height, sex,
-                           com_vector=(0, 0, geo.vertex_above_lumbar
-                                       - t4["head"].com * length("head"))),
+        "torso": seg("torso", com_vector=(0, 0, mpt * (1 - t4["middle_trunk"].com))),
+        "upper_trunk": seg("upper_trunk", com_vector=(0, 0, supr - t4["upper_trunk"].com * upt)),
+        "head": seg("head", com_vector=(0, 0, geo.vertex_above_lumbar
+                                        - t4["head"].com * size["head"])),
     }
     for side in SIDES:
-        segs[f"thigh_{side}"] = a3.segment("thigh", mass, height, sex, com_vector=down("thigh"))
-        segs[f"shank_{side}"] = a3.segment("shank", mass, height, sex, com_vector=down("shank"))
-        segs[f"foot_{side}"] = a3.segment("foot", mass, height, sex, com_vector=geo.foot_com,
-                                          long_axis="x")
-        segs[f"upper_arm_{side}"] = a3.segment("upper_arm", mass, height, sex,
-                                               com_vector=down("upper_arm"))
-        segs[f"forearm_{side}"] = a3.segment("forearm", mass, height, sex,
-                                             com_vector=down("forearm"))
-        segs[f"hand_{side}"] = a3.segment("hand", mass, height, sex, com_vector=down("hand"))
+        foot = a3.foot(size[f"foot_{side}"], height, sex)
+        for body in ("thigh", "shank", "upper_arm", "forearm", "hand"):
+            segs[f"{body}_{side}"] = seg(f"{body}_{side}", com_vector=down(f"{body}_{side}"))
+        segs[f"foot_{side}"] = seg(f"foot_{side}", com_vector=(foot.com_x, 0.0, foot.com_z),
+                                   long_axis="x")
     return {name: Segment3D(name, s.mass, s.length, s.com, s.inertia)
             for name, s in segs.items()}
 
 
-def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry) -> dict:
+def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry,
+                      size: dict[str, float]) -> dict:
     """(parent link, xyz) of each marker, joint-centre and contact frame."""
     pw, h = geo.pelvis_width, height
-    lt, ls = a3.scaled_length("thigh", h, sex), a3.scaled_length("shank", h, sex)
-    lu, lf = a3.scaled_length("upper_arm", h, sex), a3.scaled_length("forearm", h, sex)
     supr = geo.suprasternale_above_lumbar
     asis = (-a3.HJC_FROM_MID_ASIS[0] * pw, -a3.HJC_FROM_MID_ASIS[2] * pw)  # x, z from MIDH
     ha = geo.ankle_height
-    foot_len = geo.toe_x - geo.heel_x
     out = {
         "sacrum": ("pelvis", (asis[0] - a3.PELVIS_DEPTH_FRACTION * pw, 0, asis[1])),
         "c7": ("torso", (-0.06 * h, 0, supr + 0.04 * h)),
@@ -177,6 +214,10 @@ def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry) -> dict:
         "lumbar_center": ("torso", (0, 0, 0)),
     }
     for side, sign in (("r", -1.0), ("l", 1.0)):
+        lt, ls = size[f"thigh_{side}"], size[f"shank_{side}"]
+        lu, lf = size[f"upper_arm_{side}"], size[f"forearm_{side}"]
+        foot = a3.foot(size[f"foot_{side}"], height, sex)
+        foot_len = foot.toe_x - foot.heel_x
         out |= {
             f"asis_{side}": ("pelvis", (asis[0], sign * 0.5 * pw, asis[1])),
             f"psis_{side}": ("pelvis", (asis[0] - a3.PELVIS_DEPTH_FRACTION * pw,
@@ -188,10 +229,10 @@ def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry) -> dict:
             f"tibia_{side}": (f"shank_{side}", (0.015 * h, sign * 0.025 * h, -0.5 * ls)),
             f"ankle_lat_{side}": (f"shank_{side}", (0, sign * 0.02 * h, -ls)),
             f"ankle_center_{side}": (f"shank_{side}", (0, 0, -ls)),
-            f"heel_{side}": (f"foot_{side}", (geo.heel_x - 0.005 * h, 0, -ha + 0.015 * h)),
-            f"toe_{side}": (f"foot_{side}", (geo.heel_x + 0.72 * foot_len, 0, -0.35 * ha)),
-            f"heel_contact_{side}": (f"foot_{side}", (geo.heel_x, 0, -ha)),
-            f"toe_contact_{side}": (f"foot_{side}", (geo.toe_x, 0, -ha)),
+            f"heel_{side}": (f"foot_{side}", (foot.heel_x - 0.005 * h, 0, -ha + 0.015 * h)),
+            f"toe_{side}": (f"foot_{side}", (foot.heel_x + 0.72 * foot_len, 0, -0.35 * ha)),
+            f"heel_contact_{side}": (f"foot_{side}", (foot.heel_x, 0, -ha)),
+            f"toe_contact_{side}": (f"foot_{side}", (foot.toe_x, 0, -ha)),
             f"shoulder_{side}": ("torso", (0, sign * (geo.shoulder_half_width + 0.02 * h),
                                            supr + 0.02 * h)),
             f"shoulder_center_{side}": ("torso", (0, sign * geo.shoulder_half_width, supr)),
@@ -202,33 +243,36 @@ def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry) -> dict:
     return out
 
 
-def build_fullbody_urdf(mass: float, height: float, sex: Sex | str = Sex.MALE) -> str:
+def build_fullbody_urdf(mass: float, height: float, sex: Sex | str = Sex.MALE, *,
+                        lengths: Mapping[str, float] | None = None) -> str:
     """URDF text of the 35-DOF whole body for a subject.
 
     Args:
         mass: Body mass, kg.
         height: Standing height, m.
         sex: ``male`` or ``female`` (selects de Leva's column).
+        lengths: Subject-specific lengths, m, names of :data:`LENGTHS` (e.g. from
+            :mod:`predgait.kinematics.scaling`); the others follow ``height``. Segment
+            masses stay de Leva's fractions of ``mass``.
 
     Returns:
         URDF text; the root link is ``pelvis`` (free flyer added by the loader).
     """
     sex = a3.parse_sex(sex)
-    geo = a3.body_geometry(mass, height, sex)
-    segs = fullbody_segments(mass, height, sex)
-    frames = _marker_positions(height, sex, geo)
-    lt, ls = a3.scaled_length("thigh", height, sex), a3.scaled_length("shank", height, sex)
-    lu, lf = (a3.scaled_length("upper_arm", height, sex),
-              a3.scaled_length("forearm", height, sex))
+    size = segment_lengths(height, sex, lengths)
+    geo = _geometry(mass, height, sex, size)
+    segs = fullbody_segments(mass, height, sex, lengths)
+    frames = _marker_positions(height, sex, geo, size)
+    scaled = ("" if not lengths else "\n     Segment lengths (m) given: " + ", ".join(
+        f"{k} {_num(v)}" for k, v in sorted(lengths.items())) + ".")
     parts = [
         '<?xml version="1.0"?>\n'
         f"<!-- Generated by predgait.models.fullbody: 35-DOF whole body (de Leva 1996), "
-        f"body mass {_num(mass)} kg, height {_num(height)} m, sex {escape(sex.value)}.\n"
+        f"body mass {_num(mass)} kg, height {_num(height)} m, sex {escape(sex.value)}.{scaled}\n"
         f"     Do not edit by hand. predgait: kind={KIND} base=free_flyer -->\n"
         '<robot name="predgait_fullbody">\n',
         _link("pelvis", segs["pelvis"]),
-        _cardan("lumbar", "lumbar", "pelvis", "torso", (0, 0, a3.scaled_length(
-            "lower_trunk", height, sex))),
+        _cardan("lumbar", "lumbar", "pelvis", "torso", (0, 0, size["pelvis"])),
         _link("torso", segs["torso"]),
         _fixed("upper_trunk", "torso", (0, 0, 0), massive=segs["upper_trunk"]),
         _fixed("head", "torso", (0, 0, 0), massive=segs["head"]),
@@ -238,9 +282,11 @@ def build_fullbody_urdf(mass: float, height: float, sex: Sex | str = Sex.MALE) -
             _cardan(f"hip_{side}", "hip", "pelvis", f"thigh_{side}",
                     (0, sign * geo.hip_half_width, 0)),
             _link(f"thigh_{side}", segs[f"thigh_{side}"]),
-            _cardan(f"knee_{side}", "knee", f"thigh_{side}", f"shank_{side}", (0, 0, -lt)),
+            _cardan(f"knee_{side}", "knee", f"thigh_{side}", f"shank_{side}",
+                    (0, 0, -size[f"thigh_{side}"])),
             _link(f"shank_{side}", segs[f"shank_{side}"]),
-            _cardan(f"ankle_{side}", "ankle", f"shank_{side}", f"foot_{side}", (0, 0, -ls)),
+            _cardan(f"ankle_{side}", "ankle", f"shank_{side}", f"foot_{side}",
+                    (0, 0, -size[f"shank_{side}"])),
             _link(f"foot_{side}", segs[f"foot_{side}"]),
         ]
     for side, sign in (("r", -1.0), ("l", 1.0)):
@@ -248,10 +294,11 @@ def build_fullbody_urdf(mass: float, height: float, sex: Sex | str = Sex.MALE) -
             _cardan(f"shoulder_{side}", "shoulder", "torso", f"upper_arm_{side}",
                     (0, sign * geo.shoulder_half_width, geo.suprasternale_above_lumbar)),
             _link(f"upper_arm_{side}", segs[f"upper_arm_{side}"]),
-            _revolute(f"elbow_{side}", f"upper_arm_{side}", f"forearm_{side}", (0, 0, -lu),
-                      "0 1 0", JOINT_LIMITS["elbow"][0]),
+            _revolute(f"elbow_{side}", f"upper_arm_{side}", f"forearm_{side}",
+                      (0, 0, -size[f"upper_arm_{side}"]), "0 1 0", JOINT_LIMITS["elbow"][0]),
             _link(f"forearm_{side}", segs[f"forearm_{side}"]),
-            _fixed(f"hand_{side}", f"forearm_{side}", (0, 0, -lf), massive=segs[f"hand_{side}"]),
+            _fixed(f"hand_{side}", f"forearm_{side}", (0, 0, -size[f"forearm_{side}"]),
+                   massive=segs[f"hand_{side}"]),
         ]
     for name in MARKERS + JOINT_CENTRES + CONTACTS:
         parent, xyz = frames[name]

@@ -14,6 +14,7 @@ bias force and RNEA agree term by term (``tests/test_fullbody.py``).
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -96,10 +97,16 @@ def load_fullbody(source: str | Path = "fullbody", *, gravity: float = GRAVITY) 
 
 
 def fullbody_for_subject(mass: float, height: float, sex: str = DEFAULT_SEX, *,
+                         lengths: Mapping[str, float] | None = None,
                          gravity: float = GRAVITY) -> Model3D:
-    """Whole body generated for a subject (not cached)."""
-    return model3d_from_urdf(build_fullbody_urdf(mass, height, sex),
-                             source=f"fullbody {mass:g} kg {height:g} m {sex}", gravity=gravity)
+    """Whole body generated for a subject (not cached).
+
+    ``lengths`` (m) as in :func:`predgait.models.fullbody.build_fullbody_urdf`.
+    """
+    scaled = ", scaled segment lengths" if lengths else ""
+    return model3d_from_urdf(build_fullbody_urdf(mass, height, sex, lengths=lengths),
+                             source=f"fullbody {mass:g} kg {height:g} m {sex}{scaled}",
+                             gravity=gravity)
 
 
 def adam_kindyn(model: Model3D, *, backend: str = "casadi"):
