@@ -15,6 +15,8 @@ Forward dynamic synthesis (thesis 3.2.4, 3.3.4, 4.1-4.2). PROBLEM.toml says the 
   collapse     the leg collapsing under its own weight from standing (foot fixed);
   resynthesis  the measured trial driven by its inverse-dynamics moments and hip load,
                foot motion prescribed, with passive-element variants.
+  gait7        the planar 7-link model on the measured trial, HAT height free on heel/toe
+               contacts: simulated vs measured vertical GRF, knee-driven runs to a fall.
 Writes into --out: states.sto (time, coordinates rad/m, then velocities; states_partial.sto
 if the run diverged), summary.json (status, integrator, time to fall, RMS), PNG plots,
 stick.png (figures every 0.05 s) and stick.gif. Example problem files are in problems/.
@@ -24,7 +26,8 @@ Override any value with --set, e.g. --set integrator.step=0.05 --set passive.kne
 
 def register(commands: argparse._SubParsersAction) -> None:
     """Add ``simulate``."""
-    cmd = commands.add_parser("simulate", help="forward synthesis (rod, collapse, resynthesis)",
+    cmd = commands.add_parser("simulate",
+                              help="forward synthesis (rod, collapse, resynthesis, gait7)",
                               description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("problem", type=Path, help="problem file (problems/rod.toml, ...)")
@@ -58,6 +61,13 @@ def run(args: argparse.Namespace) -> int:
             bits.append("RMS theta "
                         f"{row['rms']['base_pitch'] * 57.29578:.4f} deg, x "
                         f"{row['rms']['base_x'] * 1000:.3f} mm")
+        if "grf" in row:  # gait7: vertical GRF vs plates, knee-driven run
+            bits.append("GRF vs plates " + ", ".join(
+                f"{side} r {g['correlation']:.2f} RMS {g['rms_n']:.0f} N"
+                for side, g in row["grf"].items()))
+            knee = row.get("knee_run")
+            if knee:
+                bits.append(f"knee-driven ({knee['moment']} moment) {knee['status']}")
         print(f"  {name}: " + "; ".join(bits))
     if summary["status"] == "diverged":
         print(f"predgait: error: {summary['message']} (partial states written to {args.out})",

@@ -1,4 +1,4 @@
-"""Stick figures of the leg or rod (thesis Figs. 4.2.2, 4.2.5, 4.2.8-4.2.10) and a GIF."""
+"""Stick figures of the leg, rod or gait7 (thesis Figs. 4.2.2, 4.2.5, 4.2.8-4.2.10), GIF."""
 
 from __future__ import annotations
 
@@ -10,7 +10,10 @@ import pinocchio as pin
 #: Polylines drawn per model kind, by frame name.
 LINES = {"leg": (("heel", "toe", "ankle_center", "heel"), ("ankle_center", "knee_center"),
                  ("knee_center", "hip_center")),
-         "rod": (("bottom", "top"),)}
+         "rod": (("bottom", "top"),),
+         "gait7": tuple(line for s in ("r", "l") for line in (
+             ("hip_center", f"knee_center_{s}", f"ankle_center_{s}"),
+             (f"heel_{s}", f"toe_{s}", f"ankle_center_{s}", f"heel_{s}")))}
 
 
 def stick_points(model, q: np.ndarray) -> list[np.ndarray]:

@@ -9,6 +9,9 @@ Kinds (``kind = "..."`` at the top of the file):
 * ``resynthesis``: the measured trial re-synthesized from its inverse-dynamics moments
   and hip load with the foot prescribed (4.2, Figs. 4.2.8-4.2.10), with ``[[variants]]``
   of passive elements (Fig. 4.2.9).
+* ``gait7``: the planar 7-link model on the measured trial, feet on heel/toe contacts,
+  HAT height free (2.3.1, 2.4, Fig. 2.4.1); knee-driven runs to a fall
+  (:mod:`predgait.workflows.gait7_spec`).
 
 Strings become enums here; unknown keys are refused with their line.
 """
@@ -24,7 +27,7 @@ from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.errors import InputError
 from predgait.problemfile import Table, load_problem
 
-KINDS = ("rod", "collapse", "resynthesis")
+KINDS = ("rod", "collapse", "resynthesis", "gait7")
 
 
 @dataclass(frozen=True)
@@ -147,6 +150,10 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
         raise table.error("kind", f"{kind!r} is not one of: {', '.join(KINDS)}.")
     integrator = _integrator(table)
     source = str(path)
+    if kind == "gait7":
+        from predgait.workflows.gait7_spec import parse_gait7
+
+        return parse_gait7(table, integrator, source)
     if kind == "rod":
         table.check_keys(("kind", "integrator", "rod"))
         rod = table.table("rod")

@@ -81,6 +81,12 @@ def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
         return _run_collapse(spec, folder, progress)
     if isinstance(spec, ResynthesisSpec):
         return _run_resynthesis(spec, folder, progress)
+    from predgait.workflows.gait7_spec import Gait7Spec
+
+    if isinstance(spec, Gait7Spec):
+        from predgait.workflows.gait7_run import run_gait7
+
+        return run_gait7(spec, folder, progress=progress)
     raise InputError(f"unknown spec {spec!r}")
 
 

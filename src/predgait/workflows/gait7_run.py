@@ -1,0 +1,172 @@
+"""Run a gait7 spec and write its result folder (thesis 2.4, Fig. 2.4.1).
+
+Files: ``states.sto`` (kinematic run: time, the 9 coordinates m/rad, then velocities),
+``states_knee.sto`` (knee-driven run of the main settings; ``states_knee_partial.sto``
+when it diverged), ``grf.sto`` and ``grf.csv`` (time, simulated vertical GRF per foot
+and per contact point, measured per foot, N), ``summary.json`` (per run: GRF RMS
+difference, correlation and stance peaks, mean total vertical force vs body weight,
+HAT height offset and deviation, knee-driven status and time to fall), ``grf.png``
+(simulated vs measured vertical GRF per foot and the HAT height) and ``stick.png``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from predgait import __version__
+from predgait.data.storage import write_csv, write_storage
+from predgait.errors import InputError
+from predgait.models.gait7 import CONTACT_FRAMES
+from predgait.workflows.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
+from predgait.workflows.gait7_sim import Gait7Result, grf_comparison, kinematic_run, knee_run
+from predgait.workflows.gait7_spec import Gait7Spec, Gait7Variant
+
+
+def _window(spec: Gait7Spec, motion) -> np.ndarray:
+    """Output times: the plate samples inside the simulated window, s."""
+    t0, t1 = spec.start, spec.start + spec.duration
+    if not (motion.time[0] <= t0 and t1 <= motion.time[-1]):
+        raise InputError(f"{spec.source}: trial.start/duration give {t0:g}..{t1:g} s, "
+                         f"outside the trial {motion.time[0]:.3f}..{motion.time[-1]:.3f} s.")
+    t = motion.plate_time
+    return t[(t >= t0) & (t <= t1)]
+
+
+def _kinematic_metrics(spec, model, motion, t, kin: Gait7Result) -> dict:
+    rows = np.searchsorted(motion.plate_time, kin.run.t)
+    measured = {s: motion.plate_fz[s][rows] for s in SIDES}
+    z = model.coordinate_index("base_z")
+    dz = kin.run.q[:, z] - np.interp(kin.run.t, motion.time, motion.q[:, z])
+    total = kin.foot_fz("right") + kin.foot_fz("left")
+    return {"status": kin.status,
+            "grf": {s: grf_comparison(kin.run.t, kin.foot_fz(s), measured[s]) for s in SIDES},
+            "mean_total_vertical_n": float(np.mean(total)),
+            "body_weight_n": float(model.total_mass() * model.gravity),
+            "mean_measured_vertical_n": float(np.mean(measured["right"] + measured["left"])),
+            "hat_height_offset_m": float(np.mean(dz)),
+            "hat_height_deviation_rms_m": float(np.std(dz)),
+            "hat_height_deviation_max_m": float(np.max(np.abs(dz - np.mean(dz))))}
+
+
+def _run_variant(spec: Gait7Spec, v: Gait7Variant, model, motion, t, cache: dict,
+                 progress: bool) -> tuple[dict, Gait7Result, Gait7Result | None]:
+    contact = v.contact or spec.contact
+    knee = v.knee or spec.knee
+    passive = v.passive if v.passive is not None else spec.passive
+    key = id(contact)
+    if key not in cache:
+        cache[key] = kinematic_run(model, motion, contact.law, ground_z=spec.ground_z,
+                                   t_span=(float(t[0]), float(t[-1])),
+                                   options=spec.integrator, t_eval=t, progress=progress)
+    kin = cache[key]
+    row = {"name": v.name, "contact": contact.describe(),
+           **_kinematic_metrics(spec, model, motion, t, kin)}
+    driven = None
+    if knee.sides and kin.status == "completed":
+        driven = knee_run(model, motion, kin, contact.law, ground_z=spec.ground_z,
+                          sides=knee.sides, source=knee.moment, passive=passive,
+                          fall=spec.fall, options=spec.integrator, t_eval=t,
+                          progress=progress)
+        n = len(driven.run.t)
+        cols = [model.coordinate_index(f"knee_{s[0]}") for s in knee.sides]
+        dev = np.degrees(np.abs(driven.run.q[:, cols] - kin.run.q[:n, cols]))
+        row["knee_run"] = {
+            "sides": list(knee.sides), "moment": knee.moment.value,
+            "passive": [vars(e) for e in passive.elements], "status": driven.status,
+            "time_to_fall_s": driven.time_to_fall, "fall_cause": driven.fall_cause,
+            "end_time_s": float(driven.run.t[-1]),
+            "max_knee_deviation_deg": float(np.max(dev)) if dev.size else 0.0}
+    row["time_to_fall_s"] = driven.time_to_fall if driven is not None else None
+    return row, kin, driven
+
+
+def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | None,
+          interval: float) -> None:
+    import matplotlib.pyplot as plt
+
+    from predgait.report.stick import plot_stick
+
+    t = kin.run.t
+    rows = np.searchsorted(motion.plate_time, t)
+    z = model.coordinate_index("base_z")
+    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    for ax, side in zip(axes, SIDES, strict=False):
+        ax.plot(t, motion.plate_fz[side][rows], "k", lw=1.5, label="force plate")
+        ax.plot(t, kin.foot_fz(side), "C0", lw=1, label="simulated (kinematic)")
+        if driven is not None:
+            ax.plot(driven.run.t, driven.foot_fz(side), "C1--", lw=1, label="knee driven")
+        ax.set_ylabel(f"{side} vertical GRF (N)")
+        ax.legend(fontsize=7)
+    axes[2].plot(motion.time, motion.q[:, z], "k", label="measured hip centre")
+    axes[2].plot(t, kin.run.q[:, z], "C0", label="simulated HAT (kinematic)")
+    if driven is not None:
+        axes[2].plot(driven.run.t, driven.run.q[:, z], "C1--", label="knee driven")
+    axes[2].set_xlim(t[0], t[-1])
+    axes[2].set_ylabel("HAT height (m)")
+    axes[2].set_xlabel("trial time (s)")
+    axes[2].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(folder / "grf.png", dpi=110)
+    plt.close(fig)
+    ax = plot_stick(model, t, kin.run.q, interval=interval)
+    ax.figure.tight_layout()
+    ax.figure.savefig(folder / "stick.png", dpi=110)
+    plt.close(ax.figure)
+
+
+def _write_states(folder: Path, name: str, model, result: Gait7Result, header: dict) -> None:
+    run = result.run
+    cols = {n: run.q[:, i] for i, n in enumerate(model.coordinate_names)}
+    cols |= {f"{n}_speed": run.v[:, i] for i, n in enumerate(model.coordinate_names)}
+    partial = "_partial" if result.status == "diverged" else ""
+    write_storage(folder / f"{name}{partial}.sto", run.t, cols,
+                  header={"units": "m, rad, m/s, rad/s", "status": result.status} | header)
+
+
+def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
+    """Run the main settings and the variants into ``folder``; returns the summary."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    model = gait7_model(spec.mass, spec.height)
+    motion = bundled_gait7_motion(model)
+    t = _window(spec, motion)
+    cache: dict = {}
+    rows = []
+    main_kin = main_knee = None
+    for v in (Gait7Variant("main"), *spec.variants):
+        row, kin, driven = _run_variant(spec, v, model, motion, t, cache,
+                                        progress and v.name == "main")
+        rows.append(row)
+        if v.name == "main":
+            main_kin, main_knee = kin, driven
+    header = {"trial": motion.provenance.get("trial", ""), "model": model.source}
+    _write_states(folder, "states", model, main_kin, header)
+    if main_knee is not None:
+        _write_states(folder, "states_knee", model, main_knee, header)
+    rt = np.searchsorted(motion.plate_time, main_kin.run.t)
+    columns = {f"simulated_{s}_fz": main_kin.foot_fz(s) for s in SIDES}
+    columns |= {f"measured_{s}_fz": motion.plate_fz[s][rt] for s in SIDES}
+    columns |= {f"simulated_{f}_fz": main_kin.forces[:, i, 2]
+                for i, f in enumerate(CONTACT_FRAMES)}
+    write_storage(folder / "grf.sto", main_kin.run.t, columns, header={"units": "N"} | header)
+    write_csv(folder / "grf.csv", main_kin.run.t, columns, units=dict.fromkeys(columns, "N"),
+              provenance=f"{header['trial']}; {model.source}; {spec.source}")
+    _plot(folder, model, motion, main_kin, main_knee, spec.stick_interval)
+    main = rows[0]
+    summary = {"kind": "gait7", "status": "diverged" if main_kin.status == "diverged"
+               else "completed",
+               "message": main_kin.fall_cause or "kinematic run completed",
+               "integrator": {"method": spec.integrator.method.value,
+                              "step_s": spec.integrator.step, "rtol": spec.integrator.rtol,
+                              "atol": spec.integrator.atol},
+               "time_span_s": [float(t[0]), float(t[-1])], "ground_z_m": spec.ground_z,
+               "time_to_fall_s": main["time_to_fall_s"], "grf": main["grf"], "runs": rows,
+               "provenance": {"problem": spec.source, "predgait": __version__,
+                              "model": model.source, **motion.provenance}}
+    (folder / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
+    return summary
+

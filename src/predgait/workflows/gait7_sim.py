@@ -1,0 +1,251 @@
+"""Forward simulation of the planar 7-link model on measured walking (thesis 2.3.1, 2.4).
+
+The thesis experiment: joint angles and the HAT forward position follow the measured
+data (splines), the HAT vertical translation is free so that the feet find their own
+penetration, each foot touches the floor through two IMPACT elements (heel and ball),
+and there is no friction (the HAT is driven forward). The simulated vertical ground
+reactions are compared with the force plates (Fig. 2.4.1). Then one or both knees are
+driven by a moment history instead of their angle, with a passive torsional spring and
+damper (thesis best k = 100 N cm/rad, c = 10 N cm/rad/s), until the model falls.
+
+Runs (both on :class:`~predgait.dynamics.partitioned.PartitionedSystem`):
+
+* :func:`kinematic_run`: free = base_z. Its initial height is where the free vertical
+  acceleration equals the measured one (the contacts carry weight plus inertia).
+* :func:`knee_run`: free = base_z and the chosen knees. The knee moment is the active
+  part of either the kinematic run's own inverse dynamics (``model``: what the
+  prescription supplied at the knee, as the thesis did with "the best model") or the
+  leg inverse dynamics with the force plates (``measured``), minus the passive moment
+  at the reference motion, so the reference still solves the problem and the passive
+  elements act on deviations (thesis 3.3.3-3.3.4; :meth:`LegDrivers.from_inverse`).
+  A fall is a knee deviating from the kinematic run by more than a limit or the HAT
+  dropping below it by more than a limit (terminal events).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from predgait.dynamics.drivers import SampledHistory
+from predgait.dynamics.integrators import Direction, Event, IntegratorOptions
+from predgait.dynamics.partitioned import (
+    GroundContact,
+    JointTorques,
+    MotionHistory,
+    PartitionedRun,
+    PartitionedSystem,
+    simulate_partitioned,
+)
+from predgait.dynamics.passive import PassiveJoint
+from predgait.errors import InputError, SimulationDiverged
+from predgait.models.gait7 import CONTACT_FRAMES
+from predgait.models.loading import Model
+from predgait.workflows.gait7_motion import SIDES, Gait7Motion
+
+FEET = {"right": ("heel_r", "toe_r"), "left": ("heel_l", "toe_l")}
+
+
+class KneeMoment(enum.Enum):
+    """Source of the knee moment history in the knee-driven run."""
+
+    MODEL = "model"
+    MEASURED = "measured"
+
+
+@dataclass(frozen=True)
+class FallLimits:
+    """Fall criteria: knee deviation (deg) from, and HAT drop (m) below, the kinematic run."""
+
+    knee_deviation_deg: float = 30.0
+    hat_drop: float = 0.1
+
+
+@dataclass(frozen=True)
+class KneeSprings:
+    """Passive knee moments as a generalised force ``(t, q, v, data) -> (nv,)``.
+
+    gait7's knee coordinate is the clinical knee flexion (+ flexion), so the clinical
+    law of :mod:`predgait.dynamics.passive` applies unchanged: tau[row] = M(q, v), N m.
+    """
+
+    rows: tuple[int, ...]
+    joint: PassiveJoint
+
+    def __call__(self, t, q, v, data) -> np.ndarray:
+        """Generalised force (nv,), N m on the knee rows."""
+        tau = np.zeros(v.size)
+        for row in self.rows:
+            tau[row] = float(self.joint.moment(q[row], v[row]))
+        return tau
+
+
+@dataclass(frozen=True, eq=False)
+class Gait7Result:
+    """A run with its contact forces.
+
+    Attributes:
+        run: The :class:`PartitionedRun` (t s, q, v, reaction of the prescription).
+        forces: (n, 4, 3) N, lab-frame forces at CONTACT_FRAMES at ``run.t``.
+        status: "completed", "fall" (an event) or "diverged".
+        time_to_fall: s after the start, or None.
+        fall_cause: Name of the event, the divergence message, or None.
+    """
+
+    run: PartitionedRun
+    forces: np.ndarray
+    status: str
+    time_to_fall: float | None
+    fall_cause: str | None
+
+    def foot_fz(self, side: str) -> np.ndarray:
+        """(n,) N, vertical force of one foot (heel + toe)."""
+        idx = [CONTACT_FRAMES.index(f) for f in FEET[side]]
+        return self.forces[:, idx, 2].sum(axis=1)
+
+
+def _contact_forces(system: PartitionedSystem, contact: GroundContact,
+                    run: PartitionedRun) -> np.ndarray:
+    out = np.zeros((len(run.t), len(contact.frames), 3))
+    for k, (t, q, v) in enumerate(zip(run.t, run.q, run.v, strict=True)):
+        if np.all(np.isfinite(q)) and np.all(np.isfinite(v)):
+            system.applied(t, q, v)
+            out[k] = contact.last_forces
+    return out
+
+
+def _simulate(system, contact, t_span, x0, *, options, events=(), t_eval=None,
+              progress=False) -> Gait7Result:
+    try:
+        run = simulate_partitioned(system, t_span, x0, options=options, events=events,
+                                   t_eval=t_eval, progress=progress)
+        status = "fall" if run.integration.event_name else "completed"
+        cause = run.integration.event_name
+        fall = None if cause is None else run.integration.event_time - t_span[0]
+    except SimulationDiverged as exc:
+        run, status, cause = exc.partial, "diverged", str(exc)
+        fall = float(run.t[-1] - t_span[0])
+    return Gait7Result(run, _contact_forces(system, contact, run), status, fall, cause)
+
+
+def initial_height(system: PartitionedSystem, t: float, z_row: int, a_target: float
+                   ) -> float:
+    """base_z (m) at t where the free vertical acceleration equals ``a_target`` (m/s^2).
+
+    Searched between 2 cm above and 10 cm below first contact of the lowest contact
+    point (a_free rises monotonically as the feet sink in).
+    """
+    q, v, a = system.motion(t)
+    data = system.data
+    system.applied(t, q, v)
+    lowest = min(data.oMf[system.model.frame_id(f)].translation[2] for f in CONTACT_FRAMES)
+    ground = next(f for f in system.forces if isinstance(f, GroundContact)).ground_z
+    top = q[z_row] - (lowest - ground) + 0.02
+
+    def excess(z):
+        x = system.state(q, v)
+        x[list(system.q_free).index(z_row)] = z
+        qq, vv, aa = system.full_state(t, x)
+        a_free = system.solve(t, qq, vv, aa)[0]
+        return float(a_free[list(system.free).index(z_row)] - a_target)
+
+    if excess(top) > 0 or excess(top - 0.1) < 0:
+        raise InputError(f"no HAT height at t = {t:.3f} s gives the measured vertical "
+                         "acceleration: check [contact] (too soft?) and [model] ground_z.")
+    return brentq(excess, top - 0.1, top, xtol=1e-9)
+
+
+def kinematic_run(model: Model, motion: Gait7Motion, contact, *, ground_z: float,
+                  t_span: tuple[float, float], options: IntegratorOptions, t_eval=None,
+                  progress: bool = False) -> Gait7Result:
+    """All joints, base_x and base_pitch prescribed; base_z free on the contacts."""
+    history = MotionHistory(model, motion.time, motion.q, motion.v, motion.a)
+    ground = GroundContact(model, CONTACT_FRAMES, contact, ground_z, planar=True)
+    z = model.coordinate_index("base_z")
+    system = PartitionedSystem(model, [z], history, [ground])
+    q0, v0, a0 = history(t_span[0])
+    q0[z] = initial_height(system, t_span[0], z, a0[z])
+    return _simulate(system, ground, t_span, system.state(q0, v0), options=options,
+                     t_eval=t_eval, progress=progress)
+
+
+def knee_moment_history(model: Model, motion: Gait7Motion, kinematic: Gait7Result,
+                        sides, source: KneeMoment, passive: PassiveJoint
+                        ) -> SampledHistory:
+    """Active knee moments (N m, gait7 sign) of ``sides``: total minus passive at the reference.
+
+    ``source`` MODEL: the prescription's reaction at the knee rows of the kinematic run;
+    MEASURED: the leg inverse dynamics with the force plates (:class:`Gait7Motion`).
+    """
+    rows = [model.coordinate_index(f"knee_{s[0]}") for s in sides]
+    if source is KneeMoment.MODEL:
+        run = kinematic.run
+        pres = [int(i) for i in range(model.nq) if i != model.coordinate_index("base_z")]
+        time, total = run.t, run.reaction[:, [pres.index(r) for r in rows]]
+        q, v = run.q[:, rows], run.v[:, rows]
+    else:
+        time = motion.time
+        total = np.column_stack([motion.knee_moment[s] for s in sides])
+        q, v = motion.q[:, rows], motion.v[:, rows]
+    active = total - np.asarray(passive.moment(q, v))
+    return SampledHistory(time, active, name=f"{source.value} knee moment")
+
+
+def knee_run(model: Model, motion: Gait7Motion, kinematic: Gait7Result, contact, *,
+             ground_z: float, sides, source: KneeMoment, passive: PassiveJoint,
+             fall: FallLimits, options: IntegratorOptions, t_eval=None,
+             progress: bool = False) -> Gait7Result:
+    """As :func:`kinematic_run` with the knees of ``sides`` driven by a moment + passive."""
+    sides = tuple(sides)
+    if not sides or any(s not in SIDES for s in sides):
+        raise InputError(f"knee sides {sides!r}: give one or both of right, left.")
+    history = MotionHistory(model, motion.time, motion.q, motion.v, motion.a)
+    ground = GroundContact(model, CONTACT_FRAMES, contact, ground_z, planar=True)
+    z = model.coordinate_index("base_z")
+    rows = [model.coordinate_index(f"knee_{s[0]}") for s in sides]
+    drive = JointTorques(np.array(rows), knee_moment_history(model, motion, kinematic, sides,
+                                                             source, passive))
+    spring = KneeSprings(tuple(rows), passive)
+    system = PartitionedSystem(model, [z, *rows], history, [ground, drive, spring])
+    ref = kinematic.run
+    z_ref = SampledHistory(ref.t, ref.q[:, z], name="kinematic HAT height")
+    knee_ref = SampledHistory(ref.t, ref.q[:, rows], name="kinematic knee angles")
+    limit = np.radians(fall.knee_deviation_deg)
+    iz = list(system.q_free).index(z)
+    ik = [list(system.q_free).index(r) for r in rows]
+    events = [Event("HAT drop", lambda t, x: z_ref(t)[0] - x[iz] - fall.hat_drop,
+                    Direction.RISING)]
+    for side, i, j in zip(sides, ik, range(len(rows)), strict=True):
+        events.append(Event(f"{side} knee deviation",
+                            lambda t, x, i=i, j=j: abs(x[i] - knee_ref(t)[j]) - limit,
+                            Direction.RISING))
+    t0 = float(ref.t[0])
+    x0 = system.state(ref.q[0], ref.v[0])
+    return _simulate(system, ground, (t0, float(ref.t[-1])), x0, options=options,
+                     events=events, t_eval=t_eval, progress=progress)
+
+
+def stances(fz: np.ndarray, threshold: float = 20.0) -> list[slice]:
+    """Runs of samples with fz > threshold (N)."""
+    on = np.concatenate([[0], (fz > threshold).astype(int), [0]])
+    edges = np.flatnonzero(np.diff(on))
+    return [slice(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def grf_comparison(t: np.ndarray, simulated: np.ndarray, measured: np.ndarray) -> dict:
+    """RMS difference (N), correlation and per-stance peaks of two vertical GRF series.
+
+    Stances are the measured contacts (> 20 N) inside ``t``; a stance cut by the ends
+    of the window is marked ``complete = False``.
+    """
+    rows = []
+    for s in stances(measured):
+        rows.append({"start_s": float(t[s.start]), "end_s": float(t[s.stop - 1]),
+                     "complete": s.start > 0 and s.stop < len(t),
+                     "peak_measured_n": float(measured[s].max()),
+                     "peak_simulated_n": float(simulated[s].max())})
+    return {"rms_n": float(np.sqrt(np.mean((simulated - measured) ** 2))),
+            "correlation": float(np.corrcoef(simulated, measured)[0, 1]), "stances": rows}
