@@ -53,3 +53,47 @@ def joint_powers(moments: dict[str, np.ndarray], rates: dict[str, np.ndarray]
     """Joint power (W) = clinical moment x clinical angular velocity, per joint."""
     return {name.replace("_moment", "_power"): moments[name] * rates[name.replace("_moment", "")]
             for name in moments}
+
+
+# ------------------------------------------------------------------- whole body (3D)
+#: Whole body (:mod:`predgait.models.fullbody`): model coordinate -> (clinical name, sign),
+#: clinical = sign * model. Every segment frame has X forward, Y left, Z up in the neutral
+#: pose and child = parent Rx Ry Rz (Cardan X-Y-Z, thesis 2.3.2), so a positive Y
+#: rotation swings a distal segment backward (hip and shoulder extension, knee flexion,
+#: ankle plantarflexion) and a positive X or Z rotation moves it toward +Y: medially
+#: (adduction, inversion, internal rotation) on the right, laterally on the left.
+#: Trunk: lumbar X tilts the head to the right, Y forward, Z turns it left.
+CLINICAL_3D: dict[str, tuple[str, float]] = {}
+for _side, _medial in (("r", 1.0), ("l", -1.0)):
+    CLINICAL_3D |= {
+        f"hip_{_side}_x": (f"hip_adduction_{_side}", _medial),
+        f"hip_{_side}_y": (f"hip_flexion_{_side}", -1.0),
+        f"hip_{_side}_z": (f"hip_internal_rotation_{_side}", _medial),
+        f"knee_{_side}_x": (f"knee_adduction_{_side}", _medial),
+        f"knee_{_side}_y": (f"knee_flexion_{_side}", 1.0),
+        f"knee_{_side}_z": (f"knee_internal_rotation_{_side}", _medial),
+        f"ankle_{_side}_x": (f"ankle_inversion_{_side}", _medial),
+        f"ankle_{_side}_y": (f"ankle_dorsiflexion_{_side}", -1.0),
+        f"ankle_{_side}_z": (f"ankle_internal_rotation_{_side}", _medial),
+        f"shoulder_{_side}_x": (f"shoulder_adduction_{_side}", _medial),
+        f"shoulder_{_side}_y": (f"shoulder_flexion_{_side}", -1.0),
+        f"shoulder_{_side}_z": (f"shoulder_internal_rotation_{_side}", _medial),
+        f"elbow_{_side}": (f"elbow_flexion_{_side}", -1.0),
+    }
+CLINICAL_3D |= {"lumbar_x": ("lumbar_bending_left", -1.0), "lumbar_y": ("lumbar_flexion", 1.0),
+                "lumbar_z": ("lumbar_rotation_left", 1.0)}
+#: Pelvis orientation in the lab (Cardan X-Y-Z of ``ik3d.pelvis_cardan``, lab X forward):
+#: anterior tilt = +Y, left side up = +X, turning left (right side forward) = +Z.
+PELVIS_3D = ("pelvis_left_up", "pelvis_anterior_tilt", "pelvis_rotation_left")
+
+
+def clinical_angles_3d(joint_names, q_joints: np.ndarray) -> dict[str, np.ndarray]:
+    """Clinical joint angles (rad) from whole-body joint coordinates (n, n_joints).
+
+    Also gives each joint's moment: the generalised force of a coordinate times the same
+    sign is the moment conjugate to the clinical angle (positive = acting toward the
+    positive angle, e.g. a hip flexor moment; internal moments, as in Winter 2009).
+    """
+    q_joints = np.asarray(q_joints)
+    return {CLINICAL_3D[n][0]: CLINICAL_3D[n][1] * q_joints[..., i]
+            for i, n in enumerate(joint_names)}
