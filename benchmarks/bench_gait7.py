@@ -1,0 +1,56 @@
+"""gait7 contact simulation speed: 1 s of the subject01 walk (thesis 2.3.1, 2.4).
+
+Runs (wall time, best of 3), HAT height free on four fitted IMPACT contacts, all other
+coordinates prescribed (``kinematic``), then also the left knee free and moment-driven
+(``knee``); trial time 0.62..1.62 s, output at the 600 Hz plate samples:
+  * LSODA (rtol 1e-6, atol 1e-8), the problem file's default;
+  * RK4 with h = 0.2 ms (same forces to < 0.1 N).
+
+Run:  .venv/bin/python benchmarks/bench_gait7.py
+"""
+
+from __future__ import annotations
+
+import time
+
+from predgait.dynamics.contact_fit import fit_impact_to_meglan
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
+from predgait.workflows.gait7_motion import bundled_gait7_motion, gait7_model
+from predgait.workflows.gait7_sim import FallLimits, KneeMoment, kinematic_run, knee_run
+
+SPAN = (0.62, 1.62)
+
+
+def best(fn, repeat=3):
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return min(times), out
+
+
+def main():
+    model = gait7_model(72.6, 1.8034)
+    motion = bundled_gait7_motion(model)
+    contact = fit_impact_to_meglan().contact
+    t = motion.plate_time
+    t = t[(t >= SPAN[0]) & (t <= SPAN[1])]
+    passive = PassiveJoint((LinearSpringDamper(k=1.0, c=0.1),))
+    for label, options in (("LSODA 1e-6", IntegratorOptions(method=Method.LSODA)),
+                           ("RK4 h=0.2 ms", IntegratorOptions(method=Method.RK4, step=2e-4))):
+        wall, kin = best(lambda o=options: kinematic_run(
+            model, motion, contact, ground_z=-0.0075, t_span=SPAN, options=o, t_eval=t))
+        print(f"gait7 kinematic (HAT height free), 1 s, {label}: {wall * 1e3:.0f} ms, "
+              f"{kin.run.integration.n_rhs_evaluations} right-hand sides")
+        wall, run = best(lambda o=options, k=kin: knee_run(
+            model, motion, k, contact, ground_z=-0.0075, sides=("left",),
+            source=KneeMoment.MODEL, passive=passive, fall=FallLimits(), options=o,
+            t_eval=t))
+        print(f"gait7 left knee moment-driven, 1 s, {label}: {wall * 1e3:.0f} ms, "
+              f"{run.run.integration.n_rhs_evaluations} right-hand sides ({run.status})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,192 @@
+"""gait7 forward simulation on the measured walk (thesis 2.3.1, 2.4; workflows.gait7_*).
+
+Known answers: the IMPACT fit to Meglan has closed forms on [0, D]; a model standing on
+four linear IMPACT points sinks m g / (4 k); the mapped motion puts the gait7 joint
+centres and feet where the legs' IK put them; on the real trial the simulated vertical
+GRF follows the plates and averages body weight; a knee driven by the model's own
+inverse-dynamics moment stays on the reference; stiffer knee springs delay the fall.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from predgait.cli import main
+from predgait.dynamics.contact import MeglanContact
+from predgait.dynamics.contact_fit import fit_impact_to_meglan
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.partitioned import GroundContact, PartitionedSystem
+from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
+from predgait.errors import InputError
+from predgait.models.gait7 import CONTACT_FRAMES
+from predgait.workflows.gait7_motion import (
+    SIDES,
+    bundled_gait7_motion,
+    frame_positions,
+    gait7_model,
+)
+from predgait.workflows.gait7_sim import (
+    FallLimits,
+    KneeMoment,
+    grf_comparison,
+    initial_height,
+    kinematic_run,
+    knee_run,
+)
+from predgait.workflows.simulate import parse_spec
+
+PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "gait7_contact.toml"
+SPAN = (0.62, 1.85)  # s: one right gait cycle of subject01
+OPTIONS = IntegratorOptions(method=Method.LSODA)
+
+
+@pytest.fixture(scope="module")
+def model():
+    return gait7_model(72.6, 1.8034)
+
+
+@pytest.fixture(scope="module")
+def motion(model):
+    return bundled_gait7_motion(model)
+
+
+@pytest.fixture(scope="module")
+def window(motion):
+    t = motion.plate_time
+    return t[(t >= SPAN[0]) & (t <= SPAN[1])]
+
+
+@pytest.fixture(scope="module")
+def kinematic(model, motion, window):
+    return kinematic_run(model, motion, fit_impact_to_meglan().contact, ground_z=-0.0075,
+                         t_span=SPAN, options=OPTIONS, t_eval=window)
+
+
+def test_impact_fit_has_the_least_squares_closed_form():
+    """k = a D^3 / 2, c = (175/364) b D^4 (d = D) for F = a x^4 + b x^4 v on [0, D]."""
+    meglan, depth = MeglanContact(), 0.01
+    fit = fit_impact_to_meglan(meglan, depth=depth)
+    assert fit.contact.stiffness == pytest.approx(meglan.a * depth**3 / 2, rel=2e-3)
+    assert fit.contact.damping == pytest.approx(175 / 364 * meglan.b * depth**4, rel=2e-3)
+    assert fit.contact.damping_depth == depth
+    # The fitted curve stays within 20 % (RMS) of Meglan's force at 1 cm (465.8 N) ...
+    assert fit.stiffness_rms < 0.2 * meglan.a * depth**4
+    # ... and is the least-squares optimum: a 2 % change of k makes the misfit worse.
+    x = np.linspace(0.0, depth, 2001)
+    for k in (0.98 * fit.contact.stiffness, 1.02 * fit.contact.stiffness):
+        assert np.sqrt(np.mean((k * x - meglan.a * x**4) ** 2)) > fit.stiffness_rms
+
+
+def test_standing_height_sinks_weight_over_four_springs(model):
+    """Feet flat at rest: the initial height puts each point m g / (4 k) into the floor."""
+    pm = model.pin_model
+    contact = fit_impact_to_meglan().contact
+    q = np.zeros(pm.nq)
+    ground = GroundContact(model, CONTACT_FRAMES, contact, ground_z=0.0, planar=True)
+    system = PartitionedSystem(model, [1], lambda t: (q.copy(), np.zeros(pm.nv),
+                                                      np.zeros(pm.nv)), [ground])
+    z = initial_height(system, 0.0, 1, 0.0)
+    data = pm.createData()
+    pin.framesForwardKinematics(pm, data, np.r_[0.0, z, np.zeros(pm.nq - 2)])
+    depth = -data.oMf[model.frame_id("heel_r")].translation[2]
+    weight = model.total_mass() * model.gravity
+    assert depth == pytest.approx(weight / (4 * contact.stiffness), rel=1e-6)
+
+
+def test_mapping_puts_joint_centres_and_feet_where_measured(model, motion):
+    """gait7 FK at the mapped coordinates vs the legs' IK frames (markers' joint centres).
+
+    Bound: the regression segment lengths of gait7 (thigh + shank 0.886 m) differ from the
+    static-calibrated legs (right 0.891 m, left 0.880 m) and both hips share one point,
+    so centimetres of difference remain; a sign or side error gives decimetres.
+    """
+    frames = [f"{p}_{s}" for s in "rl" for p in ("knee_center", "ankle_center", "heel", "toe")]
+    sim = frame_positions(model, motion.q, frames)
+    for frame in frames:
+        d = (sim[frame] - motion.points[frame])[:, [0, 2]]
+        assert np.sqrt(np.mean(np.sum(d**2, axis=1))) < 0.025, frame
+        assert np.max(np.abs(d)) < 0.035, frame
+    hip = 0.5 * (motion.points["hip_center_r"] + motion.points["hip_center_l"])
+    np.testing.assert_allclose(frame_positions(model, motion.q, ["hip_center"])["hip_center"],
+                               hip, atol=1e-9)
+
+
+def test_simulated_vertical_grf_follows_the_plates(model, motion, window, kinematic):
+    """Thesis 2.4: "a noisy facsimile". Measured here: r = 0.73 (right), 0.63 (left).
+
+    Bound r > 0.5 per foot: stance/swing alternation must come out right (swapping the
+    feet gives r < 0); the force is noisy (toe drag in swing, early contact), as in the
+    thesis. Over the cycle the total vertical force averages body weight (momentum
+    balance; the plates give 714.5 N for 712.2 N).
+    """
+    assert kinematic.status == "completed"
+    rows = np.searchsorted(motion.plate_time, kinematic.run.t)
+    for side in SIDES:
+        measured = motion.plate_fz[side][rows]
+        assert grf_comparison(window, kinematic.foot_fz(side), measured)["correlation"] > 0.5
+        other = motion.plate_fz["left" if side == "right" else "right"][rows]
+        assert np.corrcoef(kinematic.foot_fz(side), other)[0, 1] < 0.0
+    weight = model.total_mass() * model.gravity
+    total = kinematic.foot_fz("right") + kinematic.foot_fz("left")
+    assert np.mean(total) == pytest.approx(weight, rel=0.01)
+    z = model.coordinate_index("base_z")
+    dz = kinematic.run.q[:, z] - np.interp(kinematic.run.t, motion.time, motion.q[:, z])
+    assert np.std(dz) < 0.01  # HAT height follows the measured hip within 1 cm RMS
+
+
+def _knee(model, motion, kinematic, source, k, c):
+    passive = PassiveJoint((LinearSpringDamper(k=k, c=c),))
+    return knee_run(model, motion, kinematic, fit_impact_to_meglan().contact,
+                    ground_z=-0.0075, sides=("left",), source=source, passive=passive,
+                    fall=FallLimits(), options=OPTIONS, t_eval=kinematic.run.t)
+
+
+def test_knee_driven_by_the_models_own_moment_stays_on_the_reference(model, motion,
+                                                                      kinematic):
+    run = _knee(model, motion, kinematic, KneeMoment.MODEL, 1.0, 0.1)
+    assert run.status == "completed"
+    knee = model.coordinate_index("knee_l")
+    assert np.max(np.abs(run.run.q[:, knee] - kinematic.run.q[:, knee])) < np.radians(1.0)
+
+
+def test_stiffer_knee_spring_delays_the_fall_with_measured_moments(model, motion, kinematic):
+    """Thesis 2.4: falls when the knee spring is not stiff enough."""
+    falls = [_knee(model, motion, kinematic, KneeMoment.MEASURED, k, 0.1 * k)
+             for k in (0.0, 10.0)]
+    assert all(r.status == "fall" and r.fall_cause == "left knee deviation" for r in falls)
+    assert falls[0].time_to_fall < falls[1].time_to_fall
+    assert _knee(model, motion, kinematic, KneeMoment.MEASURED, 1000.0, 10.0).status == \
+        "completed"
+
+
+@pytest.mark.parametrize(("setting", "key"), [
+    ("contact.model=coulomb", "contact.model"),
+    ("knee.sides=['middle']", "knee.sides"),
+    ("knee.moment=guess", "knee.moment"),
+    ("contact.stiffness=1e4", "contact.stiffness"),
+    ("trial.source=other", "trial.source"),
+])
+def test_bad_input_names_the_key(setting, key):
+    with pytest.raises(InputError, match=key.replace(".", r"\.")):
+        parse_spec(PROBLEM, [setting])
+
+
+def test_cli_writes_the_result_folder(tmp_path, capsys):
+    out = tmp_path / "gait7"
+    assert main(["simulate", str(PROBLEM), "--out", str(out)]) == 0
+    for name in ("states.sto", "states_knee.sto", "grf.sto", "grf.csv", "grf.png",
+                 "stick.png", "summary.json"):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["kind"] == "gait7" and summary["grf"]["right"]["correlation"] > 0.5
+    names = [r["name"] for r in summary["runs"]]
+    assert names[0] == "main" and "meglan" in names
+    assert "GRF vs plates" in capsys.readouterr().out
+    assert main(["simulate", str(PROBLEM), "--out", str(out), "--set",
+                 "contact.model=coulomb"]) == 2
+    assert "contact.model" in capsys.readouterr().err
