@@ -10,7 +10,8 @@ generalised forces tau (joint torques, contact, measured loads, passive elements
 as :mod:`predgait.dynamics.forward` does for the leg, but for any
 :class:`~predgait.models.loading.RigidBodyModel`: the planar gait7 (PX-PZ-RY root) and
 the 3D body (free-flyer pelvis). A free-flyer root is free or prescribed as a whole
-(its 6 velocity rows); when it is free its configuration is position (lab, m) and unit
+(its 6 velocity rows), or only its translation is free (rows 0..2: position free,
+orientation prescribed); when it is free its configuration is position (lab, m) and unit
 quaternion (x, y, z, w), and its velocity is Pinocchio's (linear and angular velocity
 in the pelvis frame), so ``d pos/dt = R v_lin`` and ``d quat/dt = 1/2 quat * (omega, 0)``.
 The quaternion is renormalised whenever the state is read.
@@ -125,13 +126,15 @@ class GroundContact:
 
     Each frame gets the contact model's normal force along +Z from its penetration
     d = ground_z - z and rate -z_dot, and (if the model has friction) tangential forces
-    along X and Y from its slip velocities (:mod:`predgait.dynamics.contact`).
+    along X and Y from its slip velocities (:mod:`predgait.dynamics.contact`), taken
+    relative to the ground surface (a treadmill belt moves at ``belt_velocity`` along X).
     ``last_forces`` holds the (n_frames, 3) lab-frame forces of the latest call.
 
     Attributes:
         model: The model. frames: contact frame names. contact: a contact model with
         ``force(penetration, rate, slip) -> (normal, tangential)``. ground_z: m.
-        planar: only X slip (planar models).
+        planar: only X slip (planar models). belt_velocity: m/s along X of the ground
+        surface (0: fixed floor).
     """
 
     model: RigidBodyModel
@@ -139,6 +142,7 @@ class GroundContact:
     contact: object
     ground_z: float = 0.0
     planar: bool = False
+    belt_velocity: float = 0.0
     last_forces: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -155,7 +159,7 @@ class GroundContact:
                 continue
             vel = pin.getFrameVelocity(pm, data, fid, LWA).linear
             depth, rate = self.ground_z - z, -vel[2]
-            normal, tx = self.contact.force(depth, rate, vel[0])
+            normal, tx = self.contact.force(depth, rate, vel[0] - self.belt_velocity)
             out[i, 0], out[i, 2] = float(tx), float(normal)
             if not self.planar:
                 out[i, 1] = float(self.contact.force(depth, rate, vel[1])[1])
@@ -177,7 +181,8 @@ class PartitionedSystem:
 
     Args:
         model: Any predgait model (planar root or free flyer).
-        free: Velocity indices integrated (for a free-flyer root: all of 0..5 or none).
+        free: Velocity indices integrated (for a free-flyer root: all of 0..5, only the
+            translation 0..2, or none).
         motion: t -> (q, v, a) full vectors; the prescribed entries are used (e.g.
             :class:`MotionHistory`). The free entries are ignored.
         forces: Applied generalised forces (see module docstring).
@@ -193,15 +198,19 @@ class PartitionedSystem:
         if not free or free[0] < 0 or free[-1] >= pm.nv:
             raise InputError(f"free velocity indices {free} must be within 0..{pm.nv - 1}.")
         self.free_flyer = pm.nq != pm.nv
-        if self.free_flyer and 0 < len(set(free) & set(range(6))) < 6:
+        root = len(set(free) & set(range(6))) if self.free_flyer else 0
+        if root not in (0, 6) and set(free) & set(range(6)) != {0, 1, 2}:
             raise InputError("the free-flyer pelvis is free or prescribed as a whole "
-                             "(velocity rows 0..5).")
-        self.root_free = self.free_flyer and 0 in free
+                             "(velocity rows 0..5), or only its translation is free "
+                             "(rows 0..2).")
+        self.root_free = root == 6
+        self.root_v = root  # free root velocity rows: 0, 3 (translation) or 6
+        self.root_q = {0: 0, 3: 3, 6: 7}[root]  # free root configuration entries
         self.free = np.array(free, dtype=int)
         self.pres = np.array([i for i in range(pm.nv) if i not in free], dtype=int)
         offset = pm.nq - pm.nv  # 1 for a free flyer: joint rows shift by one in q
         joint_q = [i + offset for i in free if not (self.free_flyer and i < 6)]
-        self.q_free = np.array((list(range(7)) if self.root_free else []) + joint_q, dtype=int)
+        self.q_free = np.array(list(range(self.root_q)) + joint_q, dtype=int)
         self.nqf, self.nvf = self.q_free.size, self.free.size
         self._lower = np.tril_indices(pm.nv, -1)
         self._ff, self._fp = np.ix_(self.free, self.free), np.ix_(self.free, self.pres)
@@ -214,11 +223,8 @@ class PartitionedSystem:
 
     def state_names(self) -> list[str]:
         """Names of the state entries (for messages and output columns)."""
-        pm = self.pm
-        names = []
-        if self.root_free:
-            names += ["pelvis_tx", "pelvis_ty", "pelvis_tz", "pelvis_qx", "pelvis_qy",
-                      "pelvis_qz", "pelvis_qw"]
+        names = ["pelvis_tx", "pelvis_ty", "pelvis_tz", "pelvis_qx", "pelvis_qy",
+                 "pelvis_qz", "pelvis_qw"][: self.root_q]
         v_names = self.velocity_names()
         joint_rows = [i for i in self.free if not (self.free_flyer and i < 6)]
         names += [v_names[i] for i in joint_rows]
@@ -284,16 +290,14 @@ class PartitionedSystem:
     def configuration_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """d q_f / dt from the full q, v."""
         rate = np.empty(self.nqf)
-        k = 0
-        if self.root_free:
+        if self.root_q:
             quat = q[3:7]
-            rot = pin.Quaternion(quat[3], *quat[:3]).toRotationMatrix()
+            rate[:3] = pin.Quaternion(quat[3], *quat[:3]).toRotationMatrix() @ v[:3]
+        if self.root_free:
             w = v[3:6]
-            rate[:3] = rot @ v[:3]
             rate[3:6] = 0.5 * (quat[3] * w + np.cross(quat[:3], w))
             rate[6] = -0.5 * quat[:3] @ w
-            k = 7
-        rate[k:] = v[self.free[6:] if self.root_free else self.free]
+        rate[self.root_q:] = v[self.free[self.root_v:]]
         return rate
 
     def __call__(self, t: float, x: np.ndarray) -> np.ndarray:

@@ -139,7 +139,11 @@ def _filter_q(model: Model3D, time: np.ndarray, q: np.ndarray, cutoff: float | N
 
 @dataclass(frozen=True, eq=False)
 class Inverse3DResult:
-    """Everything the whole-body pipeline computed."""
+    """Everything the whole-body pipeline computed.
+
+    ``plates`` are resampled at the IK times; ``sides`` (n_plates, n) says which foot
+    ("r", "l" or "") each plate loads at each frame (:func:`assign_plates`).
+    """
 
     model: Model3D
     ik: IKResult
@@ -150,6 +154,7 @@ class Inverse3DResult:
     plates: tuple[ForcePlate, ...]
     stances: list[Stance]
     provenance: dict
+    sides: np.ndarray | None = None
 
 
 def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map: MarkerMap, *,
@@ -194,7 +199,8 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}",
         "coordinate_cutoff_hz": cutoff, "window_s": [float(ik.time[0]), float(ik.time[-1])],
     }
-    return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance)
+    return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance,
+                           sides)
 
 
 def summary(result: Inverse3DResult) -> dict:

@@ -12,6 +12,9 @@ Kinds (``kind = "..."`` at the top of the file):
 * ``gait7``: the planar 7-link model on the measured trial, feet on heel/toe contacts,
   HAT height free (2.3.1, 2.4, Fig. 2.4.1); knee-driven runs to a fall
   (:mod:`predgait.workflows.gait7_spec`).
+* ``fullbody``: the 35-DOF body driven by its 3D inverse-dynamics moments or motions,
+  pelvis prescribed or free, measured or contact ground (2.3.2, 2.4, Figs. 2.4.2-2.4.3;
+  :mod:`predgait.workflows.forward3d_spec`).
 
 Strings become enums here; unknown keys are refused with their line.
 """
@@ -27,7 +30,7 @@ from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.errors import InputError
 from predgait.problemfile import Table, load_problem
 
-KINDS = ("rod", "collapse", "resynthesis", "gait7")
+KINDS = ("rod", "collapse", "resynthesis", "gait7", "fullbody")
 
 
 @dataclass(frozen=True)
@@ -154,6 +157,10 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
         from predgait.workflows.gait7_spec import parse_gait7
 
         return parse_gait7(table, integrator, source)
+    if kind == "fullbody":
+        from predgait.workflows.forward3d_spec import parse_fullbody
+
+        return parse_fullbody(table, integrator, source)
     if kind == "rod":
         table.check_keys(("kind", "integrator", "rod"))
         rod = table.table("rod")

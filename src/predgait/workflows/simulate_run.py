@@ -87,6 +87,12 @@ def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
         from predgait.workflows.gait7_run import run_gait7
 
         return run_gait7(spec, folder, progress=progress)
+    from predgait.workflows.forward3d_spec import FullbodySpec
+
+    if isinstance(spec, FullbodySpec):
+        from predgait.workflows.forward3d_run import run_fullbody
+
+        return run_fullbody(spec, folder, progress=progress)
     raise InputError(f"unknown spec {spec!r}")
 
 

@@ -1,0 +1,409 @@
+"""Forward dynamics of the 35-DOF whole body driven by its own 3D inverse dynamics.
+
+Thesis 2.3.2 and 2.4 (Figs. 2.4.2-2.4.3): the ADAMS/Android body was driven by the
+joint moments or the joint motions found in the inverse problem; with the pelvis
+orientation and all joints kinematic it walked, with the pelvis orientation free it
+fell at t = 0.55 s. Here the same experiments run on the Pinocchio body of
+:mod:`predgait.workflows.inverse3d` through :mod:`predgait.dynamics.partitioned`:
+
+* pelvis ``prescribed`` (follows the measured motion), ``translation`` (orientation
+  prescribed, position free: the thesis' stable case) or ``free`` (6 DOF);
+* joints driven by the inverse-dynamics ``moments`` or ``kinematic`` (the IK angles);
+* ground: the ``measured`` plate wrenches on the foot each plate was assigned to in
+  inverse dynamics, or ``contact`` springs at the foot sole points
+  (:class:`~predgait.dynamics.contact.ImpactContact` with Coulomb friction).
+
+Prescribed coordinates follow exactly the q, v, a inverse dynamics used (splines of the
+samples); moments are splined, plate wrenches linearly interpolated. A run stops at a
+fall: the pelvis dropping more than ``pelvis_drop`` below the measured height, a pelvis
+Cardan angle (obliquity X, tilt Y, rotation Z) or a joint angle deviating more than a
+limit from the measured one.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.dynamics.contact import ImpactContact
+from predgait.dynamics.drivers import SampledHistory
+from predgait.dynamics.external import Load
+from predgait.dynamics.integrators import Direction, Event, IntegratorOptions, Status
+from predgait.dynamics.inverse3d import FEET, sole_points
+from predgait.dynamics.partitioned import (
+    GroundContact,
+    JointTorques,
+    MeasuredLoads,
+    MotionHistory,
+    PartitionedSystem,
+    simulate_partitioned,
+)
+from predgait.errors import InputError, SimulationDiverged
+from predgait.kinematics.ik3d import pelvis_cardan
+from predgait.models.fullbody import CONTACTS
+from predgait.models.loading3d import Model3D
+
+PELVIS_ANGLES = ("pelvis obliquity", "pelvis tilt", "pelvis rotation")  # Cardan X, Y, Z
+
+
+class PelvisMode(enum.Enum):
+    """How the pelvis (free-flyer root) moves."""
+
+    PRESCRIBED = "prescribed"
+    TRANSLATION = "translation"
+    FREE = "free"
+
+
+class JointMode(enum.Enum):
+    """What drives the 29 joint coordinates."""
+
+    MOMENTS = "moments"
+    KINEMATIC = "kinematic"
+
+
+class GroundMode(enum.Enum):
+    """Where the ground reaction comes from."""
+
+    MEASURED = "measured"
+    CONTACT = "contact"
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One simulation set-up: a name, the three choices and the joints kept kinematic.
+
+    ``kinematic_joints`` mixes moments and motions (thesis 2.3.2): joints whose name
+    starts with one of these (e.g. "ankle", "knee_r_z") follow the IK when the other
+    joints are driven by moments.
+    """
+
+    name: str = "main"
+    pelvis: PelvisMode = PelvisMode.PRESCRIBED
+    joints: JointMode = JointMode.MOMENTS
+    ground: GroundMode = GroundMode.MEASURED
+    kinematic_joints: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class FallLimits:
+    """Terminal events, all relative to the measured motion at the same time.
+
+    Attributes:
+        pelvis_drop: m, pelvis origin this far below its measured height = fall.
+        pelvis_angle_deg: deg, a pelvis Cardan angle this far from the measured one.
+        joint_deg: deg, a joint angle this far from the measured one (None: no limit).
+    """
+
+    pelvis_drop: float = 0.1
+    pelvis_angle_deg: float = 30.0
+    joint_deg: float | None = 45.0
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """Foot-ground contact of ``ground = "contact"``.
+
+    Attributes:
+        contact: Point contact law, one per frame.
+        frames: Model frames in contact (default the heel and toe sole points).
+        ground_z: m, floor height; None = estimated from the measured motion.
+        belt_velocity: m/s along X of the ground surface (treadmill belt); None =
+            estimated from the measured motion (:func:`measured_ground`).
+    """
+
+    contact: ImpactContact = field(default_factory=lambda: ImpactContact(friction=0.8))
+    frames: tuple[str, ...] = CONTACTS
+    ground_z: float | None = None
+    belt_velocity: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class FullbodyDrive:
+    """Measured whole-body motion and its inverse dynamics, the input of re-synthesis.
+
+    Attributes:
+        model: The body inverse dynamics used.
+        time: (n,) s. q: (n, nq). v, a: (n, nv) (Pinocchio's velocities).
+        tau: (n, nv) inverse-dynamics generalised forces (rows 6.. joint moments, N m).
+        foot_wrench: Side ("r"/"l") -> (n, 6) ground wrench on that foot in the lab,
+            force (N) then moment about the lab origin (N m).
+        heel_strikes: Times at which a foot starts a stance, s.
+        source: Provenance text.
+    """
+
+    model: Model3D
+    time: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    tau: np.ndarray
+    foot_wrench: Mapping[str, np.ndarray]
+    heel_strikes: tuple[float, ...] = ()
+    source: str = ""
+
+    @classmethod
+    def from_inverse(cls, result) -> FullbodyDrive:
+        """From a :class:`~predgait.workflows.inverse3d.Inverse3DResult`."""
+        if result.sides is None:
+            raise InputError("the inverse result has no plate-to-foot assignment (sides).")
+        starts = sorted({s.start for s in result.stances if s.start > result.ik.time[0]})
+        return cls(result.model, result.ik.time, result.q, result.v, result.a,
+                   result.dynamics.tau, foot_wrenches(result.plates, result.sides),
+                   tuple(starts), str(result.provenance.get("trial", "")))
+
+
+def foot_wrenches(plates, sides: np.ndarray) -> dict[str, np.ndarray]:
+    """Sum the plates on each foot as (n, 6) lab wrenches about the origin (N, N m).
+
+    The wrench of a plate is its force F at its COP plus its free moment:
+    (F, cop x F + free_moment), the load inverse dynamics applied.
+    """
+    n = sides.shape[1]
+    out = {s: np.zeros((n, 6)) for s in FEET}
+    for p, plate in enumerate(plates):
+        moment = np.cross(plate.cop, plate.force) + plate.free_moment
+        for s in FEET:
+            on = sides[p] == s
+            out[s][on, :3] += plate.force[on]
+            out[s][on, 3:] += moment[on]
+    return out
+
+
+def measured_ground(drive: FullbodyDrive, frames=CONTACTS, *, threshold: float = 20.0
+                    ) -> tuple[float, float]:
+    """Floor height (m) and belt velocity along X (m/s) seen in the measured motion.
+
+    Floor: median over frames of the lowest contact frame (a sole is on the floor).
+    Belt: median X velocity of the loaded feet's sole mid-points (vertical load above
+    ``threshold`` N); about 0 over ground, the belt speed on a treadmill.
+    """
+    model = drive.model
+    pm, data = model.pin_model, model.pin_model.createData()
+    ids = [model.frame_id(f) for f in frames]
+    lowest = []
+    for row in drive.q:
+        pin.framesForwardKinematics(pm, data, row)
+        lowest.append(min(data.oMf[i].translation[2] for i in ids))
+    soles = sole_points(model, drive.q)
+    speeds = [np.gradient(soles[s][:, 0], drive.time)[w[:, 2] > threshold]
+              for s, w in drive.foot_wrench.items()]
+    speeds = np.concatenate(speeds)
+    return float(np.median(lowest)), float(np.median(speeds)) if speeds.size else 0.0
+
+
+def free_rows(mode: Mode, joint_names) -> list[int]:
+    """Velocity rows integrated in ``mode``."""
+    pelvis = {PelvisMode.PRESCRIBED: [], PelvisMode.TRANSLATION: [0, 1, 2],
+              PelvisMode.FREE: list(range(6))}[mode.pelvis]
+    unknown = [k for k in mode.kinematic_joints
+               if not any(n.startswith(k) for n in joint_names)]
+    if unknown:
+        raise InputError(f"variant {mode.name!r}: kinematic joint {unknown[0]!r} matches no "
+                         f"joint; joints: {', '.join(joint_names)}.")
+    joints = [6 + i for i, n in enumerate(joint_names) if mode.joints is JointMode.MOMENTS
+              and not n.startswith(tuple(mode.kinematic_joints))]
+    if not pelvis and not joints:
+        raise InputError(f"variant {mode.name!r}: pelvis prescribed and joints kinematic "
+                         "leaves nothing to simulate; free the pelvis or drive the joints "
+                         "by moments.")
+    return pelvis + joints
+
+
+def build_system(drive: FullbodyDrive, mode: Mode, *, contact: ContactSettings | None = None
+                 ) -> tuple[PartitionedSystem, MotionHistory, GroundContact | None]:
+    """The partitioned system of ``mode`` and the measured motion history it follows."""
+    model, nv = drive.model, drive.model.nv
+    history = MotionHistory(model, drive.time, drive.q, drive.v, drive.a)
+    forces, ground = [], None
+    if mode.joints is JointMode.MOMENTS:
+        torque = SampledHistory(drive.time, drive.tau[:, 6:], name="joint moments")
+        forces.append(JointTorques(np.arange(6, nv), torque))
+    if mode.ground is GroundMode.MEASURED:
+        forces.append(MeasuredLoads(model, _measured_loads(drive)))
+    else:
+        contact = contact or ContactSettings()
+        z, belt = measured_ground(drive, contact.frames)
+        z = z if contact.ground_z is None else contact.ground_z
+        belt = belt if contact.belt_velocity is None else contact.belt_velocity
+        ground = GroundContact(model, contact.frames, contact.contact, ground_z=z,
+                               belt_velocity=belt)
+        forces.append(ground)
+    system = PartitionedSystem(model, free_rows(mode, model.joint_names), history, forces)
+    return system, history, ground
+
+
+def _measured_loads(drive: FullbodyDrive):
+    """Foot wrenches splined like the moments (so the two stay consistent in between)."""
+    wrench = {s: SampledHistory(drive.time, w, name=f"ground wrench on foot_{s}")
+              for s, w in drive.foot_wrench.items() if np.any(w)}
+
+    def loads(t, data):
+        rows = {side: w(t) for side, w in wrench.items()}
+        return [Load(f"foot_{side}", row[:3], np.zeros(3), row[3:])
+                for side, row in rows.items() if row.any()]
+
+    return loads
+
+
+def fastest_growth(system: PartitionedSystem, t: float, x: np.ndarray, *,
+                   eps: float = 1e-6) -> tuple[float, str]:
+    """Fastest linear growth at (t, x): largest Re(eigenvalue) of df/dx, 1/s.
+
+    Positive = unstable, 1/rate the e-folding time. Returns it with the state leading
+    its eigenvector. df/dx by central differences of the right-hand side.
+    """
+    n = x.size
+    jac = np.empty((n, n))
+    for i in range(n):
+        step = np.zeros(n)
+        step[i] = eps
+        jac[:, i] = (system(t, x + step) - system(t, x - step)) / (2 * eps)
+    values, vectors = np.linalg.eig(jac)
+    k = int(np.argmax(values.real))
+    lead = int(np.argmax(np.abs(vectors[: system.nqf, k])))
+    return float(values[k].real), system.state_names()[lead]
+
+
+def fall_events(system: PartitionedSystem, history: MotionHistory,
+                limits: FallLimits) -> list[Event]:
+    """Terminal fall events for the free coordinates of ``system`` (g < 0 = fallen)."""
+    events = []
+    root = 7 if system.root_free else (3 if 0 in system.free else 0)
+    if root:
+        def height(t, x):
+            return x[2] - history(t)[0][2] + limits.pelvis_drop
+
+        events.append(Event("pelvis height", height, Direction.FALLING))
+    if system.root_free:
+        limit = np.radians(limits.pelvis_angle_deg)
+        for axis, name in enumerate(PELVIS_ANGLES):
+            def angle(t, x, axis=axis):
+                return limit - abs(_pelvis_angle_error(x[:7], history(t)[0])[axis])
+
+            events.append(Event(name, angle, Direction.FALLING))
+    joints = system.q_free[root:]
+    if limits.joint_deg is not None and joints.size:
+        limit = np.radians(limits.joint_deg)
+
+        def joint(t, x):
+            return limit - np.max(np.abs(x[root:system.nqf] - history(t)[0][joints]))
+
+        events.append(Event("joint angle", joint, Direction.FALLING))
+    return events
+
+
+def _pelvis_angle_error(simulated, measured) -> np.ndarray:
+    """Cardan X, Y, Z of the simulated minus the measured pelvis, wrapped to +-pi, rad."""
+    sim = np.concatenate([simulated[:3], simulated[3:7] / np.linalg.norm(simulated[3:7])])
+    diff = pelvis_cardan(sim)[0] - pelvis_cardan(measured)[0]
+    return (diff + np.pi) % (2 * np.pi) - np.pi
+
+
+@dataclass(frozen=True, eq=False)
+class Forward3DRun:
+    """One simulated mode.
+
+    Attributes:
+        mode: What was simulated.
+        t: (n,) s. q: (n, nq) simulated configurations. measured: (n, nq) at ``t``.
+        status: "completed", "fell" or "diverged".
+        time_to_fall: s after the start (None if it did not fall).
+        fall_criterion: What fell (event name, joint named), or None.
+        message: How the run ended.
+        deviation: :func:`deviations` of the run.
+        growth: (rate 1/s, leading state) of :func:`fastest_growth` at the start.
+        ground_z, belt_velocity: m, m/s, floor of contact runs (None for measured loads).
+    """
+
+    mode: Mode
+    t: np.ndarray
+    q: np.ndarray
+    measured: np.ndarray
+    status: str
+    time_to_fall: float | None
+    fall_criterion: str | None
+    message: str
+    deviation: dict
+    growth: tuple[float, str]
+    ground_z: float | None = None
+    belt_velocity: float | None = None
+
+
+def simulate_fullbody(drive: FullbodyDrive, mode: Mode, t_span: tuple[float, float], *,
+                      options: IntegratorOptions | None = None,
+                      fall: FallLimits = FallLimits(), contact: ContactSettings | None = None,
+                      band_deg: float = 5.0, band_m: float = 0.05,
+                      progress: bool = False) -> Forward3DRun:
+    """Simulate ``mode`` over ``t_span`` (s, trial time) from the measured state.
+
+    A divergence is reported as status "diverged" with what was computed until then.
+    Default integrator: RK4, 1 ms.
+    """
+    options = options or IntegratorOptions()
+    t0, t1 = (float(t) for t in t_span)
+    if not drive.time[0] <= t0 < t1 <= drive.time[-1] + 1e-9:
+        raise InputError(f"simulation {t0:g}..{t1:g} s is outside the trial "
+                         f"{drive.time[0]:.3f}..{drive.time[-1]:.3f} s.")
+    system, history, ground = build_system(drive, mode, contact=contact)
+    q0, v0, _ = history(t0)
+    x0 = system.state(q0, v0)
+    growth = fastest_growth(system, t0, x0)
+    try:
+        run = simulate_partitioned(system, (t0, t1), x0, options=options,
+                                   events=fall_events(system, history, fall),
+                                   progress=progress)
+        status = "fell" if run.integration.status is Status.EVENT else "completed"
+    except SimulationDiverged as exc:
+        run, status = exc.partial, "diverged"
+    measured = np.array([history(t)[0] for t in run.t])
+    criterion, fall_time = None, None
+    if status == "fell":
+        criterion, fall_time = run.integration.event_name, run.integration.event_time - t0
+        if criterion == "joint angle":
+            worst = np.argmax(np.abs(run.q[-1, 7:] - measured[-1, 7:]))
+            criterion = f"joint angle {drive.model.joint_names[worst]}"
+    dev = deviations(run.t, run.q, measured, drive.model.joint_names,
+                     band_deg=band_deg, band_m=band_m)
+    return Forward3DRun(mode, run.t, run.q, measured, status, fall_time, criterion,
+                        run.integration.message, dev, growth,
+                        *((ground.ground_z, ground.belt_velocity) if ground else (None, None)))
+
+
+def deviations(t: np.ndarray, q: np.ndarray, measured: np.ndarray, joint_names, *,
+               band_deg: float = 5.0, band_m: float = 0.05) -> dict:
+    """Simulated minus measured motion: RMS, max and when it first leaves a band.
+
+    Joint angles and pelvis Cardan angles in deg (band ``band_deg``), pelvis position as
+    the distance in m (band ``band_m``); times in s after ``t[0]``, None = never.
+    """
+    joints = np.degrees(q[:, 7:] - measured[:, 7:])
+    pelvis_angles = np.degrees(np.array([_pelvis_angle_error(a, b)
+                                         for a, b in zip(q, measured, strict=True)]))
+    distance = np.linalg.norm(q[:, :3] - measured[:, :3], axis=1)
+
+    def first(over):
+        return float(t[np.argmax(over)] - t[0]) if over.any() else None
+
+    worst = np.unravel_index(np.argmax(np.abs(joints)), joints.shape)
+    leaving = np.abs(joints) > band_deg
+    who = joint_names[int(np.argmax(leaving[np.argmax(leaving.any(axis=1))]))] \
+        if leaving.any() else None
+    return {
+        "band_deg": band_deg, "band_m": band_m,
+        "joint_rms_deg": float(np.sqrt(np.mean(joints**2))),
+        "joint_max_deg": float(np.abs(joints).max()),
+        "joint_max_name": joint_names[worst[1]],
+        "joint_leaves_band_s": first(leaving.any(axis=1)), "joint_leaving_band": who,
+        "joint_rms_deg_each": dict(zip(joint_names, np.sqrt(np.mean(joints**2, axis=0))
+                                       .tolist(), strict=True)),
+        "pelvis_position_rms_m": float(np.sqrt(np.mean(distance**2))),
+        "pelvis_position_max_m": float(distance.max()),
+        "pelvis_position_leaves_band_s": first(distance > band_m),
+        "pelvis_angle_rms_deg": float(np.sqrt(np.mean(pelvis_angles**2))),
+        "pelvis_angle_max_deg": float(np.abs(pelvis_angles).max()),
+        "pelvis_angle_leaves_band_s": first(np.abs(pelvis_angles).max(axis=1) > band_deg),
+    }

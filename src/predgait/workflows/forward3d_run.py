@@ -1,0 +1,124 @@
+"""Run a ``kind = "fullbody"`` spec and write its result folder.
+
+Whole-body IK + ID of the trial, then one forward simulation per variant.
+
+Files: ``states_<variant>.sto`` per variant (``..._partial.sto`` if it diverged; pelvis
+position m, pelvis Cardan X-Y-Z and joint angles deg, like ``kinematics3d.sto``),
+``summary.json`` (per variant: status, time to fall and what fell, deviations from the
+measured motion, fastest linear growth at the start) and ``fullbody.png``.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from predgait import __version__
+from predgait.data import read_trc, write_storage
+from predgait.data.bundled import bundled_path, subject_info
+from predgait.kinematics.ik3d import pelvis_cardan
+from predgait.workflows.forward3d import Forward3DRun, FullbodyDrive, simulate_fullbody
+from predgait.workflows.forward3d_spec import FullbodySpec, TrialSpec
+
+
+def inverse_for(trial: TrialSpec):
+    """Whole-body IK + ID of the spec's trial (an Inverse3DResult)."""
+    from predgait.workflows.inverse3d import inverse_fullbody, read_marker_map, read_trial
+
+    if trial.files is None:
+        folder = bundled_path("subject01_walk1")
+        info = subject_info("subject01_walk1")
+        files = (folder / "subject01_walk1.trc", folder / "subject01_walk1_grf.mot")
+        static = trial.static or folder / "subject01_static.trc"
+        mass, height = trial.mass or info["mass"], trial.height or info["height"]
+    else:
+        files, static, mass, height = trial.files, trial.static, trial.mass, trial.height
+    markers, plates = read_trial(files)
+    return inverse_fullbody(markers, plates, read_marker_map(trial.marker_map), mass=mass,
+                            height=height, sex=trial.sex,
+                            static=read_trc(static) if static else None, cutoff=trial.cutoff)
+
+
+def _slug(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_").lower() or "run"
+
+
+def write_states(folder: Path, run: Forward3DRun, joint_names, header: dict) -> Path:
+    """``states_<variant>.sto`` (``_partial`` if it diverged): m and deg."""
+    cols = {f"pelvis_t{a}": run.q[:, i] for i, a in enumerate("xyz")}
+    cols |= {f"pelvis_r{a}": np.degrees(c)
+             for a, c in zip("xyz", pelvis_cardan(run.q).T, strict=True)}
+    cols |= {n: np.degrees(run.q[:, 7 + i]) for i, n in enumerate(joint_names)}
+    tail = "_partial" if run.status == "diverged" else ""
+    path = folder / f"states_{_slug(run.mode.name)}{tail}.sto"
+    write_storage(path, run.t, cols, in_degrees=True, header=header | {
+        "variant": run.mode.name, "status": run.status,
+        "units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)"})
+    return path
+
+
+def _row(run: Forward3DRun, t0: float) -> dict:
+    rate, lead = run.growth
+    return {"name": run.mode.name, "pelvis": run.mode.pelvis.value,
+            "joints": run.mode.joints.value, "ground": run.mode.ground.value,
+            "kinematic_joints": list(run.mode.kinematic_joints), "status": run.status,
+            "time_to_fall_s": run.time_to_fall, "fall_criterion": run.fall_criterion,
+            "simulated_s": float(run.t[-1] - t0), "message": run.message,
+            "growth_at_start": {"rate_per_s": rate,
+                                "e_folding_s": 1.0 / rate if rate > 0 else None,
+                                "leading_state": lead},
+            "floor_z_m": run.ground_z, "belt_velocity_m_per_s": run.belt_velocity,
+            "deviation": run.deviation}
+
+
+def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) -> dict:
+    """Run every variant of ``spec`` into ``folder``; returns the summary."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from predgait.errors import InputError
+    from predgait.report.fullbody_plots import plot_fullbody_runs
+
+    inverse = inverse_for(spec.trial)
+    drive = FullbodyDrive.from_inverse(inverse)
+    t0 = spec.start if spec.start is not None else next(iter(drive.heel_strikes),
+                                                         float(drive.time[0]))
+    t1 = t0 + spec.duration
+    if not drive.time[0] <= t0 < t1 <= drive.time[-1] + 1e-9:
+        raise InputError(f"{spec.source}: simulation {t0:g}..{t1:g} s (simulation.start, "
+                         f"simulation.duration) is outside the trial {drive.time[0]:.3f}.."
+                         f"{drive.time[-1]:.3f} s.")
+    names = drive.model.joint_names
+    prov = {"problem": spec.source, "trial": drive.source, "predgait": __version__,
+            "model": inverse.provenance.get("model", "")}
+    runs = []
+    for mode in spec.variants:
+        runs.append(simulate_fullbody(drive, mode, (t0, t1), options=spec.integrator,
+                                      fall=spec.fall, contact=spec.contact,
+                                      band_deg=spec.band_deg, band_m=spec.band_m,
+                                      progress=progress))
+    header = {"provenance": "; ".join(f"{k}={v}" for k, v in prov.items()),
+              "start_s": f"{t0:.6g}"}
+    for run in runs:
+        write_states(folder, run, names, header)
+    fig = plot_fullbody_runs(runs, names, t0=t0)
+    fig.savefig(folder / "fullbody.png", dpi=110)
+    plt.close(fig)
+    rows = [_row(run, t0) for run in runs]
+    options = spec.integrator
+    summary = {
+        "kind": "fullbody",
+        "status": "diverged" if any(r.status == "diverged" for r in runs) else "completed",
+        "message": "; ".join(f"{r.mode.name}: {r.message}" for r in runs),
+        "time_to_fall_s": runs[0].time_to_fall, "time_span_s": [t0, t1],
+        "integrator": {"method": options.method.value, "step_s": options.step,
+                       "iterations": options.iterations, "rtol": options.rtol,
+                       "atol": options.atol},
+        "fall_limits": vars(spec.fall), "runs": rows, "provenance": prov}
+    (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    return summary
