@@ -42,7 +42,7 @@ class IKOptions:
 
     max_iterations: int = 50
     tolerance: float = 1e-4
-    damping: float = 1e-6
+    damping: float = 1e-3
     flag_rms: float = 0.05
     cost_tolerance: float = 1e-6
 
