@@ -17,12 +17,15 @@ import pinocchio as pin
 import pytest
 
 from predgait.cli import main
+from predgait.data import read_trc
+from predgait.data.frames import rotate_markers
 from predgait.dynamics.contact import MeglanContact
 from predgait.dynamics.contact_fit import fit_impact_to_meglan
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.partitioned import GroundContact, PartitionedSystem
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError
+from predgait.kinematics.joint_centres import harrington_hip
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.workflows.gait7_motion import (
     SIDES,
@@ -38,6 +41,7 @@ from predgait.workflows.gait7_sim import (
     kinematic_run,
     knee_run,
 )
+from predgait.workflows.inverse import bundled_options, read_trial
 from predgait.workflows.simulate import parse_spec
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "gait7_contact.toml"
@@ -137,6 +141,38 @@ def test_simulated_vertical_grf_follows_the_plates(model, motion, window, kinema
     z = model.coordinate_index("base_z")
     dz = kinematic.run.q[:, z] - np.interp(kinematic.run.t, motion.time, motion.q[:, z])
     assert np.std(dz) < 0.01  # HAT height follows the measured hip within 1 cm RMS
+
+
+def test_floor_is_the_plate_surface_and_walking_sits_as_static_standing(model, motion,
+                                                                         kinematic):
+    """ground_z = the plates' COP height; the HAT offset in walking matches standing.
+
+    Standing feet flat on that floor (static trial), gait7's hip is lower than the
+    subject's (Harrington) hip centre: regression thigh + shank + ankle height 0.956 m
+    vs 0.989 m measured, plus the m g / (4 k) sink. Walking on the same floor, the mean
+    HAT offset from the measured hip must be that offset within 1.5 cm (single support
+    doubles the load per point: about 0.8 cm more sink).
+    """
+    options = bundled_options()
+    trial, turn = read_trial(options)
+    cop_z = np.concatenate([p.cop[p.force[:, 2] > 20.0, 2] for p in trial.plates])
+    ground_z = parse_spec(PROBLEM).ground_z
+    assert ground_z == pytest.approx(np.median(cop_z), abs=1e-4)
+    static = rotate_markers(read_trc(options.static), turn)
+    pelvis = [static.get(n) for n in ("R.ASIS", "L.ASIS", "V.Sacral")]
+    hip_z = np.mean([harrington_hip(*pelvis, side=s)[:, 2].mean() for s in SIDES])
+    pm = model.pin_model
+    q = np.zeros(pm.nq)
+    ground = GroundContact(model, CONTACT_FRAMES, fit_impact_to_meglan().contact,
+                           ground_z=ground_z, planar=True)
+    system = PartitionedSystem(model, [1], lambda t: (q.copy(), np.zeros(pm.nv),
+                                                      np.zeros(pm.nv)), [ground])
+    standing = initial_height(system, 0.0, 1, 0.0) - hip_z
+    assert -0.06 < standing < -0.02
+    z = model.coordinate_index("base_z")
+    walking = np.mean(kinematic.run.q[:, z]
+                      - np.interp(kinematic.run.t, motion.time, motion.q[:, z]))
+    assert walking == pytest.approx(standing, abs=0.015)
 
 
 def _knee(model, motion, kinematic, source, k, c):

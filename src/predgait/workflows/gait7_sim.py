@@ -238,13 +238,14 @@ def stances(fz: np.ndarray, threshold: float = 20.0) -> list[slice]:
 def grf_comparison(t: np.ndarray, simulated: np.ndarray, measured: np.ndarray) -> dict:
     """RMS difference (N), correlation and per-stance peaks of two vertical GRF series.
 
-    Stances are the measured contacts (> 20 N) inside ``t``; a stance cut by the ends
-    of the window is marked ``complete = False``.
+    Stances are the measured contacts (> 20 N) inside ``t``; one cut by the ends of the
+    window (force above 40 N at its first or last sample) has ``complete = False``.
     """
     rows = []
     for s in stances(measured):
+        edges = max(measured[s.start], measured[s.stop - 1])
         rows.append({"start_s": float(t[s.start]), "end_s": float(t[s.stop - 1]),
-                     "complete": s.start > 0 and s.stop < len(t),
+                     "complete": bool(edges < 40.0),
                      "peak_measured_n": float(measured[s].max()),
                      "peak_simulated_n": float(simulated[s].max())})
     return {"rms_n": float(np.sqrt(np.mean((simulated - measured) ** 2))),
