@@ -34,17 +34,18 @@ class IKOptions:
     Attributes:
         max_iterations: per frame (the first frame gets 5x).
         tolerance: stop when |dv| < tolerance (rad or m).
-        cost_tolerance: or when a step lowers the cost by less than this fraction (the
-            large-residual arm fit creeps along flat valleys otherwise).
+        cost_tolerance: or when a step lowers the cost by less than this fraction: weakly
+            observed directions (an arm's axial rotation with the elbow straight) otherwise
+            creep for tens of iterations while the fit changes by micrometres.
         damping: Levenberg-Marquardt lambda, m^2 (regularises unobserved directions).
         flag_rms: m; frames whose marker RMS exceeds it are flagged too.
     """
 
     max_iterations: int = 50
     tolerance: float = 1e-4
-    damping: float = 1e-3
+    damping: float = 1e-4
     flag_rms: float = 0.05
-    cost_tolerance: float = 1e-6
+    cost_tolerance: float = 1e-4
 
 
 @dataclass(frozen=True, eq=False)
