@@ -1,0 +1,222 @@
+"""Whole-body forward dynamics driven by its 3D inverse dynamics (workflows.forward3d).
+
+Known answers: a synthesized motion with consistent foot wrenches is reproduced by its
+own inverse-dynamics moments (ID -> FD round trip, pelvis prescribed and free); with
+the translation alone free and no load the centre of mass falls ballistically; on the
+real subject01 walk the measured accelerations are recovered at the frames, the
+moment-driven body falls at the joint its linearisation says grows fastest, keeping the
+pelvis on its measured path keeps the joints in band longer than freeing it, and the
+thesis' kinematic experiment (2.4) falls with the pelvis orientation free but not with
+only its translation free.
+"""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from predgait.cli import main
+from predgait.data.storage import read_storage
+from predgait.dynamics.external import Load, joint_forces
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.inverse3d import velocities
+from predgait.errors import InputError
+from predgait.models.loading3d import load_fullbody
+from predgait.workflows.forward3d import (
+    FallLimits,
+    FullbodyDrive,
+    GroundMode,
+    JointMode,
+    Mode,
+    PelvisMode,
+    build_system,
+    simulate_fullbody,
+)
+from predgait.workflows.forward3d_run import inverse_for
+from predgait.workflows.simulate import parse_spec
+
+PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "fullbody_resynthesis.toml"
+RK4 = IntegratorOptions(method=Method.RK4, step=1e-3)
+
+
+# ------------------------------------------------------------------ synthetic
+def synthetic_drive(model, duration=0.08, rate=1000.0):
+    """Smooth walking-like motion at ``rate`` Hz; the pelvis root wrench of RNEA is
+    carried by the two feet (shares varying smoothly), so ID has zero pelvis residual."""
+    pm, data = model.pin_model, model.pin_model.createData()
+    rng = np.random.default_rng(3)
+    time = np.arange(0.0, duration + 0.5 / rate, 1.0 / rate)
+    amp, phase = rng.uniform(0.05, 0.3, 29), rng.uniform(0, 6, 29)
+    q = np.tile(model.neutral(), (time.size, 1))
+    q[:, 0] = 0.3 + 1.2 * time
+    q[:, 2] = 0.95 + 0.02 * np.sin(12 * time)
+    for k, t in enumerate(time):
+        rot = pin.rpy.rpyToMatrix(0.03 * np.sin(6 * t), 0.05, 0.1 * np.sin(6 * t))
+        q[k, 3:7] = pin.Quaternion(rot).coeffs()
+    q[:, 7:] = np.clip(amp * np.sin(2 * np.pi * time[:, None] + phase),
+                       pm.lowerPositionLimit[7:], pm.upperPositionLimit[7:])
+    v, a = velocities(model, time, q)
+    share = 0.5 + 0.3 * np.sin(8 * time)
+    wrench = {"r": np.zeros((time.size, 6)), "l": np.zeros((time.size, 6))}
+    tau = np.zeros((time.size, pm.nv))
+    for k in range(time.size):
+        root = pin.rnea(pm, data, q[k], v[k], a[k])[:6].copy()
+        pin.framesForwardKinematics(pm, data, q[k])
+        world = data.oMi[1].act(pin.Force(root))  # about the lab origin
+        wrench["r"][k] = share[k] * world.vector
+        wrench["l"][k] = (1 - share[k]) * world.vector
+        loads = [Load(f"foot_{s}", w[k, :3], np.zeros(3), w[k, 3:]) for s, w in wrench.items()]
+        tau[k] = pin.rnea(pm, data, q[k], v[k], a[k], joint_forces(model, data, loads))
+    return FullbodyDrive(model, time, q, v, a, tau, wrench, source="synthetic")
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    return synthetic_drive(load_fullbody())
+
+
+def test_synthetic_drive_is_consistent(synthetic):
+    weight = synthetic.model.total_mass() * 9.81
+    assert np.abs(synthetic.tau[:, :6]).max() < 1e-9 * weight  # no pelvis residual
+    assert synthetic.foot_wrench["r"][:, 2].min() > 0.2 * weight  # the feet carry the body
+
+
+@pytest.mark.parametrize("pelvis", [PelvisMode.PRESCRIBED, PelvisMode.FREE])
+def test_round_trip_inverse_to_forward(synthetic, pelvis):
+    """The ID moments and the foot wrenches reproduce the motion (0.03 s, RK4 0.5 ms)."""
+    fine = IntegratorOptions(method=Method.RK4, step=5e-4)
+    run = simulate_fullbody(synthetic, Mode(pelvis=pelvis), (0.01, 0.04), options=fine)
+    assert run.status == "completed" and run.t[-1] == pytest.approx(0.04)
+    dev = run.deviation
+    assert dev["joint_max_deg"] < 1e-3
+    assert dev["pelvis_position_max_m"] < 1e-5 and dev["pelvis_angle_max_deg"] < 1e-3
+    # Control: the same run without the ground wrench departs at once.
+    bare = FullbodyDrive(synthetic.model, synthetic.time, synthetic.q, synthetic.v,
+                         synthetic.a, synthetic.tau, {}, source="no ground")
+    wrong = simulate_fullbody(bare, Mode(pelvis=pelvis), (0.01, 0.04), options=fine)
+    assert wrong.deviation["joint_max_deg"] > 100 * dev["joint_max_deg"]
+
+
+def test_translation_only_pelvis_centre_of_mass_is_ballistic(synthetic):
+    """Orientation and joints prescribed supply moments only: with no ground the centre
+    of mass falls freely."""
+    model = synthetic.model
+    pm, data = model.pin_model, model.pin_model.createData()
+    bare = FullbodyDrive(model, synthetic.time, synthetic.q, synthetic.v, synthetic.a,
+                         synthetic.tau, {}, source="no ground")
+    mode = Mode(pelvis=PelvisMode.TRANSLATION, joints=JointMode.KINEMATIC)
+    system, history, _ = build_system(bare, mode)
+    assert system.state_names()[:3] == ["pelvis_tx", "pelvis_ty", "pelvis_tz"]
+    run = simulate_fullbody(bare, mode, (0.01, 0.07), fall=FallLimits(pelvis_drop=1.0))
+    q0, v0, _ = history(0.01)
+    c0 = pin.centerOfMass(pm, data, q0, v0).copy()
+    vc0 = data.vcom[0].copy()
+    t = run.t[-1] - 0.01
+    expected = c0 + vc0 * t + 0.5 * np.array([0.0, 0.0, -9.81]) * t**2
+    np.testing.assert_allclose(pin.centerOfMass(pm, data, run.q[-1]), expected, atol=1e-6)
+    # The orientation and joints followed the measured motion exactly.
+    np.testing.assert_allclose(run.q[-1, 3:], history(run.t[-1])[0][3:], atol=1e-12)
+
+
+# ---------------------------------------------------------------- subject01
+@pytest.fixture(scope="module")
+def subject01():
+    inverse = inverse_for(parse_spec(PROBLEM).trial)
+    return FullbodyDrive.from_inverse(inverse)
+
+
+def test_measured_accelerations_recovered_at_the_frames(subject01):
+    """Pelvis prescribed, joints driven by the ID moments, measured plate wrenches: at
+    every frame the free joints accelerate exactly as measured."""
+    system, history, _ = build_system(subject01, Mode())
+    for k in range(20, 140, 17):
+        t = subject01.time[k]
+        q, v, a = history(t)
+        a_free, _ = system.solve(t, q, v, a)
+        np.testing.assert_allclose(a_free, subject01.a[k, 6:], atol=1e-7)
+
+
+@pytest.mark.parametrize("pelvis", [PelvisMode.PRESCRIBED, PelvisMode.FREE])
+def test_moment_driven_body_falls_where_linearisation_grows_fastest(subject01, pelvis):
+    """The stance foot under the measured wrench is unstable with an e-folding time of
+    a few ms (2-5 g m^2 foot, ~100 N m at the ankle): the run falls there within 0.1 s."""
+    start = subject01.heel_strikes[0]
+    run = simulate_fullbody(subject01, Mode(pelvis=pelvis), (start, start + 0.3), options=RK4)
+    rate, leading = run.growth
+    assert rate > 100.0
+    assert run.status == "fell" and 0.0 < run.time_to_fall < 0.1
+    assert run.fall_criterion == f"joint angle {leading}"
+
+
+def test_prescribed_pelvis_keeps_joints_in_band_longer(subject01):
+    """Ankles kinematic, other joints driven by moments: pelvis prescribed stays within
+    5 deg of the measured joint angles longer than pelvis free, which falls."""
+    start = subject01.heel_strikes[0]
+    runs = {p: simulate_fullbody(subject01, Mode(pelvis=p, kinematic_joints=("ankle",)),
+                                 (start, start + 0.4), options=RK4)
+            for p in (PelvisMode.PRESCRIBED, PelvisMode.FREE)}
+    held, free = runs[PelvisMode.PRESCRIBED], runs[PelvisMode.FREE]
+    assert held.deviation["joint_leaves_band_s"] > 1.5 * free.deviation["joint_leaves_band_s"]
+    assert free.status == "fell" and 0.0 < free.time_to_fall < 0.4
+    assert np.abs(held.q[:, 7:] - held.measured[:, 7:])[:, :6].max() > 0  # hips were free
+    ankle = [i for i, n in enumerate(subject01.model.joint_names) if n.startswith("ankle")]
+    assert np.abs(held.q[:, 7 + np.array(ankle)] - held.measured[:, 7 + np.array(ankle)]).max() \
+        < 1e-12
+
+
+def test_thesis_kinematic_body_on_contacts(subject01):
+    """Thesis 2.4: joints kinematic on foot contacts; orientation free falls (Android:
+    0.55 s), only the translation free does not fall."""
+    start = subject01.heel_strikes[0]
+    runs = {p: simulate_fullbody(subject01, Mode(pelvis=p, joints=JointMode.KINEMATIC,
+                                                 ground=GroundMode.CONTACT),
+                                 (start, start + 1.0), options=RK4)
+            for p in (PelvisMode.TRANSLATION, PelvisMode.FREE)}
+    free, held = runs[PelvisMode.FREE], runs[PelvisMode.TRANSLATION]
+    assert free.status == "fell" and 0.1 < free.time_to_fall < 1.0
+    assert free.fall_criterion.startswith("pelvis")
+    assert held.status == "completed" and held.t[-1] == pytest.approx(start + 1.0)
+    assert held.belt_velocity == pytest.approx(-1.12, abs=0.1)  # treadmill-like trial
+    assert abs(held.ground_z) < 0.05
+
+
+# ---------------------------------------------------------------- problem file and CLI
+def test_unknown_mode_value_names_the_key():
+    with pytest.raises(InputError, match=r"variants\.1\.pelvis.*'floating' is not one of: "
+                                         r"prescribed, translation, free"):
+        parse_spec(PROBLEM, ["variants.1.pelvis=floating"])
+    with pytest.raises(InputError, match=r"variants\.0\.joints"):
+        parse_spec(PROBLEM, ["variants.0.joints=torque"])
+
+
+def test_nothing_free_and_unknown_joint_are_refused(synthetic):
+    with pytest.raises(InputError, match="nothing to simulate"):
+        build_system(synthetic, Mode(joints=JointMode.KINEMATIC))
+    with pytest.raises(InputError, match="kinematic joint 'ankel'"):
+        build_system(synthetic, Mode(kinematic_joints=("ankel",)))
+
+
+def test_cli_writes_states_summary_and_plot(tmp_path, capsys):
+    out = tmp_path / "fullbody"
+    code = main(["simulate", str(PROBLEM), "--out", str(out),
+                 "--set", "simulation.duration=0.3"])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["kind"] == "fullbody" and len(summary["runs"]) == 6
+    first = summary["runs"][0]
+    assert first["status"] == "fell" and first["deviation"]["joint_leaves_band_s"] is not None
+    assert (out / "fullbody.png").stat().st_size > 10_000
+    sto = read_storage(out / "states_pelvis_free_moments.sto")
+    assert {"pelvis_tz", "pelvis_ry", "knee_r_y"} <= set(sto.columns)
+    assert len(list(out.glob("states_*.sto"))) == 6
+    assert "pelvis free, moments: fell" in capsys.readouterr().out
+
+
+def test_cli_bad_value_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "bad"
+    code = main(["simulate", str(PROBLEM), "--out", str(out), "--set", "fall.joint_deg=-4"])
+    assert code == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert "fall.joint_deg" in err and "Traceback" not in err
