@@ -16,6 +16,8 @@ Marker map (TOML, read with :func:`predgait.problemfile.load_problem`)::
     [segments]    # further trial markers riding on a model segment (placed by calibration)
     "R.Thigh.Upper" = "thigh_r"
     [weights]     # optional, model frame or trial marker = weight (default 1)
+    [scaling]     # optional, segment lengths from the static trial (needs one), see
+                  # predgait.kinematics.scaling; the scaled URDF is scaled_model.urdf
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ from predgait.kinematics.ik3d import (
     solve_ik,
     with_marker_frames,
 )
+from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling, scale_fullbody
 from predgait.models.fullbody import MARKERS
 from predgait.models.loading3d import Model3D, fullbody_for_subject
 from predgait.problemfile import load_problem
@@ -70,6 +73,7 @@ class MarkerMap:
     segments: dict[str, str]               # trial marker -> body
     weights: dict[str, float] = field(default_factory=dict)  # frame or marker -> weight
     source: str = ""
+    scaling: ScalingSpec | None = None     # [scaling]: segment lengths from a static trial
 
     def fitted(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
         """(model frames, trial markers) fitted after calibration.
@@ -90,7 +94,7 @@ class MarkerMap:
 def read_marker_map(path: str | Path) -> MarkerMap:
     """Read a marker map TOML (see module docstring)."""
     table = load_problem(path)
-    table.check_keys(["markers", "segments", "weights"])
+    table.check_keys(["markers", "segments", "weights", "scaling"])
     markers, segments, weights = (table.table(k) for k in ("markers", "segments", "weights"))
     frames = {k: markers.get(k, str) for k in markers.data}
     unknown = [k for k in frames if k not in MARKERS]
@@ -104,7 +108,8 @@ def read_marker_map(path: str | Path) -> MarkerMap:
     if not frames:
         raise table.error("markers", "the map needs at least one model marker frame.")
     w = {k: weights.number(k, low=0.0, high=1e3) for k in weights.data}
-    return MarkerMap(frames, segs, w, source=str(path))
+    scaling = read_scaling(table.table("scaling"), frames) if table.has("scaling") else None
+    return MarkerMap(frames, segs, w, source=str(path), scaling=scaling)
 
 
 def read_trial(files: Sequence[str | Path]) -> tuple[Markers, tuple[ForcePlate, ...]]:
@@ -155,6 +160,7 @@ class Inverse3DResult:
     stances: list[Stance]
     provenance: dict
     sides: np.ndarray | None = None
+    scaling: Scaling | None = None
 
 
 def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map: MarkerMap, *,
@@ -177,8 +183,16 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         calib = markers.window(markers.time[0], markers.time[min(9, markers.n_frames - 1)])
     # Static pose: standing upright (legs, lumbar at 0), pelvis and arms fitted.
     locked = tuple(j for j in model.joint_names if not j.startswith(("shoulder", "elbow")))
-    first = solve_ik(model, calib.time, calib.select(list(marker_map.frames.values())).xyz,
-                     base_frames, locked=locked, options=options)
+    def fit_static(body):
+        return solve_ik(body, calib.time, calib.select(list(marker_map.frames.values())).xyz,
+                        base_frames, locked=locked, options=options)
+
+    first = fit_static(model)
+    scaling = None
+    if marker_map.scaling is not None:  # lengths measured in the static pose, then refit
+        model, scaling = _scaled_model(marker_map, static, first.q[first.q.shape[0] // 2],
+                                       mass=mass, height=height, sex=sex)
+        first = fit_static(model)
     frames, names = marker_map.fitted()
     model = calibrate_markers(model, first.q, calib.select(list(names)).xyz, frames,
                               marker_map.segments)
@@ -196,11 +210,27 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
     provenance = {
         "trial": markers.source, "static": static.source if static is not None else
         "first 10 frames of the trial", "marker_map": marker_map.source,
-        "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}",
+        "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}"
+                 + (", segment lengths scaled to the static trial" if scaling else ""),
+        "scaling": None if scaling is None else {
+            "factors": {k: round(v, 5) for k, v in scaling.factors.items()},
+            "lengths_m": {k: round(v, 5) for k, v in scaling.lengths.items()}},
         "coordinate_cutoff_hz": cutoff, "window_s": [float(ik.time[0]), float(ik.time[-1])],
     }
     return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance,
-                           sides)
+                           sides, scaling)
+
+
+def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, *,
+                  mass: float, height: float, sex: str) -> tuple[Model3D, Scaling]:
+    """Whole body with the map's ``[scaling]`` lengths, its segment markers added."""
+    if static is None:
+        raise InputError(f"{marker_map.source}: [scaling] measures segments on a static "
+                         "trial; give one (--static) or remove the [scaling] table.")
+    scaling = scale_fullbody(marker_map.scaling, static, mass=mass, height=height, sex=sex, q=q)
+    model = fullbody_for_subject(mass, height, sex, lengths=scaling.lengths)
+    model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
+    return model, scaling
 
 
 def summary(result: Inverse3DResult) -> dict:
@@ -273,4 +303,6 @@ def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Pa
     inputs = [*trial_files, marker_map] + ([static] if static else [])
     with staged_output(out_dir, force=force, inputs=inputs) as stage:
         info = write_outputs(result, stage)
+        if result.scaling is not None:
+            (stage / "scaled_model.urdf").write_text(result.model.urdf)
     return info
