@@ -17,6 +17,9 @@ Forward dynamic synthesis (thesis 3.2.4, 3.3.4, 4.1-4.2). PROBLEM.toml says the 
                foot motion prescribed, with passive-element variants.
   gait7        the planar 7-link model on the measured trial, HAT height free on heel/toe
                contacts: simulated vs measured vertical GRF, knee-driven runs to a fall.
+  fullbody     the 35-DOF body driven by its 3D inverse-dynamics moments or IK motions,
+               pelvis prescribed/translation/free, measured or contact ground: time to
+               fall and deviations per variant (states_<variant>.sto, fullbody.png).
 Writes into --out: states.sto (time, coordinates rad/m, then velocities; states_partial.sto
 if the run diverged), summary.json (status, integrator, time to fall, RMS), PNG plots,
 stick.png (figures every 0.05 s) and stick.gif. Example problem files are in problems/.
@@ -27,7 +30,8 @@ Override any value with --set, e.g. --set integrator.step=0.05 --set passive.kne
 def register(commands: argparse._SubParsersAction) -> None:
     """Add ``simulate``."""
     cmd = commands.add_parser("simulate",
-                              help="forward synthesis (rod, collapse, resynthesis, gait7)",
+                              help="forward synthesis (rod, collapse, resynthesis, gait7, "
+                                   "fullbody)",
                               description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("problem", type=Path, help="problem file (problems/rod.toml, ...)")
@@ -52,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
         bits = [row["status"]]
         if row.get("time_to_fall_s") is not None:
             bits.append(f"fall {row['time_to_fall_s']:.3f} s")
+        if row.get("fall_criterion"):
+            bits.append(row["fall_criterion"])
         if "rms_deg" in row:
             bits.append("RMS " + ", ".join(f"{k} {v:.2f} deg" for k, v in row["rms_deg"].items()))
             t5 = row.get("time_to_threshold_s")

@@ -48,7 +48,9 @@ def plot_fullbody_runs(runs: Sequence, joint_names: Sequence[str],
         ax.plot(t, y, "k--", lw=1, label="measured")
         ax.set_ylabel(label, fontsize=8)
     axes[0].set_title("simulated vs measured; x = fall", fontsize=9)
-    axes[0].legend(fontsize=6, loc="best")
     axes[-1].set_xlabel(f"time after start (s){f', start {t0:.3f} s' if t0 else ''}")
-    fig.tight_layout()
+    handles, labels = axes[0].get_legend_handles_labels()
+    rows = (len(labels) + 1) // 2
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=7, frameon=False)
+    fig.tight_layout(rect=(0, (0.1 + 0.17 * rows) / fig.get_figheight(), 1, 1))
     return fig

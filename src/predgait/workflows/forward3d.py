@@ -14,7 +14,7 @@ fell at t = 0.55 s. Here the same experiments run on the Pinocchio body of
   (:class:`~predgait.dynamics.contact.ImpactContact` with Coulomb friction).
 
 Prescribed coordinates follow exactly the q, v, a inverse dynamics used (splines of the
-samples); moments are splined, plate wrenches linearly interpolated. A run stops at a
+samples); moments and plate wrenches are splined alike. A run stops at a
 fall: the pelvis dropping more than ``pelvis_drop`` below the measured height, a pelvis
 Cardan angle (obliquity X, tilt Y, rotation Z) or a joint angle deviating more than a
 limit from the measured one.
@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
+from predgait.analysis.deviation3d import deviations3d, pelvis_angle_error
 from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.external import Load
@@ -43,11 +44,15 @@ from predgait.dynamics.partitioned import (
     simulate_partitioned,
 )
 from predgait.errors import InputError, SimulationDiverged
-from predgait.kinematics.ik3d import pelvis_cardan
 from predgait.models.fullbody import CONTACTS
 from predgait.models.loading3d import Model3D
 
 PELVIS_ANGLES = ("pelvis obliquity", "pelvis tilt", "pelvis rotation")  # Cardan X, Y, Z
+#: Foot contact law of ``ground = "contact"`` per sole point: linear spring 2e5 N/m
+#: (about 2 mm under half the body weight on two points), damping 2e3 N s/m reached at
+#: 1 mm, Coulomb friction 0.8 ramped over 0.05 m/s of slip.
+DEFAULT_CONTACT = ImpactContact(stiffness=2e5, exponent=1.0, damping=2e3, damping_depth=1e-3,
+                                friction=0.8, slip_transition=0.05)
 
 
 class PelvisMode(enum.Enum):
@@ -115,7 +120,7 @@ class ContactSettings:
             estimated from the measured motion (:func:`measured_ground`).
     """
 
-    contact: ImpactContact = field(default_factory=lambda: ImpactContact(friction=0.8))
+    contact: ImpactContact = DEFAULT_CONTACT
     frames: tuple[str, ...] = CONTACTS
     ground_z: float | None = None
     belt_velocity: float | None = None
@@ -282,7 +287,7 @@ def fall_events(system: PartitionedSystem, history: MotionHistory,
         limit = np.radians(limits.pelvis_angle_deg)
         for axis, name in enumerate(PELVIS_ANGLES):
             def angle(t, x, axis=axis):
-                return limit - abs(_pelvis_angle_error(x[:7], history(t)[0])[axis])
+                return limit - abs(pelvis_angle_error(x[:7], history(t)[0])[axis])
 
             events.append(Event(name, angle, Direction.FALLING))
     joints = system.q_free[root:]
@@ -296,13 +301,6 @@ def fall_events(system: PartitionedSystem, history: MotionHistory,
     return events
 
 
-def _pelvis_angle_error(simulated, measured) -> np.ndarray:
-    """Cardan X, Y, Z of the simulated minus the measured pelvis, wrapped to +-pi, rad."""
-    sim = np.concatenate([simulated[:3], simulated[3:7] / np.linalg.norm(simulated[3:7])])
-    diff = pelvis_cardan(sim)[0] - pelvis_cardan(measured)[0]
-    return (diff + np.pi) % (2 * np.pi) - np.pi
-
-
 @dataclass(frozen=True, eq=False)
 class Forward3DRun:
     """One simulated mode.
@@ -314,7 +312,7 @@ class Forward3DRun:
         time_to_fall: s after the start (None if it did not fall).
         fall_criterion: What fell (event name, joint named), or None.
         message: How the run ended.
-        deviation: :func:`deviations` of the run.
+        deviation: :func:`~predgait.analysis.deviation3d.deviations3d` of the run.
         growth: (rate 1/s, leading state) of :func:`fastest_growth` at the start.
         ground_z, belt_velocity: m, m/s, floor of contact runs (None for measured loads).
     """
@@ -366,44 +364,8 @@ def simulate_fullbody(drive: FullbodyDrive, mode: Mode, t_span: tuple[float, flo
         if criterion == "joint angle":
             worst = np.argmax(np.abs(run.q[-1, 7:] - measured[-1, 7:]))
             criterion = f"joint angle {drive.model.joint_names[worst]}"
-    dev = deviations(run.t, run.q, measured, drive.model.joint_names,
-                     band_deg=band_deg, band_m=band_m)
+    dev = deviations3d(run.t, run.q, measured, drive.model.joint_names,
+                       band_deg=band_deg, band_m=band_m)
     return Forward3DRun(mode, run.t, run.q, measured, status, fall_time, criterion,
                         run.integration.message, dev, growth,
                         *((ground.ground_z, ground.belt_velocity) if ground else (None, None)))
-
-
-def deviations(t: np.ndarray, q: np.ndarray, measured: np.ndarray, joint_names, *,
-               band_deg: float = 5.0, band_m: float = 0.05) -> dict:
-    """Simulated minus measured motion: RMS, max and when it first leaves a band.
-
-    Joint angles and pelvis Cardan angles in deg (band ``band_deg``), pelvis position as
-    the distance in m (band ``band_m``); times in s after ``t[0]``, None = never.
-    """
-    joints = np.degrees(q[:, 7:] - measured[:, 7:])
-    pelvis_angles = np.degrees(np.array([_pelvis_angle_error(a, b)
-                                         for a, b in zip(q, measured, strict=True)]))
-    distance = np.linalg.norm(q[:, :3] - measured[:, :3], axis=1)
-
-    def first(over):
-        return float(t[np.argmax(over)] - t[0]) if over.any() else None
-
-    worst = np.unravel_index(np.argmax(np.abs(joints)), joints.shape)
-    leaving = np.abs(joints) > band_deg
-    who = joint_names[int(np.argmax(leaving[np.argmax(leaving.any(axis=1))]))] \
-        if leaving.any() else None
-    return {
-        "band_deg": band_deg, "band_m": band_m,
-        "joint_rms_deg": float(np.sqrt(np.mean(joints**2))),
-        "joint_max_deg": float(np.abs(joints).max()),
-        "joint_max_name": joint_names[worst[1]],
-        "joint_leaves_band_s": first(leaving.any(axis=1)), "joint_leaving_band": who,
-        "joint_rms_deg_each": dict(zip(joint_names, np.sqrt(np.mean(joints**2, axis=0))
-                                       .tolist(), strict=True)),
-        "pelvis_position_rms_m": float(np.sqrt(np.mean(distance**2))),
-        "pelvis_position_max_m": float(distance.max()),
-        "pelvis_position_leaves_band_s": first(distance > band_m),
-        "pelvis_angle_rms_deg": float(np.sqrt(np.mean(pelvis_angles**2))),
-        "pelvis_angle_max_deg": float(np.abs(pelvis_angles).max()),
-        "pelvis_angle_leaves_band_s": first(np.abs(pelvis_angles).max(axis=1) > band_deg),
-    }

@@ -68,7 +68,7 @@ def _row(run: Forward3DRun, t0: float) -> dict:
             "time_to_fall_s": run.time_to_fall, "fall_criterion": run.fall_criterion,
             "simulated_s": float(run.t[-1] - t0), "message": run.message,
             "growth_at_start": {"rate_per_s": rate,
-                                "e_folding_s": 1.0 / rate if rate > 0 else None,
+                                "e_folding_s": 1.0 / rate if rate > 1e-2 else None,
                                 "leading_state": lead},
             "floor_z_m": run.ground_z, "belt_velocity_m_per_s": run.belt_velocity,
             "deviation": run.deviation}

@@ -19,6 +19,7 @@ from predgait.dynamics.integrators import IntegratorOptions
 from predgait.models.fullbody import CONTACTS
 from predgait.problemfile import Table
 from predgait.workflows.forward3d import (
+    DEFAULT_CONTACT,
     ContactSettings,
     FallLimits,
     GroundMode,
@@ -94,13 +95,15 @@ def _contact(table: Table) -> ContactSettings:
     frames = c.get("frames", list, list(CONTACTS))
     if not frames or not all(isinstance(f, str) for f in frames):
         raise c.error("frames", f"expected a list of model frames, e.g. {list(CONTACTS)}.")
+    d = DEFAULT_CONTACT
     law = ImpactContact(
-        stiffness=c.number("stiffness", 2e5, low=1e2, high=1e9, unit="N/m"),
-        exponent=c.number("exponent", 1.0, low=1, high=4),
-        damping=c.number("damping", 2e3, low=0, high=1e6, unit="N s/m"),
-        damping_depth=c.number("damping_depth", 1e-3, low=1e-6, high=0.1, unit="m"),
-        friction=c.number("friction", 0.8, low=0, high=5),
-        slip_transition=c.number("slip_transition", 0.05, low=1e-4, high=1, unit="m/s"))
+        stiffness=c.number("stiffness", d.stiffness, low=1e2, high=1e9, unit="N/m"),
+        exponent=c.number("exponent", d.exponent, low=1, high=4),
+        damping=c.number("damping", d.damping, low=0, high=1e6, unit="N s/m"),
+        damping_depth=c.number("damping_depth", d.damping_depth, low=1e-6, high=0.1, unit="m"),
+        friction=c.number("friction", d.friction, low=0, high=5),
+        slip_transition=c.number("slip_transition", d.slip_transition, low=1e-4, high=1,
+                                 unit="m/s"))
     return ContactSettings(law, tuple(frames),
                            c.number("ground_z", None, low=-1, high=1, unit="m"),
                            c.number("belt_velocity", None, low=-10, high=10, unit="m/s"))
