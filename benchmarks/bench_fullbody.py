@@ -1,5 +1,6 @@
 """Whole-body (35 DOF) speed: 3D inverse dynamics of 1000 frames, IK per frame, 1 s of
-forward dynamics; ratio against OpenSim 4.6's InverseDynamicsTool.
+forward dynamics (also driven by subject01's inverse dynamics); ratio against OpenSim
+4.6's InverseDynamicsTool.
 
 OpenSim is not installable here: the ratio uses the quoted reference figure, about 140 ms
 for the 73 frames of the example trial with its 23-DOF model (~1.9 ms a frame).
@@ -95,5 +96,58 @@ def main():
               f"{OPENSIM_ID_MS_PER_FRAME / (whole / 151 * 1e3):.1f}x")
 
 
+def driven_forward():
+    """1 s of the full body driven by subject01's 3D inverse dynamics, RK4 1 ms.
+
+    Pelvis prescribed (29 free joints) and free (35). The moment-driven body falls within
+    about 0.05 s (stance-foot instability, see tests/test_forward3d.py), so the 1 s cost
+    is timed on the 4000 right-hand sides of RK4 along the measured path, then each
+    actual run to its fall; the kinematic-joint runs on contact springs last the second.
+    """
+    from predgait.workflows.forward3d import (
+        FullbodyDrive,
+        GroundMode,
+        JointMode,
+        Mode,
+        PelvisMode,
+        build_system,
+        simulate_fullbody,
+    )
+    from predgait.workflows.forward3d_run import inverse_for
+    from predgait.workflows.simulate import parse_spec
+
+    problem = Path(__file__).resolve().parents[1] / "problems" / "fullbody_resynthesis.toml"
+    drive = FullbodyDrive.from_inverse(inverse_for(parse_spec(problem).trial))
+    t0 = drive.heel_strikes[0]
+    for pelvis in (PelvisMode.PRESCRIBED, PelvisMode.FREE):
+        mode = Mode(pelvis=pelvis)
+        system, history, _ = build_system(drive, mode)
+        times = t0 + 0.25e-3 * np.arange(4000)
+        states = [system.state(*history(t)[:2]) for t in times]
+
+        def rhs_1s(system=system, times=times, states=states):
+            for t, x in zip(times, states, strict=True):
+                system(t, x)
+
+        wall = best(rhs_1s, 2)
+        start = time.perf_counter()
+        run = simulate_fullbody(drive, mode, (t0, t0 + 1.0))
+        fall_wall = time.perf_counter() - start
+        print(f"Driven full body, moments, measured GRF, pelvis {pelvis.value} "
+              f"({system.nvf} free DOF): 1 s RK4 1 ms = {wall * 1e3:.0f} ms "
+              f"({1.0 / wall:.2f}x real time); actual run to its fall at "
+              f"{run.time_to_fall:.3f} s: {fall_wall * 1e3:.0f} ms")
+    for pelvis in (PelvisMode.TRANSLATION, PelvisMode.FREE):
+        mode = Mode(pelvis=pelvis, joints=JointMode.KINEMATIC, ground=GroundMode.CONTACT)
+        start = time.perf_counter()
+        run = simulate_fullbody(drive, mode, (t0, t0 + 1.0))
+        wall = time.perf_counter() - start
+        simulated = run.t[-1] - t0
+        print(f"Kinematic joints on contacts, pelvis {pelvis.value}: {simulated:.3f} s "
+              f"simulated ({run.status}) in {wall * 1e3:.0f} ms ({simulated / wall:.2f}x "
+              "real time)")
+
+
 if __name__ == "__main__":
     main()
+    driven_forward()
