@@ -216,7 +216,7 @@ def test_cli_writes_the_result_folder(tmp_path, capsys):
     out = tmp_path / "gait7"
     assert main(["simulate", str(PROBLEM), "--out", str(out)]) == 0
     for name in ("states.sto", "states_knee.sto", "grf.sto", "grf.csv", "grf.png",
-                 "stick.png", "summary.json"):
+                 "knee.png", "stick.png", "summary.json"):
         assert (out / name).is_file(), name
     summary = json.loads((out / "summary.json").read_text())
     assert summary["kind"] == "gait7" and summary["grf"]["right"]["correlation"] > 0.5

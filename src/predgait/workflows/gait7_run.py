@@ -6,7 +6,8 @@ when it diverged), ``grf.sto`` and ``grf.csv`` (time, simulated vertical GRF per
 and per contact point, measured per foot, N), ``summary.json`` (per run: GRF RMS
 difference, correlation and stance peaks, mean total vertical force vs body weight,
 HAT height offset and deviation, knee-driven status and time to fall), ``grf.png``
-(simulated vs measured vertical GRF per foot and the HAT height) and ``stick.png``.
+(simulated vs measured vertical GRF per foot and the HAT height), ``knee.png`` (knee
+angles of the knee-driven runs) and ``stick.png``.
 """
 
 from __future__ import annotations
@@ -117,6 +118,33 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
     plt.close(ax.figure)
 
 
+def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
+    """knee.png: knee angles of the knee-driven runs (x = fall) vs the kinematic run."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for side, style in zip(SIDES, ("k-", "k--"), strict=True):
+        col = model.coordinate_index(f"knee_{side[0]}")
+        ax.plot(kin.run.t, np.degrees(kin.run.q[:, col]), style, lw=2, alpha=0.4,
+                label=f"{side} knee, kinematic")
+    for i, (row, _, driven) in enumerate(results):
+        if driven is None:
+            continue
+        for side in row["knee_run"]["sides"]:
+            col = model.coordinate_index(f"knee_{side[0]}")
+            angle = np.degrees(driven.run.q[:, col])
+            ax.plot(driven.run.t, angle, color=f"C{i % 10}", lw=1,
+                    label=f"{row['name']} ({side})")
+            if driven.status != "completed":
+                ax.plot(driven.run.t[-1], angle[-1], "x", color=f"C{i % 10}")
+    ax.set_xlabel("trial time (s)")
+    ax.set_ylabel("knee flexion (deg)")
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(folder / "knee.png", dpi=110)
+    plt.close(fig)
+
+
 def _write_states(folder: Path, name: str, model, result: Gait7Result, header: dict) -> None:
     run = result.run
     cols = {n: run.q[:, i] for i, n in enumerate(model.coordinate_names)}
@@ -135,14 +163,10 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
     motion = bundled_gait7_motion(model)
     t = _window(spec, motion)
     cache: dict = {}
-    rows = []
-    main_kin = main_knee = None
-    for v in (Gait7Variant("main"), *spec.variants):
-        row, kin, driven = _run_variant(spec, v, model, motion, t, cache,
-                                        progress and v.name == "main")
-        rows.append(row)
-        if v.name == "main":
-            main_kin, main_knee = kin, driven
+    results = [_run_variant(spec, v, model, motion, t, cache, progress and i == 0)
+               for i, v in enumerate((Gait7Variant("main"), *spec.variants))]
+    rows = [r[0] for r in results]
+    main_kin, main_knee = results[0][1], results[0][2]
     header = {"trial": motion.provenance.get("trial", ""), "model": model.source}
     _write_states(folder, "states", model, main_kin, header)
     if main_knee is not None:
@@ -156,6 +180,7 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
     write_csv(folder / "grf.csv", main_kin.run.t, columns, units=dict.fromkeys(columns, "N"),
               provenance=f"{header['trial']}; {model.source}; {spec.source}")
     _plot(folder, model, motion, main_kin, main_knee, spec.stick_interval)
+    _plot_knees(folder, model, main_kin, results)
     main = rows[0]
     summary = {"kind": "gait7", "status": "diverged" if main_kin.status == "diverged"
                else "completed",
