@@ -160,6 +160,9 @@ def test_prescribed_pelvis_keeps_joints_in_band_longer(subject01):
     held, free = runs[PelvisMode.PRESCRIBED], runs[PelvisMode.FREE]
     assert held.deviation["joint_leaves_band_s"] > 1.5 * free.deviation["joint_leaves_band_s"]
     assert free.status == "fell" and 0.0 < free.time_to_fall < 0.4
+    limits = FallLimits()  # the run stops at the first limit reached, none is passed
+    assert free.deviation["pelvis_angle_max_deg"] <= limits.pelvis_angle_deg + 1e-6
+    assert free.deviation["joint_max_deg"] <= limits.joint_deg + 1e-6
     assert np.abs(held.q[:, 7:] - held.measured[:, 7:])[:, :6].max() > 0  # hips were free
     ankle = [i for i, n in enumerate(subject01.model.joint_names) if n.startswith("ankle")]
     assert np.abs(held.q[:, 7 + np.array(ankle)] - held.measured[:, 7 + np.array(ankle)]).max() \

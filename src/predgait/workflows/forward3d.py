@@ -277,25 +277,25 @@ def fall_events(system: PartitionedSystem, history: MotionHistory,
                 limits: FallLimits) -> list[Event]:
     """Terminal fall events for the free coordinates of ``system`` (g < 0 = fallen)."""
     events = []
-    root = 7 if system.root_free else (3 if 0 in system.free else 0)
+    root = system.root_q  # free pelvis entries at the start of x: 0, 3 or 7
     if root:
         def height(t, x):
             return x[2] - history(t)[0][2] + limits.pelvis_drop
 
         events.append(Event("pelvis height", height, Direction.FALLING))
     if system.root_free:
-        limit = np.radians(limits.pelvis_angle_deg)
+        tilt = np.radians(limits.pelvis_angle_deg)
         for axis, name in enumerate(PELVIS_ANGLES):
             def angle(t, x, axis=axis):
-                return limit - abs(pelvis_angle_error(x[:7], history(t)[0])[axis])
+                return tilt - abs(pelvis_angle_error(x[:7], history(t)[0])[axis])
 
             events.append(Event(name, angle, Direction.FALLING))
     joints = system.q_free[root:]
     if limits.joint_deg is not None and joints.size:
-        limit = np.radians(limits.joint_deg)
+        bend = np.radians(limits.joint_deg)
 
         def joint(t, x):
-            return limit - np.max(np.abs(x[root:system.nqf] - history(t)[0][joints]))
+            return bend - np.max(np.abs(x[root:system.nqf] - history(t)[0][joints]))
 
         events.append(Event("joint angle", joint, Direction.FALLING))
     return events
