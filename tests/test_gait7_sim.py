@@ -130,6 +130,22 @@ def test_mapping_puts_joint_centres_and_feet_where_measured(model, motion):
                                hip, atol=1e-9)
 
 
+def test_hat_points_from_the_hip_to_the_shoulders(model, motion):
+    """The HAT's centre of mass lies on the hip-to-acromion line (base_pitch sign)."""
+    markers = read_trial(bundled_options())[0].markers
+    shoulder = 0.5 * (markers.get("R.Acromium") + markers.get("L.Acromium"))
+    hip = 0.5 * (motion.points["hip_center_r"] + motion.points["hip_center_l"])
+    pm = model.pin_model
+    data = pm.createData()
+    hat = pm.getJointId("root")
+    for k in range(0, len(motion.time), 10):
+        pin.forwardKinematics(pm, data, motion.q[k])
+        com = data.oMi[hat].act(pm.inertias[hat].lever)
+        lean_model = np.arctan2(*(com - hip[k])[[0, 2]])
+        lean_markers = np.arctan2(*(shoulder[k] - hip[k])[[0, 2]])
+        assert lean_model == pytest.approx(lean_markers, abs=np.radians(1.0))
+
+
 def test_simulated_vertical_grf_follows_the_plates(model, motion, window, kinematic):
     """Thesis 2.4: "a noisy facsimile". Measured here: r = 0.73 (right), 0.63 (left).
 
