@@ -228,12 +228,12 @@ def subject01():
 def test_scaling_improves_subject01_fit(subject01):
     before, after = group_rms(subject01["before"]), group_rms(subject01["after"])
     # Measured (mm, before -> after): frame mean 39.9 -> 36.1, upper arm 88.2 -> 77.5,
-    # forearm 50.9 -> 42.1, pelvis 24.8 -> 22.6, legs 8.6 -> 8.2.
+    # forearm 50.9 -> 42.1, pelvis 24.8 -> 22.6, legs 8.3 -> 7.95.
     assert after["frame_mean"] < before["frame_mean"] - 2.5
     assert after["upper_arm"] < before["upper_arm"] - 7.0
     assert after["forearm"] < before["forearm"] - 5.0
     assert after["pelvis"] < before["pelvis"] - 1.0
-    assert after["legs"] < before["legs"]
+    assert after["legs"] < before["legs"] - 0.1
     scaling = subject01["after"].scaling
     assert subject01["before"].scaling is None
     # The scaled thigh matches the static trial's Harrington hip to mid-epicondyle distance.
