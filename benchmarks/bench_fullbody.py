@@ -2,11 +2,16 @@
 forward dynamics (also driven by subject01's inverse dynamics); ratio against OpenSim
 4.6's InverseDynamicsTool.
 
-OpenSim is not installable here: the ratio uses the quoted reference figure, about 140 ms
-for the 73 frames of the example trial with its 23-DOF model (~1.9 ms a frame).
+OpenSim runs when OPENSIM_PYTHON (a Python with `pip install opensim`; its wheel bundles
+a CasADi that clashes with ours, hence another process) and GAIT2354_DIR are set (see
+opensim_subject01.py); otherwise the ratio uses the quoted figure, about 140 ms for the 73
+frames of the example trial with its 23-DOF model (~1.9 ms a frame).
 Run: .venv/bin/python benchmarks/bench_fullbody.py
 """
 
+import json
+import os
+import subprocess
 import time
 from pathlib import Path
 
@@ -79,21 +84,71 @@ def main():
           f"({1.0 / t_fd:.0f}x real time)")
 
     if DATA.is_dir():
-        import tempfile
+        pipeline()
 
-        from predgait.workflows.inverse3d import run_inverse_fullbody
-        repo = Path(__file__).resolve().parents[1]
+
+def opensim_tools() -> dict | None:
+    """OpenSim's IK and ID tools on the same trial, in their own process (see
+    opensim_subject01.py); None with a note when OPENSIM_PYTHON / GAIT2354_DIR are not set."""
+    python, folder = os.environ.get("OPENSIM_PYTHON"), os.environ.get("GAIT2354_DIR")
+    if not (python and folder):
+        print("OpenSim tools: not run (set OPENSIM_PYTHON to a Python with `pip install "
+              "opensim` and GAIT2354_DIR to opensim-models' Pipelines/Gait2354_Simbody files "
+              "with OutputReference/subject01_simbody.osim beside them)")
+        return None
+    child = subprocess.run([python, str(Path(__file__).with_name("opensim_subject01.py")),
+                            folder], capture_output=True, text=True)
+    if child.returncode != 0:
+        print(f"OpenSim tools: failed ({(child.stderr.strip().splitlines() or ['?'])[-1]})")
+        return None
+    return json.loads(child.stdout.strip().splitlines()[-1])
+
+
+def pipeline():
+    """Whole `predgait inverse --model fullbody` work in-process (read, static calibration,
+    IK, filter, ID, files), on all 151 frames and on OpenSim's window 0.4-1.6 s (73 frames)."""
+    import tempfile
+
+    from predgait.dynamics.inverse3d import inverse_dynamics_3d
+    from predgait.workflows.inverse3d import (
+        inverse_fullbody,
+        read_marker_map,
+        read_trial,
+        run_inverse_fullbody,
+    )
+
+    repo = Path(__file__).resolve().parents[1]
+    files = [DATA / "subject01_walk1.trc", DATA / "subject01_walk1_grf.mot"]
+    mmap = repo / "problems" / "markers_fullbody_subject01.toml"
+    static = DATA / "subject01_static.trc"
+    rows = {}
+    for label, window in (("all 151 frames", None), ("0.4-1.6 s, 73 frames", (0.4, 1.6))):
         with tempfile.TemporaryDirectory() as tmp:
-            t0 = time.perf_counter()
-            run_inverse_fullbody([DATA / "subject01_walk1.trc", DATA / "subject01_walk1_grf.mot"],
-                                 repo / "problems" / "markers_fullbody_subject01.toml",
-                                 mass=72.6, height=1.8034, out_dir=Path(tmp) / "o",
-                                 static=DATA / "subject01_static.trc")
-            whole = time.perf_counter() - t0
-        print(f"Whole pipeline on subject01_walk1 (151 frames, static calibration, IK, ID, "
-              f"files): {whole * 1e3:.0f} ms = {whole / 151 * 1e3:.2f} ms/frame; OpenSim ID "
-              f"alone (quoted) {OPENSIM_ID_MS_PER_FRAME:.2f} ms/frame -> "
-              f"{OPENSIM_ID_MS_PER_FRAME / (whole / 151 * 1e3):.1f}x")
+            run = lambda w=window, t=tmp: run_inverse_fullbody(  # noqa: E731
+                files, mmap, mass=72.6, height=1.8034, out_dir=Path(t) / "o", static=static,
+                window=w, force=True)
+            whole = best(run, 3)
+        markers, plates = read_trial(files)
+        from predgait.data import read_trc
+        result = inverse_fullbody(markers, plates, read_marker_map(mmap), mass=72.6,
+                                  height=1.8034, static=read_trc(static), window=window)
+        id_only = best(lambda r=result: inverse_dynamics_3d(r.model, r.q, r.v, r.a, r.plates,
+                                                            r.sides), 5)
+        rows[label] = (whole, id_only, result.q.shape[0])
+        print(f"predgait whole run, {label}: {whole * 1e3:.0f} ms "
+              f"({whole / result.q.shape[0] * 1e3:.2f} ms/frame); ID alone {id_only * 1e3:.1f} ms")
+    whole, id_only, n = rows["0.4-1.6 s, 73 frames"]
+    tools = opensim_tools()
+    if tools is None:
+        print(f"  vs OpenSim ID (quoted ~140 ms for these 73 frames): whole run "
+              f"{0.140 / whole:.2f}x, ID alone {0.140 / id_only:.0f}x (target: whole run >= 10x)")
+        return
+    print(f"OpenSim {tools['version']} tools on the same window, Gait2354 (23 DOF): "
+          f"IK {tools['ik_s'] * 1e3:.0f} ms, ID {tools['id_s'] * 1e3:.0f} ms")
+    both = tools["ik_s"] + tools["id_s"]
+    print(f"  ratios: predgait whole run vs OpenSim IK+ID {both / whole:.1f}x;"
+          f" vs OpenSim ID alone {tools['id_s'] / whole:.2f}x (target >= 10x);"
+          f" ID alone vs ID tool {tools['id_s'] / id_only:.0f}x")
 
 
 def driven_forward():

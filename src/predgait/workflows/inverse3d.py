@@ -7,7 +7,8 @@ low-pass the coordinates, differentiate, assign the plates to the feet and run R
 (:mod:`predgait.dynamics.inverse3d`). Outputs (one folder, written whole or not at all):
 ``kinematics3d.sto`` (deg, m), ``inverse_dynamics3d.sto`` and ``.csv`` (N m per Cardan
 axis, pelvis residual force N and moment N m in the lab), ``ik_residuals.csv`` (m per
-marker, RMS, flag) and ``summary.json``.
+marker, RMS, flag), ``clinical_angles.sto`` (deg) and ``clinical_moments.sto`` (N m) with
+clinical names and signs (both also in ``clinical.csv``) and ``summary.json``.
 
 Marker map (TOML, read with :func:`predgait.problemfile.load_problem`)::
 
@@ -48,6 +49,7 @@ from predgait.dynamics.inverse3d import (
     velocities,
 )
 from predgait.errors import InputError
+from predgait.kinematics.clinical import PELVIS_3D, clinical_angles_3d
 from predgait.kinematics.ik3d import (
     IKOptions,
     IKResult,
@@ -57,7 +59,7 @@ from predgait.kinematics.ik3d import (
     with_marker_frames,
 )
 from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling, scale_fullbody
-from predgait.models.fullbody import MARKERS
+from predgait.models.fullbody import JOINT_CENTRES, MARKERS
 from predgait.models.loading3d import Model3D, fullbody_for_subject
 from predgait.problemfile import load_problem
 
@@ -97,9 +99,10 @@ def read_marker_map(path: str | Path) -> MarkerMap:
     table.check_keys(["markers", "segments", "weights", "scaling"])
     markers, segments, weights = (table.table(k) for k in ("markers", "segments", "weights"))
     frames = {k: markers.get(k, str) for k in markers.data}
-    unknown = [k for k in frames if k not in MARKERS]
+    unknown = [k for k in frames if k not in MARKERS + JOINT_CENTRES]
     if unknown:
-        raise markers.error(unknown[0], f"not a model marker frame; frames: {', '.join(MARKERS)}.")
+        raise markers.error(unknown[0], "not a model marker or joint-centre frame; frames: "
+                                        f"{', '.join(MARKERS + JOINT_CENTRES)}.")
     segs = {k: segments.get(k, str) for k in segments.data}
     for name, body in segs.items():
         if body not in BODIES:
@@ -142,6 +145,49 @@ def _filter_q(model: Model3D, time: np.ndarray, q: np.ndarray, cutoff: float | N
     return out
 
 
+def unobserved_joints(model: Model3D, frames: Sequence[str]) -> tuple[str, ...]:
+    """Joints with no fitted frame on their segment or beyond (e.g. arms without markers).
+
+    IK holds them at 0 instead of leaving them undetermined.
+    """
+    pm = model.pin_model
+    seen = set()
+    for frame in frames:
+        seen.update(pm.supports[pm.frames[model.frame_id(frame)].parentJoint])
+    return tuple(pm.names[j] for j in range(2, pm.njoints) if j not in seen)
+
+
+def _first_complete_frames(markers: Markers, names: list[str], count: int) -> Markers:
+    """The first ``count`` frames in which every one of ``names`` is visible."""
+    visible = np.isfinite(markers.select(names).xyz).all(axis=(1, 2))
+    index = np.flatnonzero(visible)[:count]
+    if index.size == 0:
+        raise InputError(f"{markers.source}: no frame shows all mapped markers at once, so "
+                         "the marker frames cannot be calibrated; give a static trial "
+                         "(--static) or map fewer markers.")
+    return Markers(markers.time[index], markers.names, markers.xyz[index], markers.rate,
+                   markers.source)
+
+
+def _trim_unseen(markers: Markers, names: list[str]) -> tuple[Markers, str]:
+    """Drop leading/trailing frames showing fewer than half of the mapped markers.
+
+    Those frames have the subject outside the capture volume; the note says what went.
+    """
+    visible = np.isfinite(markers.select(names).xyz).all(axis=2).sum(axis=1)
+    good = np.flatnonzero(visible >= max(3, len(names) / 2))
+    if good.size < 3:
+        raise InputError(f"{markers.source}: fewer than 3 frames show half of the mapped "
+                         "markers; check the marker map or the time window.")
+    first, last = good[0], good[-1]
+    if first == 0 and last == markers.n_frames - 1:
+        return markers, "none"
+    note = (f"kept {markers.time[first]:.3f}..{markers.time[last]:.3f} s; dropped {first} "
+            f"leading and {markers.n_frames - 1 - last} trailing frames showing fewer than "
+            "half of the mapped markers")
+    return markers.window(markers.time[first], markers.time[last]), note
+
+
 @dataclass(frozen=True, eq=False)
 class Inverse3DResult:
     """Everything the whole-body pipeline computed.
@@ -174,15 +220,20 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
     model = fullbody_for_subject(mass, height, sex)
     model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
     base_frames = tuple(marker_map.frames)
-    if static is not None:  # about 20 frames of the static trial
+    frames, names = marker_map.fitted()
+    unobserved = unobserved_joints(model, frames)
+    if static is not None:  # about 20 frames of the static trial, standing upright
         marker_map.check(static.names, static.source or "the static trial")
         step = max(1, static.n_frames // 20)
         calib = Markers(static.time[::step], static.names, static.xyz[::step],
                         static.rate / step, static.source)
-    else:
-        calib = markers.window(markers.time[0], markers.time[min(9, markers.n_frames - 1)])
-    # Static pose: standing upright (legs, lumbar at 0), pelvis and arms fitted.
-    locked = tuple(j for j in model.joint_names if not j.startswith(("shoulder", "elbow")))
+        # Legs and lumbar at 0 (the model's neutral is upright standing); pelvis, arms fitted.
+        locked = tuple(j for j in model.joint_names if not j.startswith(("shoulder", "elbow")))
+        calibration = "static trial"
+    else:  # the first 10 frames of the walk that show every mapped marker, pose fitted
+        calib = _first_complete_frames(markers, list(names), 10)
+        locked = unobserved
+        calibration = f"trial frames {calib.time[0]:.3f}..{calib.time[-1]:.3f} s"
     def fit_static(body):
         return solve_ik(body, calib.time, calib.select(list(marker_map.frames.values())).xyz,
                         base_frames, locked=locked, options=options)
@@ -193,23 +244,24 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         model, scaling = _scaled_model(marker_map, static, first.q[first.q.shape[0] // 2],
                                        mass=mass, height=height, sex=sex)
         first = fit_static(model)
-    frames, names = marker_map.fitted()
     model = calibrate_markers(model, first.q, calib.select(list(names)).xyz, frames,
                               marker_map.segments)
     if window is not None:
         markers = markers.window(*window)
+    markers, trimmed = _trim_unseen(markers, list(names))
     weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
                for f, m in zip(frames, names, strict=True)}
     ik = solve_ik(model, markers.time, markers.select(list(names)).xyz, frames,
-                  marker_names=names, weights=weights, options=options)
+                  marker_names=names, weights=weights, locked=unobserved, options=options)
     q = _filter_q(model, ik.time, ik.q, cutoff)
     v, a = velocities(model, ik.time, q)
     at_markers = tuple(resample_plate(p, ik.time) for p in plates)
     sides, stances = assign_plates(model, q, at_markers)
     dynamics = inverse_dynamics_3d(model, q, v, a, at_markers, sides)
     provenance = {
-        "trial": markers.source, "static": static.source if static is not None else
-        "first 10 frames of the trial", "marker_map": marker_map.source,
+        "trial": markers.source, "marker_calibration": calibration,
+        "marker_map": marker_map.source, "trimmed": trimmed,
+        "unobserved_joints_held_at_zero": list(unobserved),
         "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}"
                  + (", segment lengths scaled to the static trial" if scaling else ""),
         "scaling": None if scaling is None else {
@@ -233,11 +285,35 @@ def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, 
     return model, scaling
 
 
+def clinical(result: Inverse3DResult) -> tuple[dict, dict]:
+    """Clinical angles (deg; pelvis first) and joint moments (N m).
+
+    Names and signs: :data:`predgait.kinematics.clinical.CLINICAL_3D`.
+    """
+    names = result.model.joint_names
+    angles = dict(zip(PELVIS_3D, np.degrees(pelvis_cardan(result.q)).T, strict=True))
+    angles |= {k: np.degrees(v) for k, v in clinical_angles_3d(names, result.q[:, 7:]).items()}
+    moments = {f"{k}_moment": v for k, v in
+               clinical_angles_3d(names, result.dynamics.tau[:, 6:]).items()}
+    return angles, moments
+
+
 def summary(result: Inverse3DResult) -> dict:
-    """Headline numbers: IK RMS, pelvis residuals, peak joint moments."""
+    """Headline numbers: IK RMS, pelvis residuals, joint moments, clinical ranges."""
     dyn, ik = result.dynamics, result.ik
+    mass = result.model.total_mass()
+    angles, moments = clinical(result)
     fmag = np.linalg.norm(dyn.residual_force, axis=1)
     mmag = np.linalg.norm(dyn.residual_moment, axis=1)
+    loaded = (result.sides != "").any(axis=0) if result.sides is not None and \
+        len(result.sides) else np.zeros(fmag.size, dtype=bool)
+    on_plates = {
+        "frames": int(loaded.sum()),
+        "force_rms_N": float(np.sqrt(np.mean(fmag[loaded] ** 2))) if loaded.any() else None,
+        "moment_rms_Nm": float(np.sqrt(np.mean(mmag[loaded] ** 2))) if loaded.any() else None,
+        "note": "frames with a plate loaded. Whenever a foot stands outside the plates the "
+                "pelvis residual carries that unmeasured ground reaction (~ body weight)",
+    }
     peaks = {k: float(np.abs(v).max()) for k, v in dyn.joint_moments.items()}
     return {
         "frames": int(ik.time.size),
@@ -249,7 +325,12 @@ def summary(result: Inverse3DResult) -> dict:
                                     "max": float(fmag.max())},
         "pelvis_residual_moment_Nm": {"rms": float(np.sqrt(np.mean(mmag**2))),
                                       "max": float(mmag.max())},
+        "pelvis_residual_while_plates_loaded": on_plates,
         "peak_joint_moments_Nm": peaks,
+        "clinical_angle_range_deg": {k: [float(v.min()), float(v.max())]
+                                     for k, v in angles.items()},
+        "clinical_moment_range_Nm_per_kg": {k: [float(v.min() / mass), float(v.max() / mass)]
+                                            for k, v in moments.items()},
         "stances": [vars(s) for s in result.stances],
         "provenance": result.provenance,
     }
@@ -274,6 +355,16 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
                           "provenance": prov})
     units = {k: "N m" for k in cols} | {"pelvis_residual_force": "N"}
     write_csv(folder / "inverse_dynamics3d.csv", time, cols, units=units, provenance=prov)
+    angles, moments = clinical(result)
+    signs = "signs: predgait.kinematics.clinical.CLINICAL_3D (flexion, adduction, internal " \
+            "rotation, dorsiflexion, inversion positive; internal moments toward + angle)"
+    write_storage(folder / "clinical_angles.sto", time, angles, in_degrees=True,
+                  header={"units": "deg", "conventions": signs, "provenance": prov})
+    write_storage(folder / "clinical_moments.sto", time, moments,
+                  header={"units": "N m", "conventions": signs, "provenance": prov})
+    write_csv(folder / "clinical.csv", time, angles | moments,
+              units=dict.fromkeys(angles, "deg") | dict.fromkeys(moments, "N m"),
+              provenance=prov)
     res = {f"{m}": result.ik.residuals[:, i] for i, m in enumerate(result.ik.marker_names)}
     res |= {"rms": result.ik.rms, "flagged": (~result.ik.converged).astype(float)}
     write_csv(folder / "ik_residuals.csv", time, res, units=dict.fromkeys(res, "m") |
