@@ -34,7 +34,7 @@ from predgait.workflows.forward3d import (
     build_system,
     simulate_fullbody,
 )
-from predgait.workflows.forward3d_run import inverse_for
+from predgait.workflows.forward3d_run import inverse_for, run_fullbody
 from predgait.workflows.simulate import parse_spec
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "fullbody_resynthesis.toml"
@@ -143,11 +143,13 @@ def test_moment_driven_body_falls_where_linearisation_grows_fastest(subject01, p
     """The stance foot under the measured wrench is unstable with an e-folding time of
     a few ms (2-5 g m^2 foot, ~100 N m at the ankle): the run falls there within 0.1 s."""
     start = subject01.heel_strikes[0]
+    k = int(np.searchsorted(subject01.time, start))
+    stance = max("rl", key=lambda s: subject01.foot_wrench[s][k, 2])  # the loaded foot
     run = simulate_fullbody(subject01, Mode(pelvis=pelvis), (start, start + 0.3), options=RK4)
     rate, leading = run.growth
-    assert rate > 100.0
+    assert rate > 100.0 and leading.startswith(f"ankle_{stance}_")
     assert run.status == "fell" and 0.0 < run.time_to_fall < 0.1
-    assert run.fall_criterion == f"joint angle {leading}"
+    assert run.fall_criterion.startswith(f"joint angle ankle_{stance}_")
 
 
 def test_prescribed_pelvis_keeps_joints_in_band_longer(subject01):
@@ -171,16 +173,17 @@ def test_prescribed_pelvis_keeps_joints_in_band_longer(subject01):
 
 def test_thesis_kinematic_body_on_contacts(subject01):
     """Thesis 2.4: joints kinematic on foot contacts; orientation free falls (Android:
-    0.55 s), only the translation free does not fall."""
+    0.55 s; here 0.4-1.1 s depending on contact law, floor and start), only the
+    translation free does not fall."""
     start = subject01.heel_strikes[0]
     runs = {p: simulate_fullbody(subject01, Mode(pelvis=p, joints=JointMode.KINEMATIC,
                                                  ground=GroundMode.CONTACT),
-                                 (start, start + 1.0), options=RK4)
+                                 (start, start + 1.5), options=RK4)
             for p in (PelvisMode.TRANSLATION, PelvisMode.FREE)}
     free, held = runs[PelvisMode.FREE], runs[PelvisMode.TRANSLATION]
-    assert free.status == "fell" and 0.1 < free.time_to_fall < 1.0
+    assert free.status == "fell" and 0.1 < free.time_to_fall < 1.5
     assert free.fall_criterion.startswith("pelvis")
-    assert held.status == "completed" and held.t[-1] == pytest.approx(start + 1.0)
+    assert held.status == "completed" and held.t[-1] == pytest.approx(start + 1.5)
     assert held.belt_velocity == pytest.approx(-1.12, abs=0.1)  # treadmill-like trial
     assert abs(held.ground_z) < 0.05
 
@@ -192,6 +195,14 @@ def test_unknown_mode_value_names_the_key():
         parse_spec(PROBLEM, ["variants.1.pelvis=floating"])
     with pytest.raises(InputError, match=r"variants\.0\.joints"):
         parse_spec(PROBLEM, ["variants.0.joints=torque"])
+
+
+def test_missing_file_and_frame_name_their_key(tmp_path):
+    with pytest.raises(InputError, match=r"trial\.marker_map.*nowhere\.toml not found"):
+        parse_spec(PROBLEM, ["trial.marker_map=nowhere.toml"])
+    with pytest.raises(InputError, match=r"contact\.frames: the model has no frame 'heel'"):
+        run_fullbody(parse_spec(PROBLEM, ["contact.frames=[\"heel\"]"]), tmp_path)
+    assert not list(tmp_path.iterdir())
 
 
 def test_nothing_free_and_unknown_joint_are_refused(synthetic):

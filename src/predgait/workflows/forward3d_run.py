@@ -93,6 +93,11 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
         raise InputError(f"{spec.source}: simulation {t0:g}..{t1:g} s (simulation.start, "
                          f"simulation.duration) is outside the trial {drive.time[0]:.3f}.."
                          f"{drive.time[-1]:.3f} s.")
+    missing = [f for f in spec.contact.frames if not drive.model.pin_model.existFrame(f)]
+    if missing:
+        raise InputError(f"{spec.source}: contact.frames: the model has no frame "
+                         f"{missing[0]!r}; use sole points such as "
+                         "\"heel_contact_r\", \"toe_contact_r\" or marker frames.")
     names = drive.model.joint_names
     prov = {"problem": spec.source, "trial": drive.source, "predgait": __version__,
             "model": inverse.provenance.get("model", "")}

@@ -81,6 +81,12 @@ def _trial(table: Table) -> TrialSpec:
     sex = t.get("sex", str, "male")
     if sex not in ("male", "female"):
         raise t.error("sex", f"{sex!r} is not male or female.")
+    for key, paths in (("files", files or ()), ("static", [t.path_value("static", None)]),
+                       ("marker_map", [t.path_value("marker_map")])):
+        for path in paths:
+            if path is not None and not path.is_file():
+                raise t.error(key, f"{path} not found (paths are relative to the problem "
+                                   "file).")
     return TrialSpec(files=files, static=t.path_value("static", None),
                      marker_map=t.path_value("marker_map"),
                      mass=t.number("mass", None, low=10, high=300, unit="kg"),
