@@ -19,6 +19,7 @@ import numpy as np
 from predgait import __version__
 from predgait.data import read_trc, write_storage
 from predgait.data.bundled import bundled_path, subject_info
+from predgait.errors import InputError
 from predgait.kinematics.ik3d import pelvis_cardan
 from predgait.workflows.forward3d import Forward3DRun, FullbodyDrive, simulate_fullbody
 from predgait.workflows.forward3d_spec import FullbodySpec, TrialSpec
@@ -81,7 +82,6 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from predgait.errors import InputError
     from predgait.report.fullbody_plots import plot_fullbody_runs
 
     inverse = inverse_for(spec.trial)
@@ -101,12 +101,10 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
     names = drive.model.joint_names
     prov = {"problem": spec.source, "trial": drive.source, "predgait": __version__,
             "model": inverse.provenance.get("model", "")}
-    runs = []
-    for mode in spec.variants:
-        runs.append(simulate_fullbody(drive, mode, (t0, t1), options=spec.integrator,
-                                      fall=spec.fall, contact=spec.contact,
-                                      band_deg=spec.band_deg, band_m=spec.band_m,
-                                      progress=progress))
+    runs = [simulate_fullbody(drive, mode, (t0, t1), options=spec.integrator, fall=spec.fall,
+                              contact=spec.contact, band_deg=spec.band_deg,
+                              band_m=spec.band_m, progress=progress)
+            for mode in spec.variants]
     header = {"provenance": "; ".join(f"{k}={v}" for k, v in prov.items()),
               "start_s": f"{t0:.6g}"}
     for run in runs:
