@@ -53,13 +53,14 @@ from predgait.kinematics.clinical import PELVIS_3D, clinical_angles_3d
 from predgait.kinematics.ik3d import (
     IKOptions,
     IKResult,
+    body_of,
     calibrate_markers,
     pelvis_cardan,
     solve_ik,
     with_marker_frames,
 )
 from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling, scale_fullbody
-from predgait.models.fullbody import JOINT_CENTRES, MARKERS
+from predgait.models.fullbody import CONTACTS, JOINT_CENTRES, MARKERS
 from predgait.models.loading3d import Model3D, fullbody_for_subject
 from predgait.problemfile import load_problem
 
@@ -157,6 +158,36 @@ def unobserved_joints(model: Model3D, frames: Sequence[str]) -> tuple[str, ...]:
     return tuple(pm.names[j] for j in range(2, pm.njoints) if j not in seen)
 
 
+#: Anatomical landmark frames a ``[scaling.points]`` entry may pose in the static trial
+#: (epicondyle and malleolus markers fix the thigh and shank axial rotations).
+LANDMARKS = ("knee_lat_r", "knee_lat_l", "ankle_lat_r", "ankle_lat_l", *CONTACTS)
+LEG_BODIES = ("thigh", "shank", "foot")
+#: IK weight of the static joint centres (OpenSim's Gait2354 IK weighs its ASIS 10, most
+#: markers 1): they carry the anatomical landmarks the skin markers lack.
+JOINT_CENTRE_WEIGHT = 10.0
+
+
+def _static_joint_centres(marker_map: MarkerMap, static: Markers) -> dict[str, np.ndarray]:
+    """Model joint-centre and landmark frames -> (n, 3) positions per static frame.
+
+    From the map's ``[scaling.points]`` (epicondyle/malleolus midpoints, Harrington hips);
+    empty when the map has no joint centre there.
+    """
+    if marker_map.scaling is None:
+        return {}
+    points = {f: p for f, p in marker_map.scaling.points.items()
+              if f in JOINT_CENTRES + LANDMARKS and f not in marker_map.frames}
+    if not any(f in JOINT_CENTRES for f in points):
+        return {}
+    missing = sorted({m for p in points.values() for m in p.markers} - set(static.names))
+    if missing:
+        raise InputError(f"{marker_map.source}: [scaling.points] marker(s) {', '.join(missing)} "
+                         f"are not in {static.source or 'the static trial'}.")
+    return {f: np.array([p.locate({m: static.xyz[k, static.names.index(m)]
+                                   for m in p.markers}) for k in range(static.n_frames)])
+            for f, p in points.items()}
+
+
 def _first_complete_frames(markers: Markers, names: list[str], count: int) -> Markers:
     """The first ``count`` frames in which every one of ``names`` is visible."""
     visible = np.isfinite(markers.select(names).xyz).all(axis=(1, 2))
@@ -219,24 +250,43 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
     marker_map.check(markers.names, markers.source or "the trial")
     model = fullbody_for_subject(mass, height, sex)
     model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
-    base_frames = tuple(marker_map.frames)
     frames, names = marker_map.fitted()
     unobserved = unobserved_joints(model, frames)
+    centres = {}
     if static is not None:  # about 20 frames of the static trial, standing upright
         marker_map.check(static.names, static.source or "the static trial")
         step = max(1, static.n_frames // 20)
         calib = Markers(static.time[::step], static.names, static.xyz[::step],
                         static.rate / step, static.source)
-        # Legs and lumbar at 0 (the model's neutral is upright standing); pelvis, arms fitted.
-        locked = tuple(j for j in model.joint_names if not j.startswith(("shoulder", "elbow")))
-        calibration = "static trial"
+        centres = _static_joint_centres(marker_map, calib)
+        if centres:  # joint centres from anatomical markers pose the legs
+            locked = unobserved
+            calibration = (f"static trial, posed by the joint centres {', '.join(centres)} "
+                           f"(weight {JOINT_CENTRE_WEIGHT:g})")
+        else:  # legs and lumbar at 0 (the model's neutral is upright standing)
+            locked = tuple(j for j in model.joint_names
+                           if not j.startswith(("shoulder", "elbow")))
+            calibration = "static trial, legs and lumbar assumed at 0"
     else:  # the first 10 frames of the walk that show every mapped marker, pose fitted
         calib = _first_complete_frames(markers, list(names), 10)
         locked = unobserved
         calibration = f"trial frames {calib.time[0]:.3f}..{calib.time[-1]:.3f} s"
+    # With anatomical points, leg markers are placed by calibration, not fitted at the
+    # model's generic positions (a thigh cluster is not the model's lateral thigh marker).
+    posing = {f: m for f, m in marker_map.frames.items()
+              if not (centres and body_of(model, f).startswith(LEG_BODIES))}
+    static_frames = tuple(posing) + tuple(centres)
+    static_xyz = calib.select(list(posing.values())).xyz
+    if centres:
+        static_xyz = np.concatenate([static_xyz, np.stack(list(centres.values()), axis=1)],
+                                    axis=1)
+    static_weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
+                      for f, m in posing.items()}
+    static_weights |= {f: JOINT_CENTRE_WEIGHT if f in JOINT_CENTRES else 1.0 for f in centres}
+
     def fit_static(body):
-        return solve_ik(body, calib.time, calib.select(list(marker_map.frames.values())).xyz,
-                        base_frames, locked=locked, options=options)
+        return solve_ik(body, calib.time, static_xyz, static_frames, weights=static_weights,
+                        locked=locked, options=options)
 
     first = fit_static(model)
     scaling = None
