@@ -201,21 +201,21 @@ def _first_complete_frames(markers: Markers, names: list[str], count: int) -> Ma
 
 
 def _trim_unseen(markers: Markers, names: list[str]) -> tuple[Markers, str]:
-    """Drop leading/trailing frames showing fewer than half of the mapped markers.
+    """Drop leading/trailing frames showing fewer than 3/4 of the mapped markers.
 
     Those frames have the subject outside the capture volume; the note says what went.
     """
     visible = np.isfinite(markers.select(names).xyz).all(axis=2).sum(axis=1)
-    good = np.flatnonzero(visible >= max(3, len(names) / 2))
+    good = np.flatnonzero(visible >= max(3, 0.75 * len(names)))
     if good.size < 3:
-        raise InputError(f"{markers.source}: fewer than 3 frames show half of the mapped "
+        raise InputError(f"{markers.source}: fewer than 3 frames show 3/4 of the mapped "
                          "markers; check the marker map or the time window.")
     first, last = good[0], good[-1]
     if first == 0 and last == markers.n_frames - 1:
         return markers, "none"
     note = (f"kept {markers.time[first]:.3f}..{markers.time[last]:.3f} s; dropped {first} "
             f"leading and {markers.n_frames - 1 - last} trailing frames showing fewer than "
-            "half of the mapped markers")
+            "3/4 of the mapped markers")
     return markers.window(markers.time[first], markers.time[last]), note
 
 
