@@ -99,6 +99,7 @@ class JointTorques:
     history: Callable[[float], np.ndarray]
 
     def __call__(self, t, q, v, data) -> np.ndarray:
+        """Generalised force (nv,) at t."""
         tau = np.zeros(v.size)
         tau[self.rows] = self.history(t)
         return tau
@@ -116,6 +117,7 @@ class MeasuredLoads:
     loads: Callable[[float, pin.Data], Sequence[Load]]
 
     def __call__(self, t, q, v, data) -> np.ndarray:
+        """Generalised force (nv,) of the loads at t."""
         loads = self.loads(t, data)
         return generalized_load(self.model, data, loads) if loads else np.zeros(v.size)
 
@@ -166,6 +168,7 @@ class GroundContact:
         return out
 
     def __call__(self, t, q, v, data) -> np.ndarray:
+        """Generalised force (nv,) of the contact forces (stored in ``last_forces``)."""
         pm = self.model.pin_model
         self.last_forces = self.forces(data)
         tau = np.zeros(v.size)
@@ -247,7 +250,7 @@ class PartitionedSystem:
         return names
 
     def state(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """x from full q (nq,), v (nv,)."""
+        """State x from full q (nq,), v (nv,)."""
         return np.concatenate([np.asarray(q, dtype=float)[self.q_free],
                                np.asarray(v, dtype=float)[self.free]])
 
@@ -288,7 +291,7 @@ class PartitionedSystem:
         return a_free, lam
 
     def configuration_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """d q_f / dt from the full q, v."""
+        """Rate of q_f (d q_f / dt) from the full q, v."""
         rate = np.empty(self.nqf)
         if self.root_q:
             quat = q[3:7]
@@ -301,7 +304,7 @@ class PartitionedSystem:
         return rate
 
     def __call__(self, t: float, x: np.ndarray) -> np.ndarray:
-        """x' = [q_f', a_f] at t."""
+        """State derivative [q_f', a_f] at t."""
         q, v, a = self.full_state(t, x)
         a_free = self.solve(t, q, v, a)[0]
         return np.concatenate([self.configuration_rate(q, v), a_free])
