@@ -25,10 +25,6 @@ def _split(line: str) -> list[str]:
     return line.split()
 
 
-def _to_float(text: str) -> float:
-    return float(text) if text and text.lower() not in {"nan", "-nan"} else np.nan
-
-
 def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
              forward: Forward | str = Forward.PLUS_X) -> Markers:
     """Read a TRC marker file into lab-frame markers in metres.
@@ -75,7 +71,8 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
             continue
         fields = _split(line)
         try:
-            values_ = [_to_float(f) for f in fields[: 2 + 3 * n_markers]]
+            values_ = np.array([f or "nan" for f in fields[: 2 + 3 * n_markers]],
+                               dtype=float).tolist()
         except ValueError:
             bad = next(f for f in fields if f and not re.fullmatch(r"[-+.\deEnaNA]+", f))
             raise InputError(f"{path}: line {number} has a non-numeric value {bad!r}.") from None
