@@ -106,6 +106,50 @@ class JointTorques:
 
 
 @dataclass(frozen=True)
+class JointFeedback:
+    """PD feedback toward a reference motion on chosen (1-DOF joint) velocity rows.
+
+    tau[rows] = kp (q_ref - q) + kd (v_ref - v), the reference from ``reference(t)`` ->
+    (q, v, a) full vectors (e.g. a :class:`MotionHistory` of the measured motion): a simple
+    stand-in for the subject's control (thesis chapter 5, future work).
+
+    Attributes:
+        rows: velocity rows of 1-DOF joints. kp: N m/rad (scalar or per row).
+        kd: N m s/rad (scalar or per row; see :meth:`damped`).
+        q_offset: nq - nv (1 with a free-flyer root: joint rows shift by one in q).
+    """
+
+    rows: np.ndarray
+    reference: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
+    kp: float | np.ndarray
+    kd: float | np.ndarray
+    q_offset: int = 0
+
+    @classmethod
+    def damped(cls, model: RigidBodyModel, rows, reference, kp: float, ratio: float,
+               q: np.ndarray) -> JointFeedback:
+        """Stiffness ``kp`` on every row, damping 2 ratio sqrt(kp M_ii) at configuration q.
+
+        Each joint gets the damping ratio ``ratio`` for its own inertia M_ii (pin.crba):
+        one kd for all would overdamp a foot (M_ii ~ 1e-3 kg m^2) into a time constant
+        far below the integration step, and underdamp the trunk.
+        """
+        rows = np.asarray(rows, dtype=int)
+        inertia = np.diag(pin.crba(model.pin_model, model.pin_model.createData(), q))[rows]
+        return cls(rows, reference, kp, 2.0 * ratio * np.sqrt(kp * inertia),
+                   q_offset=model.pin_model.nq - model.pin_model.nv)
+
+    def __call__(self, t, q, v, data) -> np.ndarray:
+        """Generalised force (nv,) of the feedback at t."""
+        q_ref, v_ref, _ = self.reference(t)
+        tau = np.zeros(v.size)
+        rows_q = self.rows + self.q_offset
+        tau[self.rows] = (self.kp * (q_ref[rows_q] - q[rows_q])
+                          + self.kd * (v_ref[self.rows] - v[self.rows]))
+        return tau
+
+
+@dataclass(frozen=True)
 class MeasuredLoads:
     """World-frame loads at time t (e.g. measured ground reactions at their COP).
 

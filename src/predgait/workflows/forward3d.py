@@ -37,6 +37,7 @@ from predgait.dynamics.integrators import Direction, Event, IntegratorOptions, S
 from predgait.dynamics.inverse3d import FEET, sole_points
 from predgait.dynamics.partitioned import (
     GroundContact,
+    JointFeedback,
     JointTorques,
     MeasuredLoads,
     MotionHistory,
@@ -83,7 +84,9 @@ class Mode:
 
     ``kinematic_joints`` mixes moments and motions (thesis 2.3.2): joints whose name
     starts with one of these (e.g. "ankle", "knee_r_z") follow the IK when the other
-    joints are driven by moments.
+    joints are driven by moments. ``feedback_kp`` (N m/rad) adds PD feedback toward the
+    measured angles on the moment-driven joints, each damped at ``feedback_damping_ratio``
+    of its own inertia (:meth:`~predgait.dynamics.partitioned.JointFeedback.damped`).
     """
 
     name: str = "main"
@@ -91,6 +94,8 @@ class Mode:
     joints: JointMode = JointMode.MOMENTS
     ground: GroundMode = GroundMode.MEASURED
     kinematic_joints: tuple[str, ...] = ()
+    feedback_kp: float = 0.0
+    feedback_damping_ratio: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -237,7 +242,13 @@ def build_system(drive: FullbodyDrive, mode: Mode, *, contact: ContactSettings |
         ground = GroundContact(model, contact.frames, contact.contact, ground_z=z,
                                belt_velocity=belt)
         forces.append(ground)
-    system = PartitionedSystem(model, free_rows(mode, model.joint_names), history, forces)
+    free = free_rows(mode, model.joint_names)
+    driven = [i for i in free if i >= 6]
+    if mode.feedback_kp and driven:
+        forces.append(JointFeedback.damped(model, driven, history, mode.feedback_kp,
+                                           mode.feedback_damping_ratio,
+                                           history(drive.time[0])[0]))
+    system = PartitionedSystem(model, free, history, forces)
     return system, history, ground
 
 

@@ -123,7 +123,8 @@ def _variants(table: Table) -> tuple[Mode, ...]:
     out = []
     for i, item in enumerate(items):
         v = Table(item, table.path, table.text, f"variants.{i}.")
-        v.check_keys(("name", "pelvis", "joints", "ground", "kinematic_joints"))
+        v.check_keys(("name", "pelvis", "joints", "ground", "kinematic_joints", "feedback_kp",
+                      "feedback_damping_ratio"))
         kinematic = v.get("kinematic_joints", list, [])
         if not all(isinstance(k, str) for k in kinematic):
             raise v.error("kinematic_joints", "expected a list of joint names or prefixes, "
@@ -132,7 +133,10 @@ def _variants(table: Table) -> tuple[Mode, ...]:
                         pelvis=v.choice("pelvis", PelvisMode, "prescribed"),
                         joints=v.choice("joints", JointMode, "moments"),
                         ground=v.choice("ground", GroundMode, "measured"),
-                        kinematic_joints=tuple(kinematic)))
+                        kinematic_joints=tuple(kinematic),
+                        feedback_kp=v.number("feedback_kp", low=0.0, high=1e5, default=0.0),
+                        feedback_damping_ratio=v.number("feedback_damping_ratio", low=0.0,
+                                                        high=10.0, default=1.0)))
     names = [m.name for m in out]
     if len(set(names)) != len(names):
         raise table.error("variants", "variant names must differ (they name the output files).")
