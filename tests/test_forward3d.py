@@ -243,13 +243,13 @@ def test_cli_writes_states_summary_and_plot(tmp_path, capsys):
                  "--set", "simulation.duration=0.3"])
     assert code == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["kind"] == "fullbody" and len(summary["runs"]) == 7
+    assert summary["kind"] == "fullbody" and len(summary["runs"]) == 9
     first = summary["runs"][0]
     assert first["status"] == "fell" and first["deviation"]["joint_leaves_band_s"] is not None
     assert (out / "fullbody.png").stat().st_size > 10_000
     sto = read_storage(out / "states_pelvis_free_moments.sto")
     assert {"pelvis_tz", "pelvis_ry", "knee_r_y"} <= set(sto.columns)
-    assert len(list(out.glob("states_*.sto"))) == 7
+    assert len(list(out.glob("states_*.sto"))) == 9
     assert "pelvis free, moments: fell" in capsys.readouterr().out
 
 
