@@ -43,7 +43,9 @@ def register(commands: argparse._SubParsersAction) -> None:
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("input", type=Path, help="PROBLEM.toml, or MARKERS.trc|.c3d|.csv")
     cmd.add_argument("--grf", type=Path, help="ground reactions (OpenSim .mot); none for C3D")
-    cmd.add_argument("--static", type=Path, help="static trial (TRC) for segment lengths")
+    cmd.add_argument("--static", type=Path,
+                     help="static trial (TRC): segment lengths (leg) or, with --model fullbody, "
+                          "marker calibration and the marker map's [scaling]")
     cmd.add_argument("--mass", type=float, metavar="KG", help="body mass, kg (required)")
     cmd.add_argument("--height", type=float, metavar="M", help="standing height, m")
     cmd.add_argument("--side", choices=("right", "left"), default="right")
@@ -54,8 +56,9 @@ def register(commands: argparse._SubParsersAction) -> None:
                           "'fullbody' for 3D inverse kinematics and dynamics of the 35-DOF body "
                           "(needs --marker-map)")
     cmd.add_argument("--marker-map", type=Path, metavar="FILE.toml",
-                     help="fullbody: model marker frames -> trial markers "
-                          "(problems/markers_fullbody_subject01.toml)")
+                     help="fullbody: model frames -> trial markers, segment markers, weights, "
+                          "[scaling] (problems/markers_fullbody_subject01.toml, "
+                          "problems/markers_fullbody_walking5.toml)")
     cmd.add_argument("--sex", choices=("male", "female"), default="male",
                      help="fullbody: de Leva (1996) segment parameters (default male)")
     cmd.add_argument("--cutoff", type=float, default=6.0, metavar="HZ",
