@@ -79,3 +79,16 @@ def test_walking5_c3d_from_the_cli(tmp_path):
     assert 50.0 < info["clinical_angle_range_deg"]["knee_flexion_r"][1] < 80.0
     for name in ("clinical_angles.sto", "clinical_moments.sto", "clinical.csv"):
         assert (out / name).is_file()
+
+
+def test_grf_cutoff_is_applied_and_recorded(tmp_path):
+    """--grf-cutoff filters the plates (default: unfiltered, as OpenSim's ID tool)."""
+    static = DATA / "subject01_static.trc"
+    raw = run_inverse_fullbody(TRIAL, MAP, mass=72.6, height=1.8034, out_dir=tmp_path / "a",
+                               static=static)
+    smooth = run_inverse_fullbody(TRIAL, MAP, mass=72.6, height=1.8034, out_dir=tmp_path / "b",
+                                  static=static, grf_cutoff=6.0)
+    assert raw["provenance"]["grf_cutoff_hz"] is None
+    assert smooth["provenance"]["grf_cutoff_hz"] == 6.0
+    a, b = (r["peak_joint_moments_Nm"]["ankle_r_y"] for r in (raw, smooth))
+    assert a != b and abs(a - b) < 0.1 * a

@@ -63,8 +63,9 @@ def register(commands: argparse._SubParsersAction) -> None:
                      help="fullbody: de Leva (1996) segment parameters (default male)")
     cmd.add_argument("--cutoff", type=float, default=6.0, metavar="HZ",
                      help="marker low-pass cut-off, Hz (default 6)")
-    cmd.add_argument("--grf-cutoff", type=float, default=6.0, metavar="HZ",
-                     help="ground-reaction low-pass cut-off, Hz (default 6; 0 = unfiltered)")
+    cmd.add_argument("--grf-cutoff", type=float, default=None, metavar="HZ",
+                     help="ground-reaction low-pass cut-off, Hz (0 = unfiltered; default 6 for "
+                          "the leg, unfiltered for fullbody as OpenSim's ID tool)")
     add_output_options(cmd)
     cmd.set_defaults(run=run)
 
@@ -87,7 +88,7 @@ def options_from_args(args: argparse.Namespace):
     return InverseOptions(markers=args.input, grf=args.grf, static=args.static, mass=args.mass,
                           height=args.height, side=Side(args.side), model=args.model,
                           points=_parse_markers(args.markers), cutoff=args.cutoff,
-                          grf_cutoff=args.grf_cutoff or None)
+                          grf_cutoff=6.0 if args.grf_cutoff is None else args.grf_cutoff or None)
 
 
 def run_fullbody(args: argparse.Namespace) -> int:
@@ -102,7 +103,8 @@ def run_fullbody(args: argparse.Namespace) -> int:
     files = [args.input] + ([args.grf] if args.grf else [])
     summary = run_inverse_fullbody(files, args.marker_map, mass=args.mass, height=args.height,
                                    sex=args.sex, out_dir=args.out, static=args.static,
-                                   cutoff=args.cutoff, force=args.force)
+                                   cutoff=args.cutoff, grf_cutoff=args.grf_cutoff or None,
+                                   force=args.force)
     print(f"3D inverse dynamics of the full body; wrote {args.out}/")
     for key in ("ik_rms_m", "ik_flagged_frames", "pelvis_residual_force_N",
                 "pelvis_residual_moment_Nm"):

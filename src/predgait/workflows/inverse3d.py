@@ -32,6 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.data import (
+    filter_plate,
     lowpass,
     read_c3d,
     read_grf_mot,
@@ -243,9 +244,13 @@ class Inverse3DResult:
 def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map: MarkerMap, *,
                      mass: float, height: float, sex: str = "male",
                      static: Markers | None = None, window: tuple[float, float] | None = None,
-                     cutoff: float | None = 6.0, options: IKOptions | None = None
-                     ) -> Inverse3DResult:
-    """IK + ID of a trial with the whole body (in memory; see :func:`run_inverse_fullbody`)."""
+                     cutoff: float | None = 6.0, grf_cutoff: float | None = None,
+                     options: IKOptions | None = None) -> Inverse3DResult:
+    """IK + ID of a trial with the whole body (in memory; see :func:`run_inverse_fullbody`).
+
+    ``cutoff`` (Hz) low-passes the IK coordinates; ``grf_cutoff`` (Hz) the plates (None:
+    unfiltered, as OpenSim's InverseDynamicsTool).
+    """
     options = options or IKOptions()
     marker_map.check(markers.names, markers.source or "the trial")
     model = fullbody_for_subject(mass, height, sex)
@@ -305,6 +310,8 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
                   marker_names=names, weights=weights, locked=unobserved, options=options)
     q = _filter_q(model, ik.time, ik.q, cutoff)
     v, a = velocities(model, ik.time, q)
+    if grf_cutoff:
+        plates = [filter_plate(p, grf_cutoff) for p in plates]
     at_markers = tuple(resample_plate(p, ik.time) for p in plates)
     sides, stances = assign_plates(model, q, at_markers)
     dynamics = inverse_dynamics_3d(model, q, v, a, at_markers, sides)
@@ -317,7 +324,8 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "scaling": None if scaling is None else {
             "factors": {k: round(v, 5) for k, v in scaling.factors.items()},
             "lengths_m": {k: round(v, 5) for k, v in scaling.lengths.items()}},
-        "coordinate_cutoff_hz": cutoff, "window_s": [float(ik.time[0]), float(ik.time[-1])],
+        "coordinate_cutoff_hz": cutoff, "grf_cutoff_hz": grf_cutoff,
+        "window_s": [float(ik.time[0]), float(ik.time[-1])],
     }
     return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance,
                            sides, scaling)
@@ -428,7 +436,8 @@ def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Pa
                          mass: float, height: float, sex: str = "male",
                          out_dir: str | Path, static: str | Path | None = None,
                          window: tuple[float, float] | None = None,
-                         cutoff: float | None = 6.0, force: bool = False) -> dict:
+                         cutoff: float | None = 6.0, grf_cutoff: float | None = None,
+                         force: bool = False) -> dict:
     """Whole-body IK and ID of a trial, written to ``out_dir`` (see module docstring).
 
     Returns:
@@ -440,7 +449,8 @@ def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Pa
     static_markers = read_trc(static) if static is not None else None
     mmap = read_marker_map(marker_map)
     result = inverse_fullbody(markers, plates, mmap, mass=mass, height=height, sex=sex,
-                              static=static_markers, window=window, cutoff=cutoff)
+                              static=static_markers, window=window, cutoff=cutoff,
+                              grf_cutoff=grf_cutoff)
     inputs = [*trial_files, marker_map] + ([static] if static else [])
     with staged_output(out_dir, force=force, inputs=inputs) as stage:
         info = write_outputs(result, stage)
