@@ -11,7 +11,7 @@ Run:  .venv/bin/python benchmarks/bench_gait7.py
 
 from __future__ import annotations
 
-import time
+from bench_forward import best  # (seconds, result) of the fastest of `repeat` runs
 
 from predgait.dynamics.contact_fit import fit_impact_to_meglan
 from predgait.dynamics.integrators import IntegratorOptions, Method
@@ -21,14 +21,6 @@ from predgait.workflows.gait7_sim import FallLimits, KneeMoment, kinematic_run, 
 
 SPAN = (0.62, 1.62)
 
-
-def best(fn, repeat=3):
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), out
 
 
 def main():
