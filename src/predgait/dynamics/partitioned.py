@@ -106,6 +106,26 @@ class JointTorques:
 
 
 @dataclass(frozen=True)
+class PassiveTorques:
+    """Passive joint elements on 1-DOF rows: tau[row] = joint.moment(q, v), N m.
+
+    ``joint`` is a :class:`~predgait.dynamics.passive.PassiveJoint` (clinical law); use it
+    on rows whose coordinate has the clinical sign (e.g. gait7's knee flexion). Rows index
+    q and v alike (models without a free-flyer root).
+    """
+
+    rows: tuple[int, ...]
+    joint: object
+
+    def __call__(self, t, q, v, data) -> np.ndarray:
+        """Generalised force (nv,), N m on the rows."""
+        tau = np.zeros(v.size)
+        for row in self.rows:
+            tau[row] = float(self.joint.moment(q[row], v[row]))
+        return tau
+
+
+@dataclass(frozen=True)
 class JointFeedback:
     """PD feedback toward a reference motion on chosen (1-DOF joint) velocity rows.
 

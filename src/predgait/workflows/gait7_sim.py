@@ -38,6 +38,7 @@ from predgait.dynamics.partitioned import (
     MotionHistory,
     PartitionedRun,
     PartitionedSystem,
+    PassiveTorques,
     simulate_partitioned,
 )
 from predgait.dynamics.passive import PassiveJoint
@@ -62,25 +63,6 @@ class FallLimits:
 
     knee_deviation_deg: float = 30.0
     hat_drop: float = 0.1
-
-
-@dataclass(frozen=True)
-class KneeSprings:
-    """Passive knee moments as a generalised force ``(t, q, v, data) -> (nv,)``.
-
-    gait7's knee coordinate is the clinical knee flexion (+ flexion), so the clinical
-    law of :mod:`predgait.dynamics.passive` applies unchanged: tau[row] = M(q, v), N m.
-    """
-
-    rows: tuple[int, ...]
-    joint: PassiveJoint
-
-    def __call__(self, t, q, v, data) -> np.ndarray:
-        """Generalised force (nv,), N m on the knee rows."""
-        tau = np.zeros(v.size)
-        for row in self.rows:
-            tau[row] = float(self.joint.moment(q[row], v[row]))
-        return tau
 
 
 @dataclass(frozen=True, eq=False)
@@ -208,7 +190,7 @@ def knee_run(model: Model, motion: Gait7Motion, kinematic: Gait7Result, contact,
     rows = [model.coordinate_index(f"knee_{s[0]}") for s in sides]
     drive = JointTorques(np.array(rows), knee_moment_history(model, motion, kinematic, sides,
                                                              source, passive))
-    spring = KneeSprings(tuple(rows), passive)
+    spring = PassiveTorques(tuple(rows), passive)  # gait7 knee coordinate = clinical flexion
     system = PartitionedSystem(model, [z, *rows], history, [ground, drive, spring])
     ref = kinematic.run
     z_ref = SampledHistory(ref.t, ref.q[:, z], name="kinematic HAT height")
