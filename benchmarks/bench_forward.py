@@ -1,89 +1,116 @@
-"""Forward-dynamics speed: 1 s of the leg (thesis collapse start, foot still).
+"""Forward-dynamics speed of the leg, paired in one run (min / median of repeats).
 
-Runs (wall time, best of 3):
-  * modified Euler, h = 1 ms, 10 iterations (10 000 right-hand sides; target < 0.1 s);
-  * adaptive at 1e-5 accuracy: SciPy RK45 and LSODA on the Pinocchio right-hand side,
-    and CasADi's CVODES on the ADAM (symbolic) dynamics of the same URDF.
-OpenSim 4.6's Manager (Runge-Kutta-Merson) takes about 4 ms for this 1 s on a machine
-like ours (quoted figure: ``opensim`` is not installable here, so the ratio is printed
-against that number, not measured).
+1. The leg's right-hand side (foot still, collapse start) against ``pin.aba`` on the
+   same leg and state (goal: at most 3x).
+2. 1 s of the driven re-synthesis (bundled subject01, right leg, measured moments and
+   hip load, foot prescribed) at h = 1 ms, modified Euler, 10 iterations
+   (10 000 right-hand sides; goal: at most 0.1 s of compute).
+3. The same leg collapsing for 1 s from the thesis' start (foot still, no moments), with
+   an adaptive integrator at accuracy 1e-5: predgait (SciPy RK45, rtol = atol = 1e-5, on
+   the engine's right-hand side) against OpenSim 4.6's Manager (Runge-Kutta-Merson,
+   accuracy 1e-5) in the Python named by OPENSIM_PYTHON (goal: at most 1x OpenSim's
+   time); "peer not available" when it cannot run. Both end states are printed.
 
-Run:  .venv/bin/python benchmarks/bench_forward.py
+Run:  python benchmarks/bench_forward.py
+Figures depend on the machine and its load; only ratios measured in the same run are
+printed.
 """
 
 from __future__ import annotations
 
-import time
+import sys
+import tempfile
+import timeit
+from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 
-from predgait.dynamics.drivers import LegDrivers
-from predgait.dynamics.forward import LegSystem, simulate_leg
-from predgait.dynamics.integrators import IntegratorOptions, Method
-from predgait.models.loading import load_model
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from timing import NOT_AVAILABLE, Timing, ratio, run_peer, time_call  # noqa: E402
 
-OPENSIM_MS = 4.0
-X0 = np.radians([5.0, -10.0, 0.0, 0.0])
+from predgait.dynamics.drivers import LegDrivers  # noqa: E402
+from predgait.dynamics.forward import LegSystem, simulate_leg  # noqa: E402
+from predgait.dynamics.integrators import IntegratorOptions, Method  # noqa: E402
+from predgait.dynamics.inverse_trial import bundled_inverse  # noqa: E402
+from predgait.models.loading import load_model  # noqa: E402
 
-
-def best(fn, repeat=3):
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), out
+X0 = np.radians([5.0, -10.0, 0.0, 0.0])   # ankle, knee (model coordinates), rates
+LAB_TO_OSIM = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 
 
-def casadi_cvodes(model, tol):
-    import casadi as cs
-
-    from predgait.models.symbolic import symbolic_model
-
-    sym = symbolic_model(model)
-    x = cs.MX.sym("x", 4)
-    q = cs.vertcat(0, 0, 0, x[0], x[1])
-    v = cs.vertcat(0, 0, 0, x[2], x[3])
-    M = sym.mass_matrix(q)
-    h = sym.bias_force(q, v)
-    a = cs.solve(M[3:5, 3:5], -h[3:5])
-    F = cs.integrator("F", "cvodes", {"x": x, "ode": cs.vertcat(x[2], x[3], a)}, 0.0, 1.0,
-                      {"abstol": tol, "reltol": tol})
-    return F
+def per_call(statement: str, namespace: dict, number: int = 20000, repeat: int = 7
+             ) -> np.ndarray:
+    """Microseconds per call of ``statement``, one figure per repeat."""
+    return np.array(timeit.repeat(statement, number=number, repeat=repeat,
+                                  globals=namespace)) / number * 1e6
 
 
-def main():
+def right_hand_side(model) -> None:
+    system = LegSystem(model, LegDrivers.still())
+    q, v, _ = system.full_state(0.0, X0)
+    pm, data, tau = model.pin_model, model.pin_model.createData(), np.zeros(model.nq)
+    space = {"pin": pin, "pm": pm, "data": data, "q": q, "v": v, "tau": tau,
+             "system": system, "x": X0}
+    # interleave the two so that both see the same machine load
+    rhs, aba = [], []
+    for _ in range(3):
+        rhs.append(per_call("system(0.0, x)", space, repeat=3))
+        aba.append(per_call("pin.aba(pm, data, q, v, tau)", space, repeat=3))
+    rhs, aba = np.concatenate(rhs), np.concatenate(aba)
+    print(f"1. leg right-hand side: {rhs.min():.2f} / {np.median(rhs):.2f} us (min / median); "
+          f"pin.aba on the same leg: {aba.min():.2f} / {np.median(aba):.2f} us; "
+          f"ratio {rhs.min() / aba.min():.2f}x (min), {np.median(rhs) / np.median(aba):.2f}x "
+          "(median); goal <= 3x")
+
+
+def resynthesis() -> None:
+    inverse = bundled_inverse("right")
+    drivers = LegDrivers.from_inverse(inverse)
+    options = IntegratorOptions(method=Method.MODIFIED_EULER, step=1e-3, iterations=10)
+    sims = []
+    timing = time_call(lambda: sims.append(simulate_leg(inverse.model, drivers, (0.0, 1.0),
+                                                        options=options)), repeat=5)
+    sim = sims[-1]
+    print(f"2. driven re-synthesis, 1 s, h = 1 ms, modified Euler x10 ({sim.n_rhs_evaluations} "
+          f"right-hand sides, {sim.status}, fall at {sim.time_to_fall}): "
+          f"{timing.describe('ms')}; goal <= 100 ms: "
+          f"{'met' if timing.best <= 0.1 else 'NOT met'}")
+
+
+def opensim_collapse(model) -> None:
+    options = IntegratorOptions(method=Method.RK45, rtol=1e-5, atol=1e-5, step=0.1)
+    sims = []
+    ours = time_call(lambda: sims.append(simulate_leg(model, LegDrivers.still(), (0.0, 1.0),
+                                                      X0, options=options)), repeat=5)
+    pm = model.pin_model
+    inertias = [pm.inertias[j] for j in range(1, pm.njoints)]
+    with tempfile.TemporaryDirectory() as tmp:
+        setup = Path(tmp) / "setup.npz"
+        np.savez(setup, gravity=model.gravity, x0=X0, duration=1.0, accuracy=1e-5, repeat=5,
+                 mass=[i.mass for i in inertias], inertia=[i.inertia[1, 1] for i in inertias],
+                 com=[LAB_TO_OSIM @ i.lever for i in inertias],
+                 offset=[LAB_TO_OSIM @ pm.jointPlacements[j].translation for j in range(1, 4)])
+        peer = run_peer("opensim_forward_leg.py", str(setup))
+    theirs = None if "error" in peer else Timing(tuple(peer["wall"]), tuple(peer["cpu"]))
+    end = np.degrees(sims[-1].q[-1, 3:])
+    print(f"3. collapse 1 s, adaptive 1e-5: predgait RK45 {ours.describe('ms')} "
+          f"({sims[-1].n_rhs_evaluations} right-hand sides; end ankle, knee "
+          f"{end[0]:.2f}, {end[1]:.2f} deg)")
+    if theirs is None:
+        print(f"   OpenSim: {NOT_AVAILABLE} ({peer['error']})")
+        return
+    their_end = np.degrees(peer["final"])
+    print(f"   OpenSim {peer['version']} Manager (RKM): {theirs.describe('ms')} (end ankle, "
+          f"knee {their_end[0]:.2f}, {their_end[1]:.2f} deg)")
+    print(f"   OpenSim time / predgait time: {ratio(ours, theirs)}; goal >= 1x")
+
+
+def main() -> None:
     model = load_model("leg")
-    drivers = LegDrivers.still()
-    system = LegSystem(model, drivers)
-    n = 20000
-    t = time.perf_counter()
-    for _ in range(n):
-        system(0.0, X0)
-    rhs_us = (time.perf_counter() - t) / n * 1e6
-    print(f"right-hand side (Pinocchio CRBA + NLE + hip Jacobian): {rhs_us:.1f} us/call")
-    me = IntegratorOptions(method=Method.MODIFIED_EULER, step=1e-3, iterations=10)
-    wall, sim = best(lambda: simulate_leg(model, drivers, (0.0, 1.0), X0, options=me))
-    print(f"modified Euler h=1 ms x10, 1 s: {wall * 1e3:.1f} ms ({sim.n_rhs_evaluations} rhs; "
-          f"target 100 ms: {'met' if wall < 0.1 else 'NOT met'}; "
-          f"{wall * 1e3 / OPENSIM_MS:.1f}x the quoted OpenSim 4 ms)")
-    ref = simulate_leg(model, drivers, (0.0, 1.0), X0, options=IntegratorOptions(
-        method=Method.RADAU, rtol=1e-11, atol=1e-12, step=0.1)).q[-1, 3:]
-    for method in (Method.RK45, Method.LSODA):
-        opts = IntegratorOptions(method=method, rtol=1e-5, atol=1e-5, step=0.1)
-        wall, sim = best(lambda opts=opts: simulate_leg(model, drivers, (0.0, 1.0), X0,
-                                                        options=opts))
-        err = np.max(np.abs(sim.q[-1, 3:] - ref))
-        print(f"SciPy {method.value} tol 1e-5: {wall * 1e3:.1f} ms, {sim.n_rhs_evaluations} rhs, "
-              f"end error {err:.1e} rad; {wall * 1e3 / OPENSIM_MS:.2f}x OpenSim (quoted)")
-    try:
-        F = casadi_cvodes(model, 1e-5)
-        wall, out = best(lambda: F(x0=X0))
-        err = np.max(np.abs(np.array(out["xf"]).ravel()[:2] - ref))
-        print(f"CasADi CVODES (ADAM dynamics) tol 1e-5: {wall * 1e3:.2f} ms, end error "
-              f"{err:.1e} rad; {wall * 1e3 / OPENSIM_MS:.2f}x OpenSim (quoted)")
-    except Exception as exc:  # noqa: BLE001 - report and go on
-        print(f"CasADi CVODES: not run ({exc})")
+    right_hand_side(model)
+    resynthesis()
+    opensim_collapse(model)
 
 
 if __name__ == "__main__":
