@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from predgait.cli import add_output_options
@@ -29,30 +28,29 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def write_scenario(result, out: Path, *, force: bool = False) -> None:
     """Write the scenario's result folder whole or not at all."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     from predgait.data import write_storage
+    from predgait.report.figures import new_figure, save_figure
+    from predgait.report.tidy import write_summary
+    from predgait.scenarios.edits import edit_record
     from predgait.workflows.output import staged_output
 
     with staged_output(out, force=force, inputs=[result.spec.source]) as stage:
         summary = {"status": result.metrics["status"], "scenario": result.spec.name,
-                   "edits": [repr(e) for e in result.spec.edits],
+                   "edits": [edit_record(e) for e in result.spec.edits],
                    "window_s": list(result.spec.window),
                    "control": {"kp_n_m_per_rad": result.spec.kp,
                                "kd_n_m_s_per_rad": result.spec.kd},
                    "metrics": result.metrics}
-        (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        write_summary(stage / "summary.json", summary)
         for name, sim in (("baseline", result.baseline), ("edited", result.edited)):
             columns = {n: sim.q[:, i] for i, n in enumerate(sim.coordinate_names)}
             columns |= {f"{n}_speed": sim.qd[:, i] for i, n in enumerate(sim.coordinate_names)}
             write_storage(stage / f"states_{name}.sto", sim.t, columns,
                           header={"units": "m, rad, m/s, rad/s", "scenario": result.spec.name})
         (stage / "edited_leg.urdf").write_text(result.edited_urdf)
-        fig, axes = plt.subplots(1, 2, figsize=(10, 3.5), constrained_layout=True)
+        fig, axes = new_figure(1, 2, figsize=(10, 3.5), wspace=0.25, title=True)
         for ax, joint, i, sign in ((axes[0], "ankle dorsiflexion", 3, 1),
                                    (axes[1], "knee flexion", 4, -1)):
             for sim, label in ((result.baseline, "baseline"), (result.edited, "edited")):
@@ -63,8 +61,7 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
             ax.grid(alpha=0.3)
         axes[0].legend()
         fig.suptitle(f"Scenario: {result.spec.name}")
-        fig.savefig(stage / "angles.png", dpi=110)
-        plt.close(fig)
+        save_figure(fig, stage / "angles.png")
 
 
 def run(args: argparse.Namespace) -> int:

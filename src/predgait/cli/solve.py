@@ -64,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
     params = ", ".join(f"{k} = {v:.4g}" for k, v in solution["parameters"].items())
     print(f"{spec.kind.value}: {solution['ipopt_status']} in {solution['iterations']} "
           f"iterations, {solution['solve_time_s']:.3f} s; {params}; wrote {args.out}/")
-    print(f"  optimiser tracking RMS (deg): {solution['optimiser_tracking_rms_deg']}")
+    print("  optimiser tracking RMS: " + ", ".join(
+        f"{k} {v:.2f} deg" for k, v in solution["optimiser_tracking_rms_deg"].items()))
     for name, result in check.items():
         when = result["time_to_threshold_s"]
         settled = result["within_threshold_from_s"]

@@ -11,11 +11,11 @@ import numpy as np
 
 
 def _axes(ax, n=1, figsize=(6, 4)):
-    import matplotlib.pyplot as plt
+    from predgait.report.figures import new_figure
 
     if ax is not None:
         return ax
-    _, axes = plt.subplots(n, 1, figsize=figsize, sharex=True, squeeze=False)
+    _, axes = new_figure(n, 1, figsize=figsize, sharex=True, squeeze=False, hspace=0.15)
     return axes[:, 0] if n > 1 else axes[0, 0]
 
 

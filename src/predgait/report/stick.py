@@ -52,10 +52,10 @@ def plot_stick(model, t, q, *, interval: float = 0.05, ax=None, color=None, labe
         label: Legend label of the last figure.
         offset: Horizontal shift of the drawing, m (to put runs side by side).
     """
-    import matplotlib.pyplot as plt
-
     if ax is None:
-        _, ax = plt.subplots(figsize=(4, 5))
+        from predgait.report.figures import new_figure
+
+        _, ax = new_figure(figsize=(4, 5))
     rows = sample_times(np.asarray(t), interval)
     lines = stick_points(model, np.asarray(q)[rows])
     for j in range(len(rows)):
@@ -72,36 +72,73 @@ def plot_stick(model, t, q, *, interval: float = 0.05, ax=None, color=None, labe
 
 def write_gif(path: str | Path, model, t, q, *, reference_q=None, fps: int = 20,
               max_frames: int = 80) -> Path:
-    """Animated stick figure (Pillow writer); the reference motion in grey if given."""
-    import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
+    """Animated stick figure (Pillow GIF); the reference motion in grey if given.
 
+    Args:
+        path: Output .gif.
+        model: Leg, rod or gait7 (planar figures; see :data:`LINES`).
+        t: (n,) s.
+        q: (n, nq) coordinates.
+        reference_q: Optional (n, nq) measured motion drawn behind.
+        fps: Frames per second of the animation.
+        max_frames: At most this many frames (the trial is subsampled).
+    """
     t, q = np.asarray(t), np.asarray(q)
     rows = sample_times(t, max(1.0 / fps, (t[-1] - t[0]) / max_frames))
     sim = stick_points(model, q[rows])
-    ref = stick_points(model, np.asarray(reference_q)[rows]) if reference_q is not None else None
-    allpts = np.concatenate([p.reshape(-1, 2) for p in sim + (ref or [])])
+    ref = stick_points(model, np.asarray(reference_q)[rows]) if reference_q is not None else []
+    return write_polyline_gif(path, t[rows], sim, ref, fps=fps)
+
+
+def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
+                       fps: int = 20, size=(4.0, 4.5)) -> Path:
+    """GIF of polylines in the X-Z plane, one frame per time.
+
+    Args:
+        path: Output .gif.
+        times: (k,) s, shown in the title.
+        lines: Per polyline, (k, points, 2) X, Z in m (drawn blue).
+        reference_lines: Same layout, drawn grey behind (the measured motion).
+        fps: Frames per second.
+        size: Figure size, inches.
+    """
+    from PIL import Image
+
+    from predgait.report.figures import new_figure
+
+    allpts = np.concatenate([p.reshape(-1, 2) for p in [*lines, *reference_lines]])
     allpts = allpts[np.all(np.isfinite(allpts), axis=1)]
-    fig, ax = plt.subplots(figsize=(4, 4.5))
+    fig, ax = new_figure(figsize=size)
     lo, hi = allpts.min(axis=0) - 0.1, allpts.max(axis=0) + 0.1
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(min(lo[1], -0.05), hi[1])
     ax.set_aspect("equal")
     ax.axhline(0.0, color="k", lw=0.5)
-    ref_lines = [ax.plot([], [], "-", color="0.7", lw=2)[0] for _ in (ref or [])]
-    sim_lines = [ax.plot([], [], "-o", color="C0", ms=3)[0] for _ in sim]
-    title = ax.set_title("")
-
-    def draw(j):
-        for line, pts in zip(sim_lines, sim, strict=True):
-            line.set_data(pts[j, :, 0], pts[j, :, 1])
-        for line, pts in zip(ref_lines, ref or [], strict=True):
-            line.set_data(pts[j, :, 0], pts[j, :, 1])
-        title.set_text(f"t = {t[rows[j]]:.2f} s")
-        return [*sim_lines, *ref_lines, title]
-
-    anim = FuncAnimation(fig, draw, frames=len(rows), blit=False)
+    ax.set_xlabel("X (m)")
+    ax.set_ylabel("Z (m)")
+    ref_artists = [ax.plot([], [], "-", color="0.7", lw=2, animated=True)[0]
+                   for _ in reference_lines]
+    sim_artists = [ax.plot([], [], "-o", color="C0", ms=3, animated=True)[0] for _ in lines]
+    title = ax.set_title("", animated=True)
+    canvas = fig.canvas
+    canvas.draw()  # the static parts once; each frame draws only the moving artists
+    background = canvas.copy_from_bbox(fig.bbox)
+    frames = []
+    for j, time in enumerate(times):
+        canvas.restore_region(background)
+        for artist, pts in zip([*ref_artists, *sim_artists], [*reference_lines, *lines],
+                               strict=True):
+            artist.set_data(pts[j, :, 0], pts[j, :, 1])
+            ax.draw_artist(artist)
+        title.set_text(f"t = {time:.2f} s")
+        fig.draw_artist(title)
+        rgb = np.asarray(canvas.buffer_rgba())[:, :, :3]
+        image = Image.fromarray(rgb)
+        palette = frames[0] if frames else image.quantize(colors=64,
+                                                          method=Image.Quantize.FASTOCTREE)
+        frames.append(image.quantize(palette=palette, dither=Image.Dither.NONE))
+    fig.clear()
     path = Path(path)
-    anim.save(path, writer=PillowWriter(fps=fps))
-    plt.close(fig)
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(1000 / fps),
+                   loop=0, optimize=False)
     return path

@@ -10,7 +10,6 @@ measured motion, fastest linear growth at the start) and ``fullbody.png``.
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
@@ -21,6 +20,7 @@ from predgait.data import read_trc, write_storage
 from predgait.data.bundled import bundled_path, subject_info
 from predgait.errors import InputError
 from predgait.kinematics.ik3d import pelvis_cardan
+from predgait.report.tidy import write_summary
 from predgait.workflows.forward3d import Forward3DRun, FullbodyDrive, simulate_fullbody
 from predgait.workflows.forward3d_spec import FullbodySpec, TrialSpec
 
@@ -77,11 +77,7 @@ def _row(run: Forward3DRun, t0: float) -> dict:
 
 def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) -> dict:
     """Run every variant of ``spec`` into ``folder``; returns the summary."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    from predgait.report.figures import save_figure
     from predgait.report.fullbody_plots import plot_fullbody_runs
 
     inverse = inverse_for(spec.trial)
@@ -110,8 +106,7 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
     for run in runs:
         write_states(folder, run, names, header)
     fig = plot_fullbody_runs(runs, names, t0=t0)
-    fig.savefig(folder / "fullbody.png", dpi=110)
-    plt.close(fig)
+    save_figure(fig, folder / "fullbody.png")
     rows = [_row(run, t0) for run in runs]
     options = spec.integrator
     summary = {
@@ -123,5 +118,4 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
                        "iterations": options.iterations, "rtol": options.rtol,
                        "atol": options.atol},
         "fall_limits": vars(spec.fall), "runs": rows, "provenance": prov}
-    (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    return summary
+    return write_summary(folder / "summary.json", summary)

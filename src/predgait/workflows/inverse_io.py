@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +11,7 @@ from predgait.data import Side, write_csv, write_storage
 from predgait.data.bundled import bundled_path
 from predgait.problemfile import Table
 from predgait.report.gait_plots import cycle_axis, save_gait_plots
+from predgait.report.tidy import write_summary
 from predgait.workflows.inverse import (
     POINT_NAMES,
     HipRegression,
@@ -145,6 +145,6 @@ def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool
                   units={k: units_of(k) for k in kin}, provenance=provenance)
         write_csv(stage / "inverse_dynamics.csv", result.time, kinetics,
                   units={k: units_of(k) for k in kinetics}, provenance=provenance)
-        (stage / "summary.json").write_text(json.dumps(summary(result), indent=2) + "\n")
+        write_summary(stage / "summary.json", summary(result))
         save_gait_plots(result, stage)
     return Path(out)

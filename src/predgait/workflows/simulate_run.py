@@ -25,6 +25,7 @@ from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forward import LegSystem, SimulationResult, simulate_leg, simulate_rod
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import load_model
+from predgait.report.tidy import write_summary
 from predgait.workflows.simulate import CollapseSpec, ResynthesisSpec, RodSpec, Variant
 
 
@@ -54,27 +55,20 @@ def write_states(folder: Path, sim: SimulationResult, *, name: str = "states",
 
 
 def _save(fig_or_axes, path: Path) -> None:
-    import matplotlib.pyplot as plt
+    from predgait.report.figures import save_figure
 
-    fig = np.atleast_1d(fig_or_axes)[0].figure
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(np.atleast_1d(fig_or_axes)[0].figure, path)
 
 
 def _summary(folder: Path, spec, data: dict) -> dict:
     data = {"kind": type(spec).__name__.replace("Spec", "").lower(), **data,
             "provenance": {"problem": spec.source, "predgait": __version__}
             | data.get("provenance", {})}
-    (folder / "summary.json").write_text(json.dumps(data, indent=2, default=float) + "\n")
-    return data
+    return write_summary(folder / "summary.json", data)
 
 
 def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
     """Run a spec into ``folder``; returns the summary (``status`` may be "diverged")."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     if isinstance(spec, RodSpec):
         return _run_rod(spec, folder, progress)
     if isinstance(spec, CollapseSpec):
@@ -135,9 +129,9 @@ def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
     _save(plot_coordinates({k: (s.t, s.q) for k, s in runs.items()}, names,
                            reference=(trial.time, trial.q)), folder / "rod_trajectories.png")
     if study:
-        import matplotlib.pyplot as plt
+        from predgait.report.figures import new_figure
 
-        fig, ax = plt.subplots(figsize=(5, 4))
+        fig, ax = new_figure(figsize=(5, 4))
         for frame in spec.frames:
             for it in sorted({r["iterations"] for r in study}):
                 rows = [r for r in study if r["frame"] == frame.value and r["iterations"] == it]
@@ -171,8 +165,7 @@ def _variant_options(base, variant: Variant):
 
 
 def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
-    import matplotlib.pyplot as plt
-
+    from predgait.report.figures import new_figure
     from predgait.report.simulation_plots import plot_coordinates
     from predgait.report.stick import plot_stick, write_gif
 
@@ -198,7 +191,7 @@ def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
     lin = linearize(LegSystem(model, drivers, passive=spec.passive), 0.0, x0)
     _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee")),
           folder / "angles.png")
-    fig, axes = plt.subplots(1, len(runs), figsize=(3 * len(runs), 4), squeeze=False)
+    fig, axes = new_figure(1, len(runs), figsize=(3 * len(runs), 4), squeeze=False)
     for ax, (name, sim) in zip(axes[0], runs.items(), strict=True):
         plot_stick(model, sim.t, sim.q, interval=spec.stick_interval, ax=ax)
         ax.set_title(name, fontsize=8)
@@ -293,9 +286,9 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
           folder / "angles.png")
     _save(plot_grf(main.t, main.grf, main.cop, measured=measured_grf), folder / "grf.png")
     _save(plot_contributions(main.t, parts, ("ankle", "knee")), folder / "contributions.png")
-    import matplotlib.pyplot as plt
+    from predgait.report.figures import new_figure
 
-    fig, axes = plt.subplots(1, 2, figsize=(8, 4.5))
+    fig, axes = new_figure(1, 2, figsize=(8, 4.5))
     plot_stick(model, main.t, ref_q, interval=spec.stick_interval, ax=axes[0])
     axes[0].set_title("measured", fontsize=8)
     plot_stick(model, main.t, main.q, interval=spec.stick_interval, ax=axes[1])

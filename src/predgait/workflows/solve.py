@@ -12,7 +12,6 @@ deviates by more than ``threshold_deg`` is the figure of merit.
 from __future__ import annotations
 
 import enum
-import json
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -29,6 +28,7 @@ from predgait.problemfile import Table, load_problem
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
+from predgait.report.tidy import write_summary
 from predgait.workflows.inverse import InverseResult, bundled_inverse, run_inverse
 from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
@@ -213,7 +213,7 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
                        **inverse.provenance},
     }
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
-        (stage / "solution.json").write_text(json.dumps(solution, indent=2, default=str) + "\n")
+        solution = write_summary(stage / "solution.json", solution)
         names = ("ankle", "knee", "ankle_speed", "knee_speed")
         write_storage(stage / "states.sto", fit.t, dict(zip(names, fit.x.T, strict=True)),
                       header={"units": "rad, rad/s (model coordinates)",
