@@ -247,6 +247,7 @@ def test_cli_writes_states_summary_and_plot(tmp_path, capsys, assert_tidy_json):
     first = summary["runs"][0]
     assert first["status"] == "fell" and first["deviation"]["joint_leaves_band_s"] is not None
     assert (out / "fullbody.png").stat().st_size > 10_000
+    assert (out / "stick.gif").read_bytes()[:6] == b"GIF89a"
     sto = read_storage(out / "states_pelvis_free_moments.sto")
     assert {"pelvis_tz", "pelvis_ry", "knee_r_y"} <= set(sto.columns)
     assert len(list(out.glob("states_*.sto"))) == 9

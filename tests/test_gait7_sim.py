@@ -259,7 +259,7 @@ def test_cli_writes_the_result_folder(tmp_path, capsys, assert_tidy_json):
     out = tmp_path / "gait7"
     assert main(["simulate", str(PROBLEM), "--out", str(out)]) == 0
     for name in ("states.sto", "states_knee.sto", "grf.sto", "grf.csv", "grf.png",
-                 "knee.png", "stick.png", "summary.json"):
+                 "knee.png", "stick.png", "stick.gif", "summary.json"):
         assert (out / name).is_file(), name
     summary = assert_tidy_json(out / "summary.json")
     assert summary["kind"] == "gait7" and summary["grf"]["right"]["correlation"] > 0.5

@@ -3,13 +3,15 @@
 import enum
 import json
 import math
+import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import PYTHON_REPR
+from conftest import PYTHON_REPR, REPO
 from predgait.problemfile import Table
 from predgait.report.tidy import (
     aligned,
@@ -97,3 +99,17 @@ def test_units_and_precision():
     assert unit_of("kd_n_m_s_per_rad") == ("N m s/rad", 2)
     assert label_of("time_to_fall_s") == "time to fall"
     assert aligned([("a", "1"), ("long", "2")]) == "  a     1\n  long  2"
+
+
+def test_no_plots_writes_no_image_and_imports_no_matplotlib(tmp_path):
+    out = tmp_path / "collapse"
+    code = ("import sys; from predgait.cli import main; "
+            f"code = main(['simulate', {str(REPO / 'problems' / 'collapse.toml')!r}, '--out', "
+            f"{str(out)!r}, '--set', 'collapse.duration=0.2', '--no-plots']); "
+            "assert 'matplotlib' not in sys.modules, 'matplotlib imported'; sys.exit(code)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            timeout=300)
+    assert result.returncode == 0, result.stderr
+    names = {p.name for p in out.iterdir()}
+    assert {"summary.json", "states.sto"} <= names
+    assert not [n for n in names if n.endswith((".png", ".gif"))]

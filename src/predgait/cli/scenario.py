@@ -31,7 +31,7 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
     import numpy as np
 
     from predgait.data import write_storage
-    from predgait.report.figures import new_figure, save_figure
+    from predgait.report.figures import new_figure, plots_wanted, save_figure
     from predgait.report.tidy import write_summary
     from predgait.scenarios.edits import edit_record
     from predgait.workflows.output import staged_output
@@ -50,18 +50,19 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
             write_storage(stage / f"states_{name}.sto", sim.t, columns,
                           header={"units": "m, rad, m/s, rad/s", "scenario": result.spec.name})
         (stage / "edited_leg.urdf").write_text(result.edited_urdf)
-        fig, axes = new_figure(1, 2, figsize=(10, 3.5), wspace=0.25, title=True)
-        for ax, joint, i, sign in ((axes[0], "ankle dorsiflexion", 3, 1),
-                                   (axes[1], "knee flexion", 4, -1)):
-            for sim, label in ((result.baseline, "baseline"), (result.edited, "edited")):
-                ax.plot(sim.t, np.degrees(sign * sim.q[:, i]), label=label)
-            ax.set_title(joint)
-            ax.set_xlabel("time from heel strike (s)")
-            ax.set_ylabel("deg")
-            ax.grid(alpha=0.3)
-        axes[0].legend()
-        fig.suptitle(f"Scenario: {result.spec.name}")
-        save_figure(fig, stage / "angles.png")
+        if plots_wanted():
+            fig, axes = new_figure(1, 2, figsize=(10, 3.5), wspace=0.25, title=True)
+            for ax, joint, i, sign in ((axes[0], "ankle dorsiflexion", 3, 1),
+                                       (axes[1], "knee flexion", 4, -1)):
+                for sim, label in ((result.baseline, "baseline"), (result.edited, "edited")):
+                    ax.plot(sim.t, np.degrees(sign * sim.q[:, i]), label=label)
+                ax.set_title(joint)
+                ax.set_xlabel("time from heel strike (s)")
+                ax.set_ylabel("deg")
+                ax.grid(alpha=0.3)
+            axes[0].legend()
+            fig.suptitle(f"Scenario: {result.spec.name}")
+            save_figure(fig, stage / "angles.png")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,4 +1,4 @@
-"""Stick figures of the leg, rod or gait7 (thesis Figs. 4.2.2, 4.2.5, 4.2.8-4.2.10), GIF."""
+"""Stick figures of the leg, rod, gait7 or full body (thesis Figs. 4.2.2, 4.2.5, 4.2.8), GIF."""
 
 from __future__ import annotations
 
@@ -13,22 +13,37 @@ LINES = {"leg": (("heel", "toe", "ankle_center", "heel"), ("ankle_center", "knee
          "rod": (("bottom", "top"),),
          "gait7": tuple(line for s in ("r", "l") for line in (
              ("hip_center", f"knee_center_{s}", f"ankle_center_{s}"),
-             (f"heel_{s}", f"toe_{s}", f"ankle_center_{s}", f"heel_{s}")))}
+             (f"heel_{s}", f"toe_{s}", f"ankle_center_{s}", f"heel_{s}"))),
+         "fullbody": (("hip_center_r", "lumbar_center", "hip_center_l", "hip_center_r"),
+                      ("lumbar_center", "c7", "head_top"),
+                      ("shoulder_center_r", "shoulder_center_l"),
+                      *(line for s in ("r", "l") for line in (
+                          (f"hip_center_{s}", f"knee_center_{s}", f"ankle_center_{s}"),
+                          (f"heel_contact_{s}", f"toe_contact_{s}", f"ankle_center_{s}",
+                           f"heel_contact_{s}"),
+                          (f"shoulder_center_{s}", f"elbow_center_{s}", f"hand_{s}"))))}
 
 
-def stick_points(model, q: np.ndarray) -> list[np.ndarray]:
-    """Per polyline, (n, k, 2) lab X, Z of its points for each row of q (n, nq)."""
+def stick_points(model, q: np.ndarray, *, plane: bool = True) -> list[np.ndarray]:
+    """Per polyline, the lab positions of its points for each row of q (n, nq).
+
+    Args:
+        model: A model whose ``kind`` is a key of :data:`LINES`.
+        q: (n, nq) configurations.
+        plane: X, Z only (sagittal plane, (n, k, 2)); else X, Y, Z ((n, k, 3)).
+    """
     pm = model.pin_model
     data = pm.createData()
     q = np.atleast_2d(q)
     lines = LINES[model.kind]
     names = sorted({n for line in lines for n in line})
     ids = {n: model.frame_id(n) for n in names}
-    pos = {n: np.zeros((len(q), 2)) for n in names}
+    axes = [0, 2] if plane else [0, 1, 2]
+    pos = {n: np.zeros((len(q), len(axes))) for n in names}
     for k, qk in enumerate(q):
         pin.framesForwardKinematics(pm, data, qk)
         for n in names:
-            pos[n][k] = data.oMf[ids[n]].translation[[0, 2]]
+            pos[n][k] = data.oMf[ids[n]].translation[axes]
     return [np.stack([pos[n] for n in line], axis=1) for line in lines]
 
 
@@ -91,7 +106,7 @@ def write_gif(path: str | Path, model, t, q, *, reference_q=None, fps: int = 20,
 
 
 def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
-                       fps: int = 20, size=(4.0, 4.5)) -> Path:
+                       fps: int = 20, size: tuple[float, float] | None = None) -> Path:
     """GIF of polylines in the X-Z plane, one frame per time.
 
     Args:
@@ -100,7 +115,7 @@ def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
         lines: Per polyline, (k, points, 2) X, Z in m (drawn blue).
         reference_lines: Same layout, drawn grey behind (the measured motion).
         fps: Frames per second.
-        size: Figure size, inches.
+        size: Figure size, inches (None: from the extent of the motion).
     """
     from PIL import Image
 
@@ -108,8 +123,11 @@ def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
 
     allpts = np.concatenate([p.reshape(-1, 2) for p in [*lines, *reference_lines]])
     allpts = allpts[np.all(np.isfinite(allpts), axis=1)]
-    fig, ax = new_figure(figsize=size)
     lo, hi = allpts.min(axis=0) - 0.1, allpts.max(axis=0) + 0.1
+    if size is None:  # about 4.5 inches high, as wide as the motion needs
+        aspect = np.clip((hi[0] - lo[0]) / max(hi[1] - min(lo[1], -0.05), 1e-3), 0.5, 2.5)
+        size = (1.2 + 3.6 * aspect, 4.5)
+    fig, ax = new_figure(figsize=size)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(min(lo[1], -0.05), hi[1])
     ax.set_aspect("equal")

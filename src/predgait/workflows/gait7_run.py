@@ -7,7 +7,8 @@ and per contact point, measured per foot, N), ``summary.json`` (per run: GRF RMS
 difference, correlation and stance peaks, mean total vertical force vs body weight,
 HAT height offset and deviation, knee-driven status and time to fall), ``grf.png``
 (simulated vs measured vertical GRF per foot and the HAT height), ``knee.png`` (knee
-angles of the knee-driven runs) and ``stick.png``.
+angles of the knee-driven runs), ``stick.png`` and ``stick.gif`` (kinematic run, measured
+in grey).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from predgait import __version__
 from predgait.data.storage import write_csv, write_storage
 from predgait.errors import InputError
 from predgait.models.gait7 import CONTACT_FRAMES
+from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.simulations.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
 from predgait.simulations.gait7_sim import Gait7Result, grf_comparison, kinematic_run, knee_run
@@ -87,7 +89,7 @@ def _run_variant(spec: Gait7Spec, v: Gait7Variant, model, motion, t, cache: dict
 def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | None,
           interval: float) -> None:
     from predgait.report.figures import new_figure, save_figure
-    from predgait.report.stick import plot_stick
+    from predgait.report.stick import plot_stick, write_gif
 
     t = kin.run.t
     rows = np.searchsorted(motion.plate_time, t)
@@ -111,6 +113,8 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
     save_figure(fig, folder / "grf.png")
     ax = plot_stick(model, t, kin.run.q, interval=interval)
     save_figure(ax.figure, folder / "stick.png")
+    measured = motion.q[np.clip(np.searchsorted(motion.time, t), 0, len(motion.time) - 1)]
+    write_gif(folder / "stick.gif", model, t, kin.run.q, reference_q=measured)
 
 
 def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
@@ -169,8 +173,9 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
     write_storage(folder / "grf.sto", main_kin.run.t, columns, header={"units": "N"} | header)
     write_csv(folder / "grf.csv", main_kin.run.t, columns, units=dict.fromkeys(columns, "N"),
               provenance=f"{header['trial']}; {model.source}; {spec.source}")
-    _plot(folder, model, motion, main_kin, main_knee, spec.stick_interval)
-    _plot_knees(folder, model, main_kin, results)
+    if plots_wanted():
+        _plot(folder, model, motion, main_kin, main_knee, spec.stick_interval)
+        _plot_knees(folder, model, main_kin, results)
     main = rows[0]
     summary = {"kind": "gait7", "status": "diverged" if main_kin.status == "diverged"
                else "completed",

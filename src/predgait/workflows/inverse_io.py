@@ -17,6 +17,7 @@ from predgait.dynamics.inverse_trial import (
     StaticCentre,
 )
 from predgait.problemfile import Table
+from predgait.report.figures import plots_wanted
 from predgait.report.gait_plots import cycle_axis, save_gait_plots
 from predgait.report.tidy import write_summary
 from predgait.workflows.output import staged_output
@@ -146,5 +147,6 @@ def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool
         write_csv(stage / "inverse_dynamics.csv", result.time, kinetics,
                   units={k: units_of(k) for k in kinetics}, provenance=provenance)
         write_summary(stage / "summary.json", summary(result))
-        save_gait_plots(result, stage)
+        if plots_wanted():
+            save_gait_plots(result, stage)
     return Path(out)

@@ -29,6 +29,7 @@ from predgait.problemfile import Table, load_problem
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
+from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
@@ -220,12 +221,13 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
                         "knee_flexion_moment_corrected": -corrected[:, 1]}
             write_storage(stage / "corrected_moments.sto", fit.t, clinical,
                           header={"units": "N m (clinical sign)"})
-        from predgait.report.solve_plots import save_solve_plots
+        if plots_wanted():
+            from predgait.report.solve_plots import save_solve_plots
 
-        save_solve_plots(stage, inverse, fit, sim, drivers)
-        labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
-                  "with_fit": "re-simulated, fitted (after)",
-                  "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}
-        save_diagnostics(stage, inverse.time, inverse.q, fit,
-                         {labels[k]: v for k, v in sims.items()})
+            save_solve_plots(stage, inverse, fit, sim, drivers)
+            labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
+                      "with_fit": "re-simulated, fitted (after)",
+                      "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}
+            save_diagnostics(stage, inverse.time, inverse.q, fit,
+                             {labels[k]: v for k, v in sims.items()})
     return solution
