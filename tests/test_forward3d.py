@@ -237,12 +237,12 @@ def test_nothing_free_and_unknown_joint_are_refused(synthetic):
         build_system(synthetic, Mode(kinematic_joints=("ankel",)))
 
 
-def test_cli_writes_states_summary_and_plot(tmp_path, capsys, assert_tidy_json):
+def test_cli_writes_states_summary_and_plot(tmp_path, capsys, assert_tidy_result):
     out = tmp_path / "fullbody"
     code = main(["simulate", str(PROBLEM), "--out", str(out),
                  "--set", "simulation.duration=0.3"])
     assert code == 0
-    summary = assert_tidy_json(out / "summary.json")
+    summary = assert_tidy_result(out / "summary.json")
     assert summary["kind"] == "fullbody" and len(summary["runs"]) == 9
     first = summary["runs"][0]
     assert first["status"] == "fell" and first["deviation"]["joint_leaves_band_s"] is not None

@@ -255,13 +255,13 @@ def test_bad_input_names_the_key(setting, key):
         parse_spec(PROBLEM, [setting])
 
 
-def test_cli_writes_the_result_folder(tmp_path, capsys, assert_tidy_json):
+def test_cli_writes_the_result_folder(tmp_path, capsys, assert_tidy_result):
     out = tmp_path / "gait7"
     assert main(["simulate", str(PROBLEM), "--out", str(out)]) == 0
     for name in ("states.sto", "states_knee.sto", "grf.sto", "grf.csv", "grf.png",
                  "knee.png", "stick.png", "stick.gif", "summary.json"):
         assert (out / name).is_file(), name
-    summary = assert_tidy_json(out / "summary.json")
+    summary = assert_tidy_result(out / "summary.json")
     assert summary["kind"] == "gait7" and summary["grf"]["right"]["correlation"] > 0.5
     names = [r["name"] for r in summary["runs"]]
     assert names[0] == "main" and "meglan" in names

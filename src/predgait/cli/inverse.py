@@ -105,10 +105,9 @@ def run_fullbody(args: argparse.Namespace) -> int:
                                    sex=args.sex, out_dir=args.out, static=args.static,
                                    cutoff=args.cutoff, grf_cutoff=args.grf_cutoff or None,
                                    force=args.force)
-    print(f"3D inverse dynamics of the full body; wrote {args.out}/")
-    for key in ("ik_rms_m", "ik_flagged_frames", "pelvis_residual_force_N",
-                "pelvis_residual_moment_Nm"):
-        print(f"  {key}: {summary.get(key)}")
+    from predgait.report.console import inverse3d_text
+
+    print(inverse3d_text(summary, args.out))
     return 0
 
 

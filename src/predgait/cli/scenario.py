@@ -38,6 +38,8 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
 
     with staged_output(out, force=force, inputs=[result.spec.source]) as stage:
         summary = {"status": result.metrics["status"], "scenario": result.spec.name,
+                   "trial": "bundled:subject01", "side": result.spec.side,
+                   "torques": result.spec.torques.value, "gains": result.spec.gains.value,
                    "edits": [edit_record(e) for e in result.spec.edits],
                    "window_s": list(result.spec.window),
                    "control": {"kp_n_m_per_rad": result.spec.kp,

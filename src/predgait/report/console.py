@@ -6,7 +6,7 @@ angles 0.1 deg, times 1 ms, forces 1 N.
 
 from __future__ import annotations
 
-from predgait.report.tidy import format_number
+from predgait.report.tidy import aligned, format_number
 
 RAD_TO_DEG = 57.29577951308232
 
@@ -58,3 +58,19 @@ def simulate_text(summary: dict, out) -> str:
     if rows:
         lines.append(table(rows))
     return "\n".join(lines)
+
+
+def inverse3d_text(summary: dict, out) -> str:
+    """What ``predgait inverse --model fullbody`` prints: IK fit and pelvis residuals."""
+    ik = summary.get("ik_rms_m") or {}
+    force = summary.get("pelvis_residual_force_N") or {}
+    moment = summary.get("pelvis_residual_moment_Nm") or {}
+    rows = [("frames", str(summary.get("frames"))),
+            ("IK marker error (RMS)", f"mean {1000 * ik.get('mean', float('nan')):.1f} mm, "
+                                      f"max {1000 * ik.get('max', float('nan')):.1f} mm"),
+            ("frames flagged by IK", str(len(summary.get("ik_flagged_frames") or []))),
+            ("pelvis residual force", f"RMS {force.get('rms', float('nan')):.1f} N, "
+                                      f"max {force.get('max', float('nan')):.1f} N"),
+            ("pelvis residual moment", f"RMS {moment.get('rms', float('nan')):.1f} N m, "
+                                       f"max {moment.get('max', float('nan')):.1f} N m")]
+    return f"3D inverse dynamics of the full body; wrote {out}/\n" + aligned(rows)

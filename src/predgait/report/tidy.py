@@ -24,7 +24,7 @@ UNITS = {
     "_mm": ("mm", 1), "_kg": ("kg", 1), "_hz": ("Hz", 1), "_j": ("J", 1),
     "_n_m_per_rad": ("N m/rad", 1), "_n_m_s_per_rad": ("N m s/rad", 2),
     "_n_s_per_m": ("N s/m", 0), "_n_per_m": ("N/m", 0), "_percent": ("%", 1),
-    "_rad": ("rad", 4), "_m_per_s": ("m/s", 3),
+    "_rad": ("rad", 4), "_m_per_s": ("m/s", 3), "_nm": ("N m", 1), "_nm_per_kg": ("N m/kg", 2),
 }
 SIGNIFICANT = 6
 

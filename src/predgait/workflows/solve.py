@@ -198,7 +198,7 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         "parameters": fit.parameters, "confidence95": fit.confidence95,
         "ipopt_history": s.history,
         "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
-        "window_s": list(spec.window), "nodes": spec.nodes,
+        "window_s": list(spec.window), "threshold_deg": spec.threshold_deg, "nodes": spec.nodes,
         "transcription": spec.transcription.value, "diagnostics": fit.diagnostics,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
