@@ -188,7 +188,8 @@ def _fullbody(s: dict) -> Headline:
 def _solve(s: dict) -> Headline:
     check = s["resimulation_check"]
     before, after = check["baseline_uncorrected"], check["with_fit"]
-    threshold = _deg(s.get("threshold_deg"))
+    threshold = _deg(s["threshold_deg"]) if s.get("threshold_deg") is not None else \
+        "the threshold"
     p = s["parameters"]
     if s["kind"] == "knee_fit":
         numbers = [("k", format_quantity("_n_m_per_rad", p["k"])),

@@ -24,6 +24,7 @@ from predgait import __version__
 from predgait.errors import InputError
 from predgait.report.headline import GOOD, Headline, headline, summary_file
 from predgait.report.tidy import format_quantity
+from predgait.report.viewer import viewer_markup, viewer_script
 
 _STYLE = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:2rem auto;
@@ -152,11 +153,12 @@ def _table_summary(path: Path) -> str:
 
 def _caption(path: Path) -> str:
     stem = path.stem
+    if path.suffix == ".gif":
+        return "Stick figure over the trial, sagittal plane (animation; measured in grey)"
     for key, text in CAPTIONS.items():
         if stem == key or (key.endswith("_") and stem.startswith(key)):
             extra = stem[len(key):].replace("_", " ") if key.endswith("_") else ""
-            kind = " (animation)" if path.suffix == ".gif" else ""
-            return f"{text}{': ' + extra if extra else ''}{kind}"
+            return f"{text}{': ' + extra if extra else ''}"
     return stem.replace("_", " ")
 
 
@@ -226,9 +228,12 @@ def _section(folder: Path, root: Path, number: int | None) -> tuple[str, Headlin
     title = f"{number}. {head.title}" if number is not None else head.title
     anchor = f"r{number or 0}"
     where = folder.relative_to(root).as_posix() if folder != root else "."
+    viewer = ""
+    if (folder / "viewer.json").is_file():
+        viewer = viewer_markup((folder / "viewer.json").read_text(), _esc(head.title))
     return (f"<section id='{anchor}'><h2>{_esc(title)}</h2>"
             f"<p class='meta'>folder {_esc(where)}</p>{_headline_block(head)}"
-            f"{_figures(folder)}{_details(folder)}</section>"), head
+            f"{_figures(folder)}{viewer}{_details(folder)}</section>"), head
 
 
 def build_report(result_dir: str | Path, *, title: str | None = None,
@@ -272,4 +277,6 @@ def build_report(result_dir: str | Path, *, title: str | None = None,
             f"<h1>{_esc(title)}</h1><p class='meta'>predgait {__version__}, {stamp}, "
             f"result folder {_esc(name)}</p>"
             + (f"<p>{_esc(intro)}</p>" if intro else "")
-            + overview + "".join(sections) + "</body></html>\n")
+            + overview + "".join(sections)
+            + (f"<script>{viewer_script()}</script>" if "pg-viewer" in "".join(sections)
+               else "") + "</body></html>\n")

@@ -109,7 +109,7 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
 
     from predgait.report.figures import plots_wanted, save_figure
     from predgait.report.fullbody_plots import plot_fullbody_runs
-    from predgait.report.stick import write_gif
+    from predgait.report.viewer import write_motion
 
     # One bar for the whole command (IK + ID, then each variant); hidden when stderr is
     # not a terminal.
@@ -126,8 +126,8 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
     if plots_wanted():
         save_figure(plot_fullbody_runs(runs, names, t0=t0), folder / "fullbody.png")
         longest = max(runs, key=lambda run: run.t[-1])  # the first of the longest runs
-        write_gif(folder / "stick.gif", drive.model, longest.t, longest.q,
-                  reference_q=longest.measured)
+        write_motion(folder, drive.model, longest.t, longest.q, reference_q=longest.measured,
+                     label=f"simulated: {longest.mode.name}")
     rows = [_row(run, t0) for run in runs]
     options = spec.integrator
     summary = {

@@ -89,7 +89,8 @@ def _run_variant(spec: Gait7Spec, v: Gait7Variant, model, motion, t, cache: dict
 def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | None,
           interval: float) -> None:
     from predgait.report.figures import new_figure, save_figure
-    from predgait.report.stick import plot_stick, write_gif
+    from predgait.report.stick import plot_stick
+    from predgait.report.viewer import write_motion
 
     t = kin.run.t
     rows = np.searchsorted(motion.plate_time, t)
@@ -114,7 +115,7 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
     ax = plot_stick(model, t, kin.run.q, interval=interval)
     save_figure(ax.figure, folder / "stick.png")
     measured = motion.q[np.clip(np.searchsorted(motion.time, t), 0, len(motion.time) - 1)]
-    write_gif(folder / "stick.gif", model, t, kin.run.q, reference_q=measured)
+    write_motion(folder, model, t, kin.run.q, reference_q=measured)
 
 
 def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:

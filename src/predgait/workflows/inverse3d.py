@@ -63,6 +63,7 @@ from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling, scal
 from predgait.models.fullbody import CONTACTS, JOINT_CENTRES, MARKERS
 from predgait.models.loading3d import Model3D, fullbody_for_subject
 from predgait.problemfile import load_problem
+from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 
 BODIES = ("pelvis", "torso", "thigh_r", "thigh_l", "shank_r", "shank_l", "foot_r", "foot_l",
@@ -428,6 +429,13 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     write_csv(folder / "ik_residuals.csv", time, res, units=dict.fromkeys(res, "m") |
               {"flagged": "1"}, provenance=prov)
     info = summary(result)
+    if plots_wanted():
+        from predgait.report.clinical_plots import save_clinical_plots
+        from predgait.report.viewer import write_motion
+
+        save_clinical_plots(folder, time, angles, moments, info["stances"],
+                            body_mass=result.model.total_mass())
+        write_motion(folder, result.model, time, result.q, label="measured (IK)")
     return write_summary(folder / "summary.json", info)
 
 

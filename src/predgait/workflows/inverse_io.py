@@ -20,6 +20,7 @@ from predgait.problemfile import Table
 from predgait.report.figures import plots_wanted
 from predgait.report.gait_plots import cycle_axis, save_gait_plots
 from predgait.report.tidy import write_summary
+from predgait.report.viewer import write_motion
 from predgait.workflows.output import staged_output
 
 TRIAL_KEYS = ("markers", "grf", "static", "mass", "height", "side", "model")
@@ -149,4 +150,6 @@ def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool
         write_summary(stage / "summary.json", summary(result))
         if plots_wanted():
             save_gait_plots(result, stage)
+            write_motion(stage, result.model, result.time, result.q, label="measured (IK)",
+                         grf=(result.grf, result.cop))
     return Path(out)

@@ -139,7 +139,8 @@ def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
 def _plot_rod(folder: Path, spec: RodSpec, model, trial, runs: dict, main, study) -> None:
     from predgait.report.figures import new_figure
     from predgait.report.simulation_plots import plot_coordinates
-    from predgait.report.stick import plot_stick, write_gif
+    from predgait.report.stick import plot_stick
+    from predgait.report.viewer import write_motion
 
     names = model.coordinate_names
     _save(plot_coordinates({k: (s.t, s.q) for k, s in runs.items()}, names,
@@ -159,7 +160,7 @@ def _plot_rod(folder: Path, spec: RodSpec, model, trial, runs: dict, main, study
         ax.legend(fontsize=7)
         _save(ax, folder / "step_study.png")
     _save(plot_stick(model, main.t, main.q, interval=0.1), folder / "stick.png")
-    write_gif(folder / "stick.gif", model, main.t, main.q, reference_q=trial.q[:len(main.t)])
+    write_motion(folder, model, main.t, main.q, reference_q=trial.q[:len(main.t)])
 
 
 # ----------------------------------------------------------------------- collapse
@@ -175,7 +176,8 @@ def _variant_options(base, variant: Variant):
 def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
     from predgait.report.figures import new_figure
     from predgait.report.simulation_plots import plot_coordinates
-    from predgait.report.stick import plot_stick, write_gif
+    from predgait.report.stick import plot_stick
+    from predgait.report.viewer import write_motion
 
     model = load_model("leg")
     foot, shank, thigh = np.radians([spec.foot_deg, spec.shank_deg, spec.thigh_deg])
@@ -205,7 +207,7 @@ def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
             plot_stick(model, sim.t, sim.q, interval=spec.stick_interval, ax=ax)
             ax.set_title(name, fontsize=8)
         _save(axes[0], folder / "stick.png")
-        write_gif(folder / "stick.gif", model, main.t, main.q)
+        write_motion(folder, model, main.t, main.q)
     return _summary(folder, spec, {
         "status": "diverged" if main.partial else main.status, "message": rows[0]["message"],
         "integrator": _options_dict(spec.integrator),
@@ -239,8 +241,14 @@ def _inverse(spec: ResynthesisSpec):
 
 
 def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dict:
-    from predgait.report.simulation_plots import plot_contributions, plot_coordinates, plot_grf
-    from predgait.report.stick import plot_stick, write_gif
+    from predgait.report.simulation_plots import (
+        plot_contributions,
+        plot_coordinates,
+        plot_deviation,
+        plot_grf,
+    )
+    from predgait.report.stick import plot_stick
+    from predgait.report.viewer import write_motion
 
     inv = _inverse(spec)
     model = inv.model
@@ -294,6 +302,10 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
         _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee"),
                                reference=(inv.time[inv.time <= t1], inv.q[inv.time <= t1, 3:])),
               folder / "angles.png")
+        _save(plot_deviation(main.t, main.q[:, 3:], (inv.time, inv.q[:, 3:]), ("ankle", "knee"),
+                             threshold_deg=spec.threshold_deg,
+                             time_to_threshold=rows[0]["time_to_threshold_s"],
+                             time_to_fall=main.time_to_fall), folder / "deviation.png")
         _save(plot_grf(main.t, main.grf, main.cop, measured=measured_grf), folder / "grf.png")
         _save(plot_contributions(main.t, parts, ("ankle", "knee")), folder / "contributions.png")
         from predgait.report.figures import new_figure
@@ -304,7 +316,10 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
         plot_stick(model, main.t, main.q, interval=spec.stick_interval, ax=axes[1])
         axes[1].set_title("synthesized", fontsize=8)
         _save(axes, folder / "stick.png")
-        write_gif(folder / "stick.gif", model, main.t, main.q, reference_q=ref_q)
+        measured = [np.column_stack([np.interp(main.t, inv.time, a[:, i]) for i in range(3)])
+                    for a in (inv.grf, inv.cop)]
+        write_motion(folder, model, main.t, main.q, reference_q=ref_q,
+                     grf=(main.grf, main.cop), measured_grf=measured)
     return _summary(folder, spec, {
         "status": "diverged" if main.partial else main.status,
         "message": main_msg or main.message, "integrator": _options_dict(spec.integrator),
