@@ -61,13 +61,13 @@ def check_inertials(text: str, *, source: str) -> None:
 def _captured_native_stderr() -> Iterator[list[str]]:
     """Redirect file descriptor 2 (C++ output) into a list of lines for the block."""
     lines: list[str] = []
+    fd = 2
+    sys.stderr.flush()
     try:
-        fd = sys.stderr.fileno()
-    except (AttributeError, OSError, ValueError):  # stderr replaced (tests): nothing to do
+        saved = os.dup(fd)
+    except OSError:  # no stderr at all: nothing to capture
         yield lines
         return
-    sys.stderr.flush()
-    saved = os.dup(fd)
     with tempfile.TemporaryFile(mode="w+b") as sink:
         os.dup2(sink.fileno(), fd)
         try:
