@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, filtfilt
 
 from predgait.errors import InputError
 
@@ -63,6 +62,8 @@ def lowpass(x, rate: float, cutoff: float, *, order: int = 2, axis: int = 0) -> 
             f"cannot low-pass a signal with NaNs (frames {frames[0] + 1}..{frames[-1] + 1}, "
             f"{frames.size} frames): fill gaps or trim the trial first."
         )
+    from scipy.signal import butter, filtfilt  # heavy: imported only when filtering
+
     b, a = butter(order, corrected_cutoff(cutoff, rate, order=order), fs=rate)
     padlen = 3 * max(len(a), len(b))
     if x.shape[axis] <= padlen:

@@ -8,7 +8,6 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from predgait.data.frames import parse_enum
 from predgait.data.trial import Markers
@@ -98,6 +97,8 @@ def fill_gaps(markers: Markers, *, max_gap_frames: int | None = None,
         if not gap.interior:
             logger.info("%s: %s at the edge of the trial", markers.source, where)
     xyz = markers.xyz.copy()
+    from scipy.interpolate import CubicSpline  # heavy: imported only when filling gaps
+
     for j, name in enumerate(markers.names):
         present = ~np.isnan(xyz[:, j]).any(axis=1)
         if present.all():
