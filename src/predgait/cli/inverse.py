@@ -72,8 +72,8 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def options_from_args(args: argparse.Namespace):
     """InverseOptions from a problem file or the command-line options."""
+    from predgait.dynamics.inverse_trial import InverseOptions
     from predgait.problemfile import load_problem
-    from predgait.workflows.inverse import InverseOptions
     from predgait.workflows.inverse_io import options_from_problem
 
     if args.input.suffix.lower() == ".toml":
@@ -120,7 +120,7 @@ def run_fullbody(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and write the result folder."""
-    from predgait.workflows.inverse import run_inverse
+    from predgait.dynamics.inverse_trial import run_inverse
     from predgait.workflows.inverse_io import summary, write_inverse_outputs
 
     if args.model is not None and str(args.model) == "fullbody":

@@ -25,6 +25,7 @@ import numpy as np
 from predgait.dynamics.drivers import LegDrivers, PDFeedback
 from predgait.dynamics.forward import FallLimit, SimulationResult, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
 from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError, SimulationDiverged
 from predgait.kinematics.clinical import JOINT_SIGN
@@ -38,7 +39,6 @@ from predgait.scenarios.edits import (
     apply_segment_edits,
     parse_edit,
 )
-from predgait.workflows.inverse import InverseResult, bundled_inverse
 
 #: Stiffness of the range-of-motion stops of a restricted joint (exponential form of
 #: predgait.dynamics.passive.ExponentialLimits), N m and 1/rad.
@@ -198,14 +198,14 @@ def _drive_and_gains(spec: ScenarioSpec, inverse: InverseResult, drivers: LegDri
         return drivers, gains
     from predgait.problems.collocation import NodeData
     from predgait.problems.fitting import correct_torques, fit_feedback
-    from predgait.workflows.solve import corrected_drivers
 
     nodes = NodeData.from_drivers(drivers, *spec.window, FIT_INTERVALS)
     if spec.gains is Gains.FITTED:
         p = fit_feedback(inverse.model, nodes).parameters
         gains = (np.array([p["kp_ankle"], p["kp_knee"]]), np.array([p["kd_ankle"], p["kd_knee"]]))
     if spec.torques is Torques.CORRECTED:
-        drivers = corrected_drivers(drivers, correct_torques(inverse.model, nodes))
+        fit = correct_torques(inverse.model, nodes)
+        drivers = drivers.with_torque_change(fit.t, fit.torque_change)
     return drivers, gains
 
 
@@ -241,10 +241,10 @@ def _reoptimized(spec: ScenarioSpec, model, drivers: LegDrivers, locks) -> LegDr
                          "edits; drop reoptimize or those edits.")
     from predgait.problems.collocation import NodeData
     from predgait.problems.fitting import correct_torques
-    from predgait.workflows.solve import corrected_drivers
 
     nodes = NodeData.from_drivers(drivers, *spec.window, FIT_INTERVALS)
-    return corrected_drivers(drivers, correct_torques(model, nodes))
+    fit = correct_torques(model, nodes)
+    return drivers.with_torque_change(fit.t, fit.torque_change)
 
 
 def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) -> ScenarioResult:

@@ -100,7 +100,7 @@ def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
 def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
     from predgait.report.simulation_plots import plot_coordinates
     from predgait.report.stick import plot_stick, write_gif
-    from predgait.workflows.rod import synthetic_rod_trial
+    from predgait.simulations.rod import synthetic_rod_trial
 
     model = load_model("rod")
     trial = synthetic_rod_trial(model, duration=spec.duration, rate=spec.rate, noise=spec.noise)
@@ -223,15 +223,15 @@ def _eig(lin) -> dict:
 # -------------------------------------------------------------------- resynthesis
 def _inverse(spec: ResynthesisSpec):
     if spec.inverse_problem is not None:
+        from predgait.dynamics.inverse_trial import run_inverse
         from predgait.problemfile import load_problem
-        from predgait.workflows.inverse import run_inverse
         from predgait.workflows.inverse_io import options_from_problem
 
         return run_inverse(options_from_problem(load_problem(spec.inverse_problem)))
     if spec.trial != "bundled:subject01":
         raise InputError(f"{spec.source}: trial.source {spec.trial!r}: use "
                          "\"bundled:subject01\" or give trial.inverse_problem = FILE.toml.")
-    from predgait.workflows.inverse import bundled_inverse
+    from predgait.dynamics.inverse_trial import bundled_inverse
 
     return bundled_inverse(spec.side)
 
