@@ -163,8 +163,10 @@ def read_trial(options: InverseOptions) -> tuple[Trial, np.ndarray]:
     elif suffix == ".txt":
         markers = read_winter_table(path)
     elif suffix == ".csv":
-        header = path.read_text().splitlines()
-        header = next(line for line in header if not line.startswith("#"))
+        from predgait.textfile import read_text
+
+        lines = read_text(path, what="CSV marker file").splitlines()
+        header = next((line for line in lines if not line.startswith("#")), "")
         cols = [c.strip() for c in header.split(",")]
         names = [c[:-2] for c in cols if c.endswith("_x") and f"{c[:-2]}_z" in cols]
         if not names:
