@@ -77,6 +77,12 @@ def options_from_args(args: argparse.Namespace):
     from predgait.workflows.inverse_io import options_from_problem
 
     if args.input.suffix.lower() == ".toml":
+        given = [f"--{name.replace('_', '-')}" for name in
+                 ("grf", "static", "mass", "height", "markers", "model", "marker_map")
+                 if getattr(args, name) is not None]
+        if given:
+            raise InputError(f"{args.input} is a problem file: it gives the trial and options; "
+                             f"drop {', '.join(given)} (or edit the file).")
         return options_from_problem(load_problem(args.input))
     if args.mass is None:
         raise InputError("--mass (kg) is required: joint moments depend on the body mass.")

@@ -306,7 +306,7 @@ def headline(folder: Path) -> Headline | None:
         return None
     try:
         data = json.loads(path.read_text())
-    except json.JSONDecodeError:
+    except (json.JSONDecodeError, UnicodeDecodeError):
         return Headline(folder.name, "-", "unreadable summary")
     builder = BUILDERS.get(_kind(data) or "")
     if builder is None:

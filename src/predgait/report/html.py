@@ -202,7 +202,7 @@ def _details(folder: Path) -> str:
             data = json.loads(path.read_text())
             parts.append(f"<h4>{_esc(path.name)}</h4>" + (_fields(data) if isinstance(
                 data, dict) else _value("", data)))
-        except json.JSONDecodeError:
+        except (json.JSONDecodeError, UnicodeDecodeError):
             parts.append(f"<p class='bad'>{_esc(path.name)}: invalid JSON.</p>")
     tables = sorted([*folder.glob("*.sto"), *folder.glob("*.mot")])
     parts.extend(_table_summary(p) for p in tables)

@@ -262,6 +262,10 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     if not (inv.time[0] <= t0 < t1 <= inv.time[-1] + 1e-9):
         raise InputError(f"{spec.source}: simulation {t0:g}..{t1:g} s is outside the trial "
                          f"{inv.time[0]:.3f}..{inv.time[-1]:.3f} s (time 0 = heel strike).")
+    late = [t for t in spec.stability_times if t0 + t > t1]
+    if late:
+        raise InputError(f"{spec.source}: [stability] times {late} s are after the end of the "
+                         f"run ({t1 - t0:.3f} s after its start); give times within the run.")
     variants = [Variant("main", passive=spec.passive), *spec.variants]
     runs, rows, main_msg = {}, [], None
     for v in variants:
