@@ -28,10 +28,9 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def write_scenario(result, out: Path, *, force: bool = False) -> None:
     """Write the scenario's result folder whole or not at all."""
-    import numpy as np
-
     from predgait.data import write_storage
-    from predgait.report.figures import new_figure, plots_wanted, save_figure
+    from predgait.report.figures import plots_wanted
+    from predgait.report.scenario_plots import save_scenario_plot
     from predgait.report.tidy import write_summary
     from predgait.scenarios.edits import edit_record
     from predgait.workflows.output import staged_output
@@ -53,18 +52,7 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
                           header={"units": "m, rad, m/s, rad/s", "scenario": result.spec.name})
         (stage / "edited_leg.urdf").write_text(result.edited_urdf)
         if plots_wanted():
-            fig, axes = new_figure(1, 2, figsize=(10, 3.5), wspace=0.25, title=True)
-            for ax, joint, i, sign in ((axes[0], "ankle dorsiflexion", 3, 1),
-                                       (axes[1], "knee flexion", 4, -1)):
-                for sim, label in ((result.baseline, "baseline"), (result.edited, "edited")):
-                    ax.plot(sim.t, np.degrees(sign * sim.q[:, i]), label=label)
-                ax.set_title(joint)
-                ax.set_xlabel("time from heel strike (s)")
-                ax.set_ylabel("deg")
-                ax.grid(alpha=0.3)
-            axes[0].legend()
-            fig.suptitle(f"Scenario: {result.spec.name}")
-            save_figure(fig, stage / "angles.png")
+            save_scenario_plot(stage, result)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,8 +63,8 @@ def run(args: argparse.Namespace) -> int:
     write_scenario(result, args.out, force=args.force)
     m = result.metrics
     print(f"scenario '{result.spec.name}': {m['status']}; wrote {args.out}/")
-    print(f"  knee angle change RMS {m['knee_rms_change_deg']:.2f} deg (max "
-          f"{m['knee_max_change_deg']:.2f}); ankle {m['ankle_rms_change_deg']:.2f} deg")
+    print(f"  knee angle change RMS {m['knee_rms_change_deg']:.1f} deg (max "
+          f"{m['knee_max_change_deg']:.1f}); ankle {m['ankle_rms_change_deg']:.1f} deg")
     print(f"  extra feedback torque RMS: knee {m['knee_extra_feedback_rms_n_m']:.1f} N m, "
           f"ankle {m['ankle_extra_feedback_rms_n_m']:.1f} N m")
     return 0
