@@ -14,6 +14,10 @@ from predgait.errors import InputError
 
 #: Default vertical-force threshold (N) below which a foot is not in contact.
 CONTACT_THRESHOLD = 20.0
+#: A contact (a run above the threshold) extends on both sides while the vertical force
+#: stays above this fraction of the threshold (hysteresis): the small but real forces at
+#: heel strike and toe off are kept.
+RELEASE_FRACTION = 0.5
 
 
 class Resampling(StrEnum):
@@ -23,7 +27,7 @@ class Resampling(StrEnum):
     LOWPASS = "lowpass"    # low-pass below the marker Nyquist frequency, then interpolate
 
 
-def _hold(values: np.ndarray, valid: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+def hold_nearest(values: np.ndarray, valid: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     """Replace rows where ``valid`` is False with the nearest valid row (or ``fallback``)."""
     if not valid.any():
         return np.broadcast_to(fallback, values.shape).copy()
@@ -37,20 +41,47 @@ def _hold(values: np.ndarray, valid: np.ndarray, fallback: np.ndarray) -> np.nda
     return out
 
 
-def threshold_plate(plate: ForcePlate, *, threshold: float = CONTACT_THRESHOLD) -> ForcePlate:
-    """Zero the force and free moment where the vertical force is below ``threshold``.
+def contact_frames(fz: np.ndarray, threshold: float, *,
+                   release: float = RELEASE_FRACTION) -> np.ndarray:
+    """(n,) bool: frames in contact, by a threshold with hysteresis.
 
-    The COP there is held at the nearest in-contact COP (or the plate centre, or the
-    origin), so it stays finite but carries no load: moments of the GRF about any point
-    are exactly zero out of contact.
+    A contact is a run of frames with ``fz >= threshold``, extended backward and forward
+    while ``fz > release * threshold`` (a Schmitt trigger run in both directions, so the
+    result does not depend on the direction of time).
+
+    Args:
+        fz: (n,) N, vertical force.
+        threshold: N, level a contact must reach.
+        release: fraction of ``threshold`` below which a contact ends.
+    """
+    fz = np.nan_to_num(np.asarray(fz, dtype=float))
+    core = fz >= threshold
+    above = fz > release * threshold
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], above.astype(int), [0]])))
+    contact = np.zeros(fz.size, dtype=bool)
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        if core[start:stop].any():
+            contact[start:stop] = True
+    return contact
+
+
+def threshold_plate(plate: ForcePlate, *, threshold: float = CONTACT_THRESHOLD) -> ForcePlate:
+    """Zero the force and free moment out of contact; hold the COP where it is undefined.
+
+    Contact frames come from :func:`contact_frames` (threshold with hysteresis); the
+    force there is kept as measured. The COP is defined where the vertical force reaches
+    ``threshold``; elsewhere it is held at the nearest such COP (or the plate centre, or
+    the origin), so it stays finite: out of contact it carries no load, and at the edges
+    of a contact the small force acts at the held COP.
 
     Args:
         plate: plate in the lab frame.
-        threshold: N, vertical force (lab Z) below which there is no contact.
+        threshold: N, vertical force (lab Z) a contact must reach.
     """
-    contact = plate.force[:, 2] >= threshold
+    contact = contact_frames(plate.force[:, 2], threshold)
+    defined = (plate.force[:, 2] >= threshold) & np.isfinite(plate.cop).all(axis=1)
     centre = plate.corners.mean(axis=0) if plate.corners is not None else np.zeros(3)
-    cop = _hold(np.where(np.isfinite(plate.cop), plate.cop, 0.0), contact, centre)
+    cop = hold_nearest(np.where(np.isfinite(plate.cop), plate.cop, 0.0), defined, centre)
     return dataclasses.replace(
         plate,
         force=np.where(contact[:, None], plate.force, 0.0),
