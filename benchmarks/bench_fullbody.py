@@ -159,7 +159,7 @@ def driven_forward():
     is timed on the 4000 right-hand sides of RK4 along the measured path, then each
     actual run to its fall; the kinematic-joint runs on contact springs last the second.
     """
-    from predgait.workflows.forward3d import (
+    from predgait.simulations.forward3d import (
         FullbodyDrive,
         GroundMode,
         JointMode,

@@ -16,8 +16,8 @@ from bench_forward import best  # (seconds, result) of the fastest of `repeat` r
 from predgait.dynamics.contact_fit import fit_impact_to_meglan
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
-from predgait.workflows.gait7_motion import bundled_gait7_motion, gait7_model
-from predgait.workflows.gait7_sim import FallLimits, KneeMoment, kinematic_run, knee_run
+from predgait.simulations.gait7_motion import bundled_gait7_motion, gait7_model
+from predgait.simulations.gait7_sim import FallLimits, KneeMoment, kinematic_run, knee_run
 
 SPAN = (0.62, 1.62)
 

@@ -31,10 +31,7 @@ import pinocchio as pin
 from predgait.data import fill_gaps, read_trc
 from predgait.dynamics.external import Load
 from predgait.dynamics.inverse import leg_inverse_dynamics
-from predgait.kinematics.planar_ik import solve_ik
-from predgait.models.loading import load_model
-from predgait.models.symbolic import symbolic_model
-from predgait.workflows.inverse import (
+from predgait.dynamics.inverse_trial import (
     InverseOptions,
     _needed_markers,
     bundled_options,
@@ -43,6 +40,9 @@ from predgait.workflows.inverse import (
     read_trial,
     run_inverse,
 )
+from predgait.kinematics.planar_ik import solve_ik
+from predgait.models.loading import load_model
+from predgait.models.symbolic import symbolic_model
 from predgait.workflows.inverse_io import write_inverse_outputs
 
 N = 1000

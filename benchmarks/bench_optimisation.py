@@ -11,9 +11,9 @@ intervals ~2.8 s (34 Ipopt iterations); one knee stiffness as a MocoParameter ~0
 import time
 
 from predgait.dynamics.drivers import LegDrivers
+from predgait.dynamics.inverse_trial import bundled_inverse
 from predgait.problems.collocation import NodeData, Transcription, free_dynamics
 from predgait.problems.fitting import correct_torques, fit_feedback, fit_knee
-from predgait.workflows.inverse import bundled_inverse
 
 MOCO_TRACKING = 2.8
 MOCO_PARAMETER = 0.85

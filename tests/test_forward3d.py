@@ -1,4 +1,4 @@
-"""Whole-body forward dynamics driven by its 3D inverse dynamics (workflows.forward3d).
+"""Whole-body forward dynamics driven by its 3D inverse dynamics (simulations.forward3d).
 
 Known answers: a synthesized motion with consistent foot wrenches is reproduced by its
 own inverse-dynamics moments (ID -> FD round trip, pelvis prescribed and free); with
@@ -25,7 +25,7 @@ from predgait.dynamics.inverse3d import velocities
 from predgait.dynamics.partitioned import JointFeedback
 from predgait.errors import InputError
 from predgait.models.loading3d import load_fullbody
-from predgait.workflows.forward3d import (
+from predgait.simulations.forward3d import (
     FallLimits,
     FullbodyDrive,
     GroundMode,

@@ -76,7 +76,8 @@ def test_divergence_writes_partial_and_exits_nonzero(tmp_path, capsys):
 def test_resynthesis_subject01(tmp_path):
     out = tmp_path / "re"
     code = main(["simulate", str(PROBLEMS / "resynthesis.toml"), "--out", str(out),
-                 "--set", "simulation.duration=0.5", "--set", "integrator.method='rk4'",
+                 "--set", "simulation.duration=0.5", "--set", "stability.times=[0.05, 0.2, 0.4]",
+                 "--set", "integrator.method='rk4'",
                  "--set", "integrator.step=0.002"])
     assert code == 0
     s = json.loads((out / "summary.json").read_text())

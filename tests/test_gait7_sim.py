@@ -1,4 +1,4 @@
-"""gait7 forward simulation on the measured walk (thesis 2.3.1, 2.4; workflows.gait7_*).
+"""gait7 forward simulation on the measured walk (thesis 2.3.1, 2.4; simulations.gait7_*).
 
 Known answers: the IMPACT fit to Meglan has closed forms on [0, D]; a model standing on
 four linear IMPACT points sinks m g / (4 k); the mapped motion puts the gait7 joint
@@ -22,18 +22,19 @@ from predgait.data.frames import rotate_markers
 from predgait.dynamics.contact import MeglanContact
 from predgait.dynamics.contact_fit import fit_impact_to_meglan
 from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.inverse_trial import bundled_options, read_trial
 from predgait.dynamics.partitioned import GroundContact, PartitionedSystem
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError
 from predgait.kinematics.joint_centres import harrington_hip
 from predgait.models.gait7 import CONTACT_FRAMES
-from predgait.workflows.gait7_motion import (
+from predgait.simulations.gait7_motion import (
     SIDES,
     bundled_gait7_motion,
     frame_positions,
     gait7_model,
 )
-from predgait.workflows.gait7_sim import (
+from predgait.simulations.gait7_sim import (
     FallLimits,
     KneeMoment,
     grf_comparison,
@@ -42,7 +43,6 @@ from predgait.workflows.gait7_sim import (
     knee_moment_history,
     knee_run,
 )
-from predgait.workflows.inverse import bundled_options, read_trial
 from predgait.workflows.simulate import parse_spec
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "gait7_contact.toml"

@@ -6,6 +6,12 @@ import pytest
 
 from predgait.dynamics.external import Load, joint_forces
 from predgait.dynamics.inverse import leg_inverse_dynamics
+from predgait.dynamics.inverse_trial import (
+    bundled_inverse,
+    bundled_options,
+    run_inverse,
+    with_options,
+)
 from predgait.kinematics import clinical
 from predgait.kinematics.joint_centres import (
     calibrate_centre,
@@ -19,7 +25,6 @@ from predgait.kinematics.segment_angles import (
     segment_angle,
 )
 from predgait.models.loading import load_model
-from predgait.workflows.inverse import bundled_inverse, bundled_options, run_inverse, with_options
 
 
 def smooth_motion(model, n=200, seed=0):
@@ -261,7 +266,7 @@ def test_same_trial_through_csv_gives_the_same_moments(tmp_path):
 
 
 def test_walking5_c3d_both_plates(shared_data):
-    from predgait.workflows.inverse import InverseOptions
+    from predgait.dynamics.inverse_trial import InverseOptions
 
     results = {}
     for side, s in (("right", "R"), ("left", "L")):

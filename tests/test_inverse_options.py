@@ -14,11 +14,7 @@ from predgait.cli import build_parser
 from predgait.cli.inverse import options_from_args
 from predgait.data.resample import contact_frames, threshold_plate
 from predgait.data.trial import ForcePlate
-from predgait.errors import InputError
-from predgait.kinematics.bounded_ik import bounded_step
-from predgait.kinematics.planar_ik import solve_ik
-from predgait.models.loading import load_model
-from predgait.workflows.inverse import (
+from predgait.dynamics.inverse_trial import (
     THRESHOLD,
     CutoffRule,
     bundled_options,
@@ -26,6 +22,10 @@ from predgait.workflows.inverse import (
     run_inverse,
     with_options,
 )
+from predgait.errors import InputError
+from predgait.kinematics.bounded_ik import bounded_step
+from predgait.kinematics.planar_ik import solve_ik
+from predgait.models.loading import load_model
 
 REPO = Path(__file__).resolve().parents[1]
 PROBLEM = REPO / "problems" / "inverse_subject01.toml"

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from predgait.data import read_storage
+from predgait.dynamics.inverse_trial import bundled_inverse
 from predgait.errors import InputError
 from predgait.workflows import inverse_io
-from predgait.workflows.inverse import bundled_inverse
 from predgait.workflows.inverse_io import result_columns, write_inverse_outputs
 
 

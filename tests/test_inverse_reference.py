@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from predgait.data import read_storage
-from predgait.workflows.inverse import bundled_inverse
+from predgait.dynamics.inverse_trial import bundled_inverse
 
 REFERENCE = Path(__file__).resolve().parent / "data" / "opensim_gait2354_reference"
 MASS = 72.6

@@ -18,10 +18,7 @@ from predgait.data import read_grf_mot, read_trc, write_csv, write_storage
 from predgait.data.frames import OPENSIM_TO_LAB
 from predgait.dynamics.external import Load
 from predgait.dynamics.inverse import leg_inverse_dynamics
-from predgait.errors import InputError
-from predgait.kinematics import clinical
-from predgait.models.loading import load_model
-from predgait.workflows.inverse import (
+from predgait.dynamics.inverse_trial import (
     InverseOptions,
     bundled_inverse,
     bundled_options,
@@ -29,6 +26,9 @@ from predgait.workflows.inverse import (
     subject01_points,
     with_options,
 )
+from predgait.errors import InputError
+from predgait.kinematics import clinical
+from predgait.models.loading import load_model
 
 POINTS = {"hip": "hip_center", "knee": "knee_center", "ankle": "ankle_center", "heel": "heel",
           "toe": "toe"}

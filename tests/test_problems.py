@@ -12,11 +12,11 @@ import pytest
 from predgait.dynamics.drivers import LegDrivers, PDFeedback
 from predgait.dynamics.forward import LegSystem, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.inverse_trial import bundled_inverse
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError, SolveFailed
 from predgait.problems.collocation import NodeData, free_dynamics
 from predgait.problems.fitting import correct_torques, fit_feedback, fit_knee
-from predgait.workflows.inverse import bundled_inverse
 
 REPO = Path(__file__).resolve().parents[1]
 FINE = IntegratorOptions(method=Method.RK4, step=2e-4)

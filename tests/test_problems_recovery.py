@@ -14,10 +14,10 @@ import pytest
 from predgait.dynamics.drivers import LegDrivers, PDFeedback
 from predgait.dynamics.forward import simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.inverse_trial import bundled_inverse
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.fitting import correct_torques, fit_feedback, fit_knee
-from predgait.workflows.inverse import bundled_inverse
 from predgait.workflows.solve import Kind, SolveSpec, resimulations, solve_problem
 
 HS = Transcription.HERMITE_SIMPSON

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -72,8 +73,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.run(args) or 0)
-    except PredgaitError as exc:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("default")
+            status = int(args.run(args) or 0)
+        for warning in caught:  # shown only when the command did not fail
+            warnings.showwarning(warning.message, warning.category, warning.filename,
+                                 warning.lineno)
+        return status
+    except PredgaitError as exc:  # its warnings (e.g. numpy on bad numbers) are dropped
         print(f"predgait: error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # e.g. piped into head

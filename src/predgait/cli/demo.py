@@ -98,11 +98,11 @@ def _stage(name: str, started: float) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run every stage into a staging folder, then write the report."""
     from predgait.cli.scenario import write_scenario
+    from predgait.dynamics.inverse_trial import bundled_inverse
     from predgait.models.urdf import write_text_atomic
     from predgait.problemfile import load_problem
     from predgait.report.html import build_report
     from predgait.scenarios.run import load_scenario, run_scenario
-    from predgait.workflows.inverse import bundled_inverse
     from predgait.workflows.inverse_io import write_inverse_outputs
     from predgait.workflows.output import staged_output
     from predgait.workflows.simulate import parse_spec

@@ -96,7 +96,7 @@ OVERRIDES = {"grf": ("grf", "trial"), "static": ("static", "trial"), "mass": ("m
 
 def _flag_options(args: argparse.Namespace) -> dict:
     """InverseOptions fields given on the command line (parsed), by field name."""
-    from predgait.workflows.inverse import CutoffRule, parse_cutoff
+    from predgait.dynamics.inverse_trial import CutoffRule, parse_cutoff
 
     given = {k: getattr(args, k) for k in OVERRIDES if getattr(args, k) is not None}
     if "cutoff" in given:
@@ -118,15 +118,17 @@ def options_from_args(args: argparse.Namespace):
     """InverseOptions from a problem file (flags override its keys) or the options alone."""
     from dataclasses import replace
 
+    from predgait.dynamics.inverse_trial import InverseOptions
     from predgait.problemfile import load_problem
-    from predgait.workflows.inverse import InverseOptions
     from predgait.workflows.inverse_io import options_from_problem
 
     flags = _flag_options(args)
     if args.input.suffix.lower() == ".toml":
-        if args.markers:
-            raise InputError("--markers applies to a marker file; with a problem file edit its "
-                             "[points] table.")
+        given = [f"--{name.replace('_', '-')}" for name in ("markers", "marker_map")
+                 if getattr(args, name) is not None]
+        if given:
+            raise InputError(f"{args.input} is a problem file: its [points] table names the "
+                             f"markers; drop {', '.join(given)} (or edit the file).")
         options = options_from_problem(load_problem(args.input, overrides=args.set))
         return replace(options, **flags)
     if args.set:
@@ -158,7 +160,7 @@ def run_fullbody(args: argparse.Namespace) -> int:
     if unused:
         raise InputError(f"{', '.join(unused)}: not used by --model fullbody (the marker map "
                          "names the markers, plates are assigned to both feet); drop them.")
-    from predgait.workflows.inverse import parse_cutoff
+    from predgait.dynamics.inverse_trial import parse_cutoff
 
     cutoff = parse_cutoff(args.cutoff if args.cutoff is not None else 6.0, field="--cutoff")
     grf_cutoff = parse_cutoff(args.grf_cutoff or 0, field="--grf-cutoff")
@@ -175,7 +177,7 @@ def run_fullbody(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and write the result folder."""
-    from predgait.workflows.inverse import MOST_FRAMES, run_inverse
+    from predgait.dynamics.inverse_trial import MOST_FRAMES, run_inverse
     from predgait.workflows.inverse_io import summary, write_inverse_outputs
 
     if args.model is not None and str(args.model) == "fullbody":

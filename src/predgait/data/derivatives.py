@@ -13,7 +13,6 @@ from __future__ import annotations
 from enum import StrEnum
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
 
 from predgait.data.frames import parse_enum
 from predgait.errors import InputError
@@ -95,6 +94,8 @@ def differentiate(x, time, *, method: Method | str = Method.CENTRAL3, order: int
     if method is Method.SPLINE:
         if np.any(np.diff(t) <= 0):
             raise InputError("time must be strictly increasing for spline derivatives.")
+        from scipy.interpolate import make_interp_spline  # heavy: only for spline derivatives
+
         spline = make_interp_spline(t, y, k=5, axis=0)
         out = spline.derivative(order)(t)
     else:

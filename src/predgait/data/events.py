@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
-from scipy.signal import find_peaks
 
 from predgait.data.frames import parse_enum
 from predgait.data.resample import CONTACT_THRESHOLD
@@ -108,6 +107,8 @@ def events_from_kinematics(markers: Markers, side: Side | str, *, heel: str, toe
     if np.isnan(heel_x).any() or np.isnan(toe_x).any():
         raise InputError(f"{markers.source}: markers {heel}, {toe} or {list(pelvis)} have gaps; "
                          "fill them before detecting events.")
+    from scipy.signal import find_peaks  # heavy: imported by the commands that detect events
+
     distance = max(1, int(round(min_interval * markers.rate)))
 
     def peaks(signal):

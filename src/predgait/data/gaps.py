@@ -8,7 +8,6 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from predgait.data.frames import parse_enum
 from predgait.data.trial import Markers
@@ -110,6 +109,8 @@ def fill_gaps(markers: Markers, *, max_gap_frames: int | None = None,
         inside[first:last + 1] = True
         fill = inside & ~present
         if fill.any():
+            from scipy.interpolate import CubicSpline  # heavy: only when there is a gap
+
             spline = CubicSpline(t[present], xyz[present, j], axis=0)
             xyz[fill, j] = spline(t[fill])
     filled = markers.with_xyz(xyz)

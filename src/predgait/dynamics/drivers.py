@@ -14,7 +14,7 @@ Outside the sampled time range the histories are held constant at the end values
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -166,7 +166,7 @@ class LegDrivers:
 
     @classmethod
     def from_inverse(cls, result, *, torque_offsets=None, passive=None) -> LegDrivers:
-        """Drivers from a :class:`predgait.workflows.inverse.InverseResult`.
+        """Drivers from a :class:`predgait.dynamics.inverse_trial.InverseResult`.
 
         Prescribed foot motion = IK base coordinates (q, qd and the inverse-dynamics
         qdd, so forward and inverse use the same accelerations); torques = RNEA ankle
@@ -197,6 +197,24 @@ class LegDrivers:
                 raise InputError(f"passive elements on '{name}': the leg has ankle, knee, hip.")
         return cls.from_samples(result.time, result.q, result.qd, result.qdd, tau,
                                 result.hip_force, hip_moment)
+
+    def with_torque_change(self, t: np.ndarray, change: np.ndarray) -> LegDrivers:
+        """These drivers with a torque change added to the joint torques.
+
+        Args:
+            t: (m,) s grid of the change (e.g. a torque-correction solution).
+            change: (m, 2) N m ankle and knee torque changes (model sign), linear
+                between grid points and held beyond them.
+        """
+        t = np.asarray(t, dtype=float)
+        change = np.asarray(change, dtype=float)
+        base = self.joint_torque
+
+        def joint_torque(time):
+            return base(time) + np.array([np.interp(time, t, change[:, 0]),
+                                          np.interp(time, t, change[:, 1])])
+
+        return replace(self, joint_torque=joint_torque)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ def plot_fullbody_runs(runs: Sequence, joint_names: Sequence[str],
     """Pelvis height (m) and joint angles (deg) over time, one panel each.
 
     Args:
-        runs: :class:`~predgait.workflows.forward3d.Forward3DRun` objects.
+        runs: :class:`~predgait.simulations.forward3d.Forward3DRun` objects.
         joint_names: The model's joint names (columns 7.. of q).
         panels: Joints to show.
         t0: s, subtracted from the time axis (the start of the runs).

@@ -114,7 +114,7 @@ def _section(folder: Path, title: str, level: int) -> str:
     for path in sorted(folder.glob("*.json")):
         try:
             data = json.loads(path.read_text())
-        except json.JSONDecodeError:
+        except (json.JSONDecodeError, UnicodeDecodeError):
             parts.append(f"<p class='status-bad'>{_esc(path.name)}: invalid JSON.</p>")
             continue
         parts.append(f"<h3>{_esc(path.name)}</h3>")

@@ -25,6 +25,7 @@ import numpy as np
 from predgait.dynamics.drivers import LegDrivers, PDFeedback
 from predgait.dynamics.forward import FallLimit, SimulationResult, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
 from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError, SimulationDiverged
 from predgait.kinematics.clinical import JOINT_SIGN
@@ -38,7 +39,6 @@ from predgait.scenarios.edits import (
     apply_segment_edits,
     parse_edit,
 )
-from predgait.workflows.inverse import InverseResult, bundled_inverse
 
 #: Stiffness of the range-of-motion stops of a restricted joint (exponential form of
 #: predgait.dynamics.passive.ExponentialLimits), N m and 1/rad.
@@ -103,9 +103,8 @@ def parse_scenario(table: Table) -> ScenarioSpec:
     side = table.get("side", str, "right")
     if side not in ("right", "left"):
         raise table.error("side", f"'{side}' is not one of: right, left.")
-    window = table.get("window", list, [0.0, 1.0])
-    if len(window) != 2 or not all(isinstance(v, int | float) for v in window) or \
-            not window[0] < window[1]:
+    window = table.numbers("window", [0.0, 1.0], length=2, low=-5.0, high=30.0, unit="s")
+    if not window[0] < window[1]:
         raise table.error("window", "give [start, end] in s from heel strike, start < end.")
     control = table.table("control")
     control.check_keys(("kp", "kd", "torques", "gains", "reoptimize"))
@@ -114,10 +113,8 @@ def parse_scenario(table: Table) -> ScenarioSpec:
     options = IntegratorOptions(method=integrator.choice("method", Method, "rk4"),
                                 step=integrator.number("step", 2e-3, low=1e-5, high=0.02))
     edits = []
-    for index, item in enumerate(table.data.get("edit", [])):
-        if not isinstance(item, dict):
-            raise table.error("edit", "each [[edit]] must be a table.")
-        edits.append(parse_edit(Table(item, table.path, table.text, f"edit.{index}.")))
+    for edit in table.tables("edit"):
+        edits.append(parse_edit(edit))
     return ScenarioSpec(
         name=table.get("name", str, table.path.stem), source=table.path, side=side,
         window=(float(window[0]), float(window[1])),
@@ -201,14 +198,14 @@ def _drive_and_gains(spec: ScenarioSpec, inverse: InverseResult, drivers: LegDri
         return drivers, gains
     from predgait.problems.collocation import NodeData
     from predgait.problems.fitting import correct_torques, fit_feedback
-    from predgait.workflows.solve import corrected_drivers
 
     nodes = NodeData.from_drivers(drivers, *spec.window, FIT_INTERVALS)
     if spec.gains is Gains.FITTED:
         p = fit_feedback(inverse.model, nodes).parameters
         gains = (np.array([p["kp_ankle"], p["kp_knee"]]), np.array([p["kd_ankle"], p["kd_knee"]]))
     if spec.torques is Torques.CORRECTED:
-        drivers = corrected_drivers(drivers, correct_torques(inverse.model, nodes))
+        fit = correct_torques(inverse.model, nodes)
+        drivers = drivers.with_torque_change(fit.t, fit.torque_change)
     return drivers, gains
 
 
@@ -244,10 +241,10 @@ def _reoptimized(spec: ScenarioSpec, model, drivers: LegDrivers, locks) -> LegDr
                          "edits; drop reoptimize or those edits.")
     from predgait.problems.collocation import NodeData
     from predgait.problems.fitting import correct_torques
-    from predgait.workflows.solve import corrected_drivers
 
     nodes = NodeData.from_drivers(drivers, *spec.window, FIT_INTERVALS)
-    return corrected_drivers(drivers, correct_torques(model, nodes))
+    fit = correct_torques(model, nodes)
+    return drivers.with_torque_change(fit.t, fit.torque_change)
 
 
 def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) -> ScenarioResult:

@@ -21,7 +21,7 @@ from predgait.data import read_trc, write_storage
 from predgait.data.bundled import bundled_path, subject_info
 from predgait.errors import InputError
 from predgait.kinematics.ik3d import pelvis_cardan
-from predgait.workflows.forward3d import Forward3DRun, FullbodyDrive, simulate_fullbody
+from predgait.simulations.forward3d import Forward3DRun, FullbodyDrive, simulate_fullbody
 from predgait.workflows.forward3d_spec import FullbodySpec, TrialSpec
 
 

@@ -1,7 +1,7 @@
 """``kind = "fullbody"`` problem files (thesis 2.3.2, 2.4).
 
 The 35-DOF body re-synthesized from its own 3D inverse dynamics
-(:mod:`predgait.workflows.forward3d`).
+(:mod:`predgait.simulations.forward3d`).
 
 Tables: ``[trial]`` (the bundled subject01 walk or TRC/MOT files, the static trial, the
 marker map, subject), ``[integrator]``, ``[simulation]`` (start, duration, deviation
@@ -18,7 +18,7 @@ from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.integrators import IntegratorOptions
 from predgait.models.fullbody import CONTACTS
 from predgait.problemfile import Table
-from predgait.workflows.forward3d import (
+from predgait.simulations.forward3d import (
     DEFAULT_CONTACT,
     ContactSettings,
     FallLimits,

@@ -21,8 +21,8 @@ from predgait import __version__
 from predgait.data.storage import write_csv, write_storage
 from predgait.errors import InputError
 from predgait.models.gait7 import CONTACT_FRAMES
-from predgait.workflows.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
-from predgait.workflows.gait7_sim import Gait7Result, grf_comparison, kinematic_run, knee_run
+from predgait.simulations.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
+from predgait.simulations.gait7_sim import Gait7Result, grf_comparison, kinematic_run, knee_run
 from predgait.workflows.gait7_spec import Gait7Spec, Gait7Variant
 
 

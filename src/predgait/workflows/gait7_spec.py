@@ -20,8 +20,8 @@ from predgait.dynamics.contact_fit import ImpactFit, fit_impact_to_meglan
 from predgait.dynamics.integrators import IntegratorOptions
 from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.problemfile import Table
-from predgait.workflows.gait7_motion import SIDES
-from predgait.workflows.gait7_sim import FallLimits, KneeMoment
+from predgait.simulations.gait7_motion import SIDES
+from predgait.simulations.gait7_sim import FallLimits, KneeMoment
 
 TRIALS = ("bundled:subject01",)
 

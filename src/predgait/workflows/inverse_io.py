@@ -10,10 +10,7 @@ import numpy as np
 from predgait import __version__
 from predgait.data import Side, write_csv, write_storage
 from predgait.data.bundled import bundled_path
-from predgait.errors import InputError
-from predgait.problemfile import Table
-from predgait.report.gait_plots import cycle_axis, save_gait_plots
-from predgait.workflows.inverse import (
+from predgait.dynamics.inverse_trial import (
     POINT_NAMES,
     THRESHOLD,
     CutoffRule,
@@ -23,6 +20,9 @@ from predgait.workflows.inverse import (
     StaticCentre,
     parse_cutoff,
 )
+from predgait.errors import InputError
+from predgait.problemfile import Table
+from predgait.report.gait_plots import cycle_axis, save_gait_plots
 from predgait.workflows.output import staged_output
 
 TRIAL_KEYS = ("markers", "grf", "static", "mass", "height", "side", "model")

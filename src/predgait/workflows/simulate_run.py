@@ -100,7 +100,7 @@ def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
 def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
     from predgait.report.simulation_plots import plot_coordinates
     from predgait.report.stick import plot_stick, write_gif
-    from predgait.workflows.rod import synthetic_rod_trial
+    from predgait.simulations.rod import synthetic_rod_trial
 
     model = load_model("rod")
     trial = synthetic_rod_trial(model, duration=spec.duration, rate=spec.rate, noise=spec.noise)
@@ -223,15 +223,15 @@ def _eig(lin) -> dict:
 # -------------------------------------------------------------------- resynthesis
 def _inverse(spec: ResynthesisSpec):
     if spec.inverse_problem is not None:
+        from predgait.dynamics.inverse_trial import run_inverse
         from predgait.problemfile import load_problem
-        from predgait.workflows.inverse import run_inverse
         from predgait.workflows.inverse_io import options_from_problem
 
         return run_inverse(options_from_problem(load_problem(spec.inverse_problem)))
     if spec.trial != "bundled:subject01":
         raise InputError(f"{spec.source}: trial.source {spec.trial!r}: use "
                          "\"bundled:subject01\" or give trial.inverse_problem = FILE.toml.")
-    from predgait.workflows.inverse import bundled_inverse
+    from predgait.dynamics.inverse_trial import bundled_inverse
 
     return bundled_inverse(spec.side)
 
@@ -252,6 +252,10 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     if not (inv.time[0] <= t0 < t1 <= inv.time[-1] + 1e-9):
         raise InputError(f"{spec.source}: simulation {t0:g}..{t1:g} s is outside the trial "
                          f"{inv.time[0]:.3f}..{inv.time[-1]:.3f} s (time 0 = heel strike).")
+    late = [t for t in spec.stability_times if t0 + t > t1]
+    if late:
+        raise InputError(f"{spec.source}: [stability] times {late} s are after the end of the "
+                         f"run ({t1 - t0:.3f} s after its start); give times within the run.")
     variants = [Variant("main", passive=spec.passive), *spec.variants]
     runs, rows, main_msg = {}, [], None
     for v in variants:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import enum
 import json
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -23,13 +23,13 @@ from predgait.data import write_storage
 from predgait.dynamics.drivers import LegDrivers, PDFeedback
 from predgait.dynamics.forward import FallLimit, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse, run_inverse
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import SimulationDiverged
 from predgait.problemfile import Table, load_problem
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
-from predgait.workflows.inverse import InverseResult, bundled_inverse, run_inverse
 from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
 
@@ -125,17 +125,6 @@ def solve_problem(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers) 
                         regularization=w.get("regularization", 1e-10), **common)
 
 
-def corrected_drivers(drivers: LegDrivers, fit: FitResult) -> LegDrivers:
-    """The drivers with the fitted torque changes (linear between grid points) added."""
-    change = fit.torque_change
-
-    def joint_torque(t):
-        return drivers.joint_torque(t) + np.array(
-            [np.interp(t, fit.t, change[:, 0]), np.interp(t, fit.t, change[:, 1])])
-
-    return replace(drivers, joint_torque=joint_torque)
-
-
 def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None):
     options = IntegratorOptions(method=Method.RK4, step=spec.check_step)
     try:
@@ -177,7 +166,8 @@ def resimulations(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers,
         passive = {"knee": PassiveJoint((LinearSpringDamper(p["k"], p["c"], p["theta0"]),))}
         sim, report["with_fit"] = _resimulate(inverse, drivers, spec, passive=passive)
     elif spec.kind is Kind.TORQUE_CORRECTION:
-        sim, report["with_fit"] = _resimulate(inverse, corrected_drivers(drivers, fit), spec)
+        corrected = drivers.with_torque_change(fit.t, fit.torque_change)
+        sim, report["with_fit"] = _resimulate(inverse, corrected, spec)
     else:
         gains = PDFeedback(np.array([p["kp_ankle"], p["kp_knee"]]),
                            np.array([p["kd_ankle"], p["kd_knee"]]),

@@ -45,7 +45,7 @@ from predgait.dynamics.passive import PassiveJoint
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model
-from predgait.workflows.gait7_motion import SIDES, Gait7Motion
+from predgait.simulations.gait7_motion import SIDES, Gait7Motion
 
 FEET = {"right": ("heel_r", "toe_r"), "left": ("heel_l", "toe_l")}
 

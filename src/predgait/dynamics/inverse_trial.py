@@ -40,8 +40,7 @@ from predgait.data.events import Events
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers, rotate_trial
 from predgait.data.resample import RELEASE_FRACTION, hold_nearest
 from predgait.data.trial import ForcePlate, Markers, Trial
-from predgait.dynamics.external import Load
-from predgait.dynamics.inverse import LegInverse, leg_inverse_dynamics
+from predgait.dynamics.inverse import LegInverse, LoadHistory, leg_inverse_dynamics
 from predgait.errors import InputError
 from predgait.kinematics import clinical
 from predgait.kinematics.joint_centres import calibrate_centre, harrington_hip
@@ -226,8 +225,10 @@ def read_trial(options: InverseOptions) -> tuple[Trial, np.ndarray]:
     elif suffix == ".txt":
         markers = read_winter_table(path)
     elif suffix == ".csv":
-        header = path.read_text().splitlines()
-        header = next(line for line in header if not line.startswith("#"))
+        from predgait.textfile import read_text
+
+        lines = read_text(path, what="CSV marker file").splitlines()
+        header = next((line for line in lines if not line.startswith("#")), "")
         cols = [c.strip() for c in header.split(",")]
         names = [c[:-2] for c in cols if c.endswith("_x") and f"{c[:-2]}_z" in cols]
         if not names:
@@ -480,8 +481,8 @@ def run_inverse(options: InverseOptions) -> InverseResult:
     if has_grf and not np.any(force[:, 2] >= options.threshold):
         raise InputError(f"{options.grf or trial.source}: no plate has a contact (vertical "
                          f"force >= {options.threshold:g} N) under the {options.side} foot.")
-    loads = [[Load("foot", force[k], point=cop[k], moment=free[k])] if force[k, 2] != 0 else []
-             for k in range(len(time))]
+    contact = (force[:, 2] != 0)[:, None]
+    loads = [LoadHistory("foot", np.where(contact, force, 0.0), cop, np.where(contact, free, 0.0))]
     inv: LegInverse = leg_inverse_dynamics(model, q, qd, qdd, loads)
     if has_grf:
         # Events from the unfiltered reaction: low-pass filtering smears the contact edges.

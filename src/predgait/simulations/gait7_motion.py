@@ -1,6 +1,6 @@
 """Measured walking mapped onto the planar 7-link model gait7 (thesis 2.3.1).
 
-Source: the planar inverse dynamics of each leg (:func:`predgait.workflows.inverse.
+Source: the planar inverse dynamics of each leg (:func:`predgait.dynamics.inverse_trial.
 bundled_inverse`, hinge-consistent IK of marker-based joint centres, 6 Hz low-pass) and
 the trunk markers. In the leg model a positive pitch tilts a segment's top toward +X and
 the absolute pitches are foot = q_pitch, shank = foot + q_ankle, thigh = shank + q_knee
@@ -27,10 +27,15 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.data import differentiate, lowpass
+from predgait.dynamics.inverse_trial import (
+    InverseResult,
+    bundled_inverse,
+    bundled_options,
+    read_trial,
+)
 from predgait.errors import InputError
 from predgait.models.gait7 import build_gait7_urdf
 from predgait.models.loading import Model, model_from_urdf
-from predgait.workflows.inverse import InverseResult, bundled_inverse, bundled_options, read_trial
 
 SIDES = ("right", "left")
 SHOULDER_MARKERS = ("R.Acromium", "L.Acromium")

@@ -1,0 +1,123 @@
+"""Shared timing for the benchmarks: repeats, min and median, wall and CPU, and the peer.
+
+Every ratio printed by a benchmark compares two figures measured in the same run by these
+functions; when the peer (OpenSim 4.6 in the Python named by the environment variable
+OPENSIM_PYTHON) cannot run, the benchmark prints "peer not available" instead of a ratio.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import statistics
+import subprocess
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+NOT_AVAILABLE = "peer not available"
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Repeated measurements of one piece of work, seconds."""
+
+    wall: tuple[float, ...]
+    cpu: tuple[float, ...]
+
+    @property
+    def best(self) -> float:
+        return min(self.wall)
+
+    @property
+    def median(self) -> float:
+        return statistics.median(self.wall)
+
+    def describe(self, unit: str = "ms") -> str:
+        """``min / median wall (min / median CPU)`` in ``unit`` (``ms`` or ``s``)."""
+        scale, fmt = (1e3, ".1f") if unit == "ms" else (1.0, ".2f")
+        return (f"{min(self.wall) * scale:{fmt}} / {self.median * scale:{fmt}} {unit} wall "
+                f"({min(self.cpu) * scale:{fmt}} / {statistics.median(self.cpu) * scale:{fmt}} "
+                f"{unit} CPU)")
+
+    def to_json(self) -> dict:
+        return {"wall": list(self.wall), "cpu": list(self.cpu)}
+
+    @classmethod
+    def from_json(cls, data: dict) -> Timing:
+        return cls(tuple(data["wall"]), tuple(data["cpu"]))
+
+
+def time_call(function: Callable[[], object], repeat: int = 5, *, warmup: bool = False
+              ) -> Timing:
+    """Wall (perf_counter) and CPU (process_time, all threads) of ``repeat`` calls."""
+    if warmup:
+        function()
+    wall, cpu = [], []
+    for _ in range(repeat):
+        w0, c0 = time.perf_counter(), time.process_time()
+        function()
+        cpu.append(time.process_time() - c0)
+        wall.append(time.perf_counter() - w0)
+    return Timing(tuple(wall), tuple(cpu))
+
+
+def time_process(argv: Sequence[str], repeat: int = 5, *, cwd: Path | str = REPO,
+                 env: dict | None = None) -> Timing:
+    """Wall and CPU (user + system of the child) of ``repeat`` whole processes.
+
+    Raises:
+        RuntimeError: the command failed (its last stderr line).
+    """
+    wall, cpu = [], []
+    for _ in range(repeat):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        w0 = time.perf_counter()
+        done = subprocess.run(list(argv), cwd=cwd, env=env, capture_output=True, text=True)
+        wall.append(time.perf_counter() - w0)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+        if done.returncode != 0:
+            last = (done.stderr.strip().splitlines() or ["?"])[-1]
+            raise RuntimeError(f"{' '.join(map(str, argv))} failed: {last}")
+    return Timing(tuple(wall), tuple(cpu))
+
+
+def opensim_python() -> str | None:
+    """The peer's Python (OPENSIM_PYTHON) if it imports opensim, else None."""
+    python = os.environ.get("OPENSIM_PYTHON")
+    if not python:
+        return None
+    try:
+        done = subprocess.run([python, "-c", "import opensim"], capture_output=True,
+                              timeout=120)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return python if done.returncode == 0 else None
+
+
+def run_peer(script: str, *args: str) -> dict:
+    """Run ``benchmarks/SCRIPT`` in the peer's Python; its last stdout line is JSON.
+
+    Returns:
+        The parsed JSON, or ``{"error": reason}`` when the peer is not available or failed.
+    """
+    python = opensim_python()
+    if python is None:
+        return {"error": "OPENSIM_PYTHON is not set to a Python that imports opensim"}
+    done = subprocess.run([python, str(HERE / script), *args], capture_output=True, text=True)
+    if done.returncode != 0:
+        return {"error": (done.stderr.strip().splitlines() or ["failed"])[-1]}
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def ratio(ours: Timing | None, peer: Timing | None) -> str:
+    """``peer/ours`` on the minimum and the median (> 1: predgait faster)."""
+    if ours is None or peer is None:
+        return NOT_AVAILABLE
+    return (f"{peer.best / ours.best:.2f}x (min), {peer.median / ours.median:.2f}x (median); "
+            "> 1 = predgait faster")

@@ -1,0 +1,33 @@
+"""The forward engine reproduces the answers stored before the engines were merged.
+
+tests/data/engine_reference.npz holds states at a few times, statuses and times to fall
+of the shipped problems (rod, collapse, resynthesis on subject01, gait7 on its contacts,
+the whole body), computed by tests/data/make_engine_reference.py with the separate leg,
+rod and partitioned engines. Same problem, same options: the merged engine must give
+the same numbers to 1e-9 (a deliberate change would be explained in the test below).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from engine_cases import ANSWERS
+
+REFERENCE = Path(__file__).resolve().parent / "data" / "engine_reference.npz"
+
+
+@pytest.fixture(scope="module")
+def reference():
+    with np.load(REFERENCE) as data:
+        return dict(data)
+
+
+@pytest.mark.parametrize("case", list(ANSWERS))
+def test_engine_reproduces_stored_answers(case, reference):
+    answers = ANSWERS[case]()
+    expected = {k: v for k, v in reference.items() if k.startswith(f"{case}/")}
+    assert expected and set(answers) == set(expected)
+    for key, value in expected.items():
+        np.testing.assert_allclose(answers[key], value, rtol=1e-9, atol=1e-9, err_msg=key,
+                                   equal_nan=True)

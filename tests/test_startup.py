@@ -1,0 +1,72 @@
+"""Start-up: the parser and light commands do not import the heavy numerical packages.
+
+A correctness test, not a timing test: every command registers its options on every run, so a
+module-level import of SciPy's signal/stats/optimize/interpolate, matplotlib, CasADi, ADAM,
+dask or ezc3d in a command module (or in what it imports) costs every command about a second.
+Such packages are imported inside the functions that use them (see docs/DEVELOPING.md).
+Speed itself is measured in benchmarks/bench_startup.py.
+"""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("scipy.signal", "scipy.stats", "scipy.optimize", "scipy.interpolate",
+         "scipy.integrate", "matplotlib", "casadi", "adam", "dask", "ezc3d")
+
+#: Command lines that must stay light: the parser's help paths and ``model show``.
+LIGHT_COMMANDS = (
+    ["--help"], ["--version"], ["model", "show", "leg"], ["model", "show", "rod"],
+    ["model", "--help"], ["inverse", "--help"], ["simulate", "--help"], ["solve", "--help"],
+    ["scenario", "--help"], ["sweep", "--help"], ["report", "--help"], ["demo", "--help"],
+)
+
+PROBE = """
+import contextlib, io, json, sys
+HEAVY = {heavy!r}
+def loaded():
+    return sorted(m for m in HEAVY if m in sys.modules)
+import predgait.cli
+found = {{"import predgait.cli": loaded()}}
+for argv in {commands!r}:
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            status = predgait.cli.main(argv)
+        except SystemExit as exc:
+            status = exc.code
+    found[" ".join(argv)] = [status, loaded()]
+print(json.dumps(found))
+"""
+
+
+@pytest.fixture(scope="module")
+def probe() -> dict:
+    """Heavy modules loaded after each command, in one fresh interpreter (in order)."""
+    code = PROBE.format(heavy=HEAVY, commands=LIGHT_COMMANDS)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_importing_the_cli_is_light(probe):
+    assert probe["import predgait.cli"] == []
+
+
+@pytest.mark.parametrize("argv", LIGHT_COMMANDS, ids=" ".join)
+def test_light_command_imports_no_heavy_module(probe, argv):
+    status, heavy = probe[" ".join(argv)]
+    assert status in (0, None), f"predgait {' '.join(argv)} exited with {status}"
+    assert heavy == [], (f"predgait {' '.join(argv)} imported {heavy}; import them inside "
+                         "the functions that use them")
+
+
+def test_probe_sees_heavy_imports():
+    """The probe itself can fail: spline derivatives do import scipy.interpolate."""
+    code = ("import sys; from predgait.data import differentiate; import numpy as np; "
+            "t = np.linspace(0, 1, 50); differentiate(np.sin(t), t, method='spline'); "
+            "print('scipy.interpolate' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert done.stdout.strip() == "True"
