@@ -38,7 +38,8 @@ def parsed(*argv):
 
 def test_problem_file_alone_gives_its_keys():
     options = parsed(PROBLEM)
-    assert (options.cutoff, options.grf_cutoff, options.threshold) == (6.0, 6.0, 10.0)
+    assert (options.cutoff, options.grf_cutoff, options.threshold) == (6.0, 6.0, 20.0)
+    assert options.release == 1.0
     assert (options.mass, str(options.side)) == (72.6, "right")
 
 
@@ -70,6 +71,7 @@ def test_each_flag_overrides_its_toml_key(flag, value, field, expected):
     ("options.grf_cutoff", "0", "grf_cutoff", None),
     ("options.grf_cutoff", "false", "grf_cutoff", None),
     ("options.threshold", "7.5", "threshold", 7.5),
+    ("options.release", "0.5", "release", 0.5),
     ("trial.mass", "80", "mass", 80.0),
 ])
 def test_set_changes_a_key(key, value, field, expected):
@@ -127,7 +129,8 @@ def test_contact_keeps_real_forces_and_holds_only_the_cop():
     t = np.arange(0.0, 1.0, 0.001)
     fz = np.where((t > 0.2) & (t < 0.8), 600 * np.sin(np.pi * (t - 0.2) / 0.6) ** 2, 0.0)
     fz[50:60] = 3.0   # noise below half the threshold: never a contact
-    contact = contact_frames(fz, THRESHOLD)
+    contact = contact_frames(fz, THRESHOLD, release=0.5)
+    assert np.array_equal(contact_frames(fz, THRESHOLD, release=1.0), fz >= THRESHOLD)
     assert not contact[50:60].any()
     assert contact[(fz > THRESHOLD / 2) & (t > 0.1)].all()
     assert not contact[fz <= THRESHOLD / 2].any()
@@ -135,7 +138,7 @@ def test_contact_keeps_real_forces_and_holds_only_the_cop():
     cop[fz < THRESHOLD, 0] = 5.0     # a plate's COP is garbage where the load is small
     force = np.column_stack([0.1 * fz, np.zeros_like(t), fz])
     plate = ForcePlate(time=t, force=force, cop=cop, free_moment=np.zeros_like(cop), name="p")
-    out = threshold_plate(plate, threshold=THRESHOLD)
+    out = threshold_plate(plate, threshold=THRESHOLD, release=0.5)
     np.testing.assert_array_equal(out.force[contact], force[contact])     # forces kept
     assert np.all(out.force[~contact] == 0)
     low = contact & (fz < THRESHOLD)
@@ -147,7 +150,8 @@ def test_contact_keeps_real_forces_and_holds_only_the_cop():
 def test_threshold_changes_only_the_contact_edges():
     """A lower threshold keeps more of the real force; mid-stance moments are unchanged
     (forces unfiltered here: a filter would spread the edges into the stance)."""
-    low = run_inverse(with_options(bundled_options(), threshold=5.0, grf_cutoff=None))
+    low = run_inverse(with_options(bundled_options(), threshold=5.0, release=0.5,
+                                   grf_cutoff=None))
     high = run_inverse(with_options(bundled_options(), threshold=40.0, grf_cutoff=None))
     kept_low, kept_high = low.grf[:, 2] > 0, high.grf[:, 2] > 0
     assert kept_low.sum() > kept_high.sum()

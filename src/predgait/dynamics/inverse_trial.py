@@ -55,7 +55,7 @@ POINT_NAMES = ("hip", "knee", "ankle", "heel", "toe")
 #: segment for the contact to load that foot.
 NEAR_FOOT = 0.1
 #: N, default contact threshold: a contact must reach it; it lasts while the force stays
-#: above half of it (:func:`predgait.data.resample.contact_frames`).
+#: above ``RELEASE_FRACTION`` of it (:func:`predgait.data.resample.contact_frames`).
 THRESHOLD = 10.0
 #: A run whose IK flags more than this fraction of the frames is a failed run (exit 3).
 MOST_FRAMES = 0.5
@@ -126,8 +126,9 @@ class InverseOptions:
     unfiltered). ``grf_cutoff``: Hz, None (forces unfiltered) or, by default,
     ``CutoffRule.MARKERS``: the markers' cut-off (Kristianslund et al. 2012, J Biomech
     45:666-671: the same cut-off for both avoids the impact artefacts of mismatched
-    filtering). ``threshold``: N, contact threshold (with hysteresis, see
-    :func:`predgait.data.resample.contact_frames`). ``limit_margin``: deg added to both
+    filtering). ``threshold``: N, contact threshold; a contact lasts while the force
+    stays above ``release`` x threshold (hysteresis, see
+    :func:`predgait.data.resample.contact_frames`; 1 = none). ``limit_margin``: deg added to both
     ends of the model's joint ranges for the IK.
     """
 
@@ -142,6 +143,7 @@ class InverseOptions:
     cutoff: Cutoff = 6.0
     grf_cutoff: Cutoff = CutoffRule.MARKERS
     threshold: float = THRESHOLD
+    release: float = RELEASE_FRACTION
     scale_to_markers: bool = True
     max_gap_frames: int = 10
     limit_margin: float = 0.0
@@ -365,8 +367,10 @@ def _foot_grf(plates: tuple[ForcePlate, ...], time: np.ndarray, heel: np.ndarray
     named = [p for p in plates if p.name == str(options.side)]
     for plate in named or plates:
         if grf_cutoff is not None:
-            plate = filter_plate(plate, grf_cutoff, threshold=options.threshold)
-        plate = resample_plate(plate, time, threshold=options.threshold)
+            plate = filter_plate(plate, grf_cutoff, threshold=options.threshold,
+                                 release=options.release)
+        plate = resample_plate(plate, time, threshold=options.threshold,
+                               release=options.release)
         use = np.zeros(len(time), dtype=bool)
         distance = _distance_to_foot(plate.cop, heel, toe)
         for contact in _contacts(plate.force[:, 2] != 0.0):
@@ -499,7 +503,7 @@ def run_inverse(options: InverseOptions) -> InverseResult:
         "mass_kg": options.mass, "height_m": options.height, "model": model.source,
         "marker_cutoff_hz": cutoff, "marker_cutoff": cutoff_note, "grf_cutoff_hz": grf_cutoff,
         "contact_threshold_n": options.threshold,
-        "contact_release_n": RELEASE_FRACTION * options.threshold,
+        "contact_release_n": options.release * options.threshold,
         "joint_limit_margin_deg": options.limit_margin, "time_zero_s": t0,
     }
     return InverseResult(
@@ -525,13 +529,19 @@ def subject01_points(side: Side | str = Side.RIGHT) -> dict[str, PointSource]:
 
 
 def bundled_options(side: Side | str = Side.RIGHT) -> InverseOptions:
-    """Options of the bundled subject01 trial (what ``problems/inverse_subject01.toml`` says)."""
+    """Options of the bundled subject01 trial (what ``problems/inverse_subject01.toml`` says).
+
+    Its contact threshold stays at the 20 N without hysteresis this trial was first run
+    with: the forward engines' stored answers (tests/data/engine_reference.npz) start from
+    these moments. Its plates read exactly 0 N unloaded; against OpenSim's results the
+    default 10 N with hysteresis changes no r or RMS by more than 0.002.
+    """
     folder = bundled_path("subject01_walk1")
     info = subject_info("subject01_walk1")
     return InverseOptions(
         markers=folder / "subject01_walk1.trc", grf=folder / "subject01_walk1_grf.mot",
         static=folder / "subject01_static.trc", mass=info["mass"], height=info["height"],
-        side=Side(str(side)), points=subject01_points(side))
+        side=Side(str(side)), points=subject01_points(side), threshold=20.0, release=1.0)
 
 
 @functools.lru_cache(maxsize=4)

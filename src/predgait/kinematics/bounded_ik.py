@@ -11,6 +11,8 @@ is clipped after a step (a clipped Gauss-Newton step is not a descent step and s
 at the limit without converging). The box-constrained subproblem is solved in closed
 form when the free step is feasible, else by bounded-variable least squares
 (Stark & Parker 1995, Comput Stat 10:129-141; ``scipy.optimize.lsq_linear``).
+With damping 0 (the planar leg: three points and a pitch for five coordinates) the steps
+are bounded Gauss-Newton steps, each taken.
 
 A frame is *flagged* when it did not converge or when it ends on a joint limit that
 the data push against (the KKT multiplier of the bound is positive): the model cannot
@@ -38,7 +40,8 @@ class SolverOptions:
         max_iterations: iterations per frame.
         tolerance: converged when |dv| < tolerance (rad or m).
         cost_tolerance: or when a step lowers the cost by less than this fraction.
-        damping: smallest Levenberg-Marquardt lambda (the damping adapts upward).
+        damping: smallest Levenberg-Marquardt lambda (the damping adapts upward); 0
+            gives bounded Gauss-Newton (every step taken, for well-posed small fits).
     """
 
     max_iterations: int = 50
@@ -89,14 +92,17 @@ def bounded_step(jac: np.ndarray, r: np.ndarray, damping: float, lo: np.ndarray,
                  hi: np.ndarray) -> np.ndarray:
     """The increment dv minimising |J dv + r|^2 + damping |dv|^2 within lo <= dv <= hi."""
     nv = jac.shape[1]
-    step = np.linalg.solve(jac.T @ jac + damping * np.eye(nv), -jac.T @ r)
+    if damping > 0:
+        step = np.linalg.solve(jac.T @ jac + damping * np.eye(nv), -jac.T @ r)
+    else:  # Gauss-Newton
+        step = np.linalg.lstsq(jac, -r, rcond=None)[0]
     if np.all(step >= lo) and np.all(step <= hi):
         return step
     lo = np.minimum(lo, 0.0)    # the current point is feasible: 0 lies in the box
     hi = np.maximum(hi, 0.0)
     pinned = hi - lo <= 0.0     # at a limit with no room: lsq_linear needs lo < hi
     a = np.vstack([jac, np.sqrt(damping) * np.eye(nv)])[:, ~pinned]
-    b = np.concatenate([-r, np.zeros(nv)])
+    b = np.concatenate([-r, np.zeros(nv)])  # with damping 0 the extra rows are inert
     out = np.zeros(nv)
     out[~pinned] = lsq_linear(a, b, bounds=(lo[~pinned], hi[~pinned]), method="bvls").x
     return out
@@ -150,6 +156,14 @@ class BoundedSolver:
         converged, it = False, 0
         for it in range(1, cap + 1):  # noqa: B007 - the count is kept
             lo, hi = self._increment_bounds(q)
+            if opts.damping == 0:   # Gauss-Newton: every (bounded) step is taken
+                step = bounded_step(jac, r, 0.0, lo, hi)
+                q = pin.integrate(self.model, q, step)
+                if np.linalg.norm(step) < opts.tolerance:
+                    converged = True
+                    break
+                r, jac = jacobian(q)
+                continue
             for _ in range(12):
                 step = bounded_step(jac, r, lam, lo, hi)
                 trial = pin.integrate(self.model, q, step)

@@ -1,9 +1,9 @@
 """Least-squares inverse kinematics of the planar leg onto measured points.
 
 Each frame solves min_q sum_i w_i |p_i(q) - m_i|^2 + w_f (pitch(q) - pitch_m)^2 over the
-leg coordinates (ankle position, foot pitch, ankle, knee) within the joint ranges, by the
-bounded Levenberg-Marquardt of :mod:`predgait.kinematics.bounded_ik` with the Pinocchio
-frame Jacobians, warm-started from the previous frame. The points are the
+leg coordinates (ankle position, foot pitch, ankle, knee) within the joint ranges, by
+bounded Gauss-Newton steps (:mod:`predgait.kinematics.bounded_ik`, damping 0) with the
+Pinocchio frame Jacobians, warm-started from the previous frame. The points are the
 model's joint-centre frames (``ankle_center``, ``knee_center``, ``hip_center``) in the
 sagittal (X, Z) plane; the foot pitch comes from the heel-toe marker line. The result is
 hinge-consistent by construction (the thesis' "hinge constraints imposed before the
@@ -136,7 +136,7 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
 
     lower, upper = joint_limits(model, margin=limit_margin)
     settings = SolverOptions(max_iterations=max_iterations, tolerance=tolerance,
-                             cost_tolerance=0.0, damping=1e-12)
+                             cost_tolerance=0.0, damping=0.0)
     solver = BoundedSolver(pm, lower, upper, settings)
     q = solver.project(initial_guess(model, {n: points[n][0] for n in POINTS}, foot_pitch[0]))
     out = np.zeros((n_frames, pm.nq))

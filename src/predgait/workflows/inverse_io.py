@@ -12,6 +12,7 @@ from predgait.data import Side, write_csv, write_storage
 from predgait.data.bundled import bundled_path
 from predgait.dynamics.inverse_trial import (
     POINT_NAMES,
+    RELEASE_FRACTION,
     THRESHOLD,
     CutoffRule,
     HipRegression,
@@ -26,8 +27,8 @@ from predgait.report.gait_plots import cycle_axis, save_gait_plots
 from predgait.workflows.output import staged_output
 
 TRIAL_KEYS = ("markers", "grf", "static", "mass", "height", "side", "model")
-OPTION_KEYS = ("cutoff", "grf_cutoff", "threshold", "scale_to_markers", "max_gap_frames",
-               "limit_margin")
+OPTION_KEYS = ("cutoff", "grf_cutoff", "threshold", "release", "scale_to_markers",
+               "max_gap_frames", "limit_margin")
 
 
 def _path(table: Table, key: str) -> Path | None:
@@ -80,6 +81,7 @@ def options_from_problem(table: Table) -> InverseOptions:
         cutoff=_cutoff(opts, "cutoff", 6.0, (CutoffRule.AUTO,)),
         grf_cutoff=_cutoff(opts, "grf_cutoff", CutoffRule.MARKERS, (CutoffRule.MARKERS,)),
         threshold=opts.number("threshold", THRESHOLD, low=0.1, high=500, unit="N"),
+        release=opts.number("release", RELEASE_FRACTION, low=0.0, high=1.0),
         scale_to_markers=opts.get("scale_to_markers", bool, True),
         max_gap_frames=int(opts.number("max_gap_frames", 10, low=0, high=1000)),
         limit_margin=opts.number("limit_margin", 0.0, low=0.0, high=180.0, unit="deg"),
