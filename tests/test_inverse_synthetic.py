@@ -258,9 +258,7 @@ def test_moving_the_lab_origin_changes_nothing(tmp_path, offset):
     assert moved.provenance["time_zero_s"] == pytest.approx(reference.provenance["time_zero_s"],
                                                             abs=1e-6)   # CSV: 10 digits
     for name, value in reference.clinical_moments().items():
-        # CSV: 10 digits; at the trial's edges a contact's small forces (kept since the
-        # threshold has hysteresis) and the filter's padding amplify them to ~2e-5 N m.
-        np.testing.assert_allclose(moved.clinical_moments()[name], value, atol=1e-4,
+        np.testing.assert_allclose(moved.clinical_moments()[name], value, atol=1e-5,
                                    err_msg=name)
 
 
@@ -274,7 +272,7 @@ def test_plates_found_by_position_equal_the_named_ones(tmp_path, side):
     named = bundled_inverse(side)
     np.testing.assert_allclose(by_position.grf, named.grf, atol=1e-6)
     for name, value in named.clinical_moments().items():
-        np.testing.assert_allclose(by_position.clinical_moments()[name], value, atol=1e-4)
+        np.testing.assert_allclose(by_position.clinical_moments()[name], value, atol=1e-6)
 
 
 def test_walking_toward_minus_x_gives_the_same_moments(tmp_path):
