@@ -14,6 +14,9 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
   knee_fit           k (N m/rad), c (N m s/rad), theta0 of a passive knee spring-damper
   torque_correction  smallest smooth changes of the ankle and knee moments (N m)
   feedback_gains     PD gains on the tracking error that reject a perturbed start
+  passive_decomposition  passive knee/ankle moments split from the measured moments
+                     (no simulation; problems/passive_decomposition.toml), with
+                     bootstrap intervals or "not identifiable"
 Writes solution.json (status, iterations, solve time, objective, constraint violation,
 parameters with 95 % intervals, re-simulation check), states.sto, resimulated_states.sto,
 corrected_moments.sto (torque correction) and plots into --out. A solve that does not
@@ -41,7 +44,10 @@ def run(args: argparse.Namespace) -> int:
     from predgait.problemfile import load_problem
     from predgait.workflows.solve import parse_solve, run_solve
 
-    spec = parse_solve(load_problem(args.problem, args.set))
+    table = load_problem(args.problem, args.set)
+    if table.data.get("kind") == "passive_decomposition":
+        return _run_decomposition(table, args)
+    spec = parse_solve(table)
     try:
         solution = run_solve(spec, args.out, force=args.force)
     except SolveFailed as exc:
@@ -72,4 +78,26 @@ def run(args: argparse.Namespace) -> int:
         print(f"  re-simulation {name}: deviation > {spec.threshold_deg:g} deg at "
               f"{'never' if when is None else f'{when:.3f} s'}, within it from "
               f"{'never' if settled is None else f'{settled:.3f} s'} (end {result['end_s']:.3f} s)")
+    return 0
+
+
+def _run_decomposition(table, args) -> int:
+    import sys
+
+    from predgait.errors import SolveFailed
+    from predgait.workflows.decomposition import (
+        parse_decomposition,
+        run_decomposition,
+        summary_lines,
+    )
+
+    spec = parse_decomposition(table)
+    try:
+        solution = run_decomposition(spec, args.out, force=args.force)
+    except SolveFailed as exc:
+        print(f"predgait: solve failed: {exc}", file=sys.stderr)
+        return 3
+    for line in summary_lines(solution):
+        print(line)
+    print(f"  wrote {args.out}/ (solution.json, passive_moments.sto, active_passive.png)")
     return 0

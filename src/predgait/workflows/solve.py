@@ -41,6 +41,8 @@ class Kind(enum.Enum):
     KNEE_FIT = "knee_fit"
     TORQUE_CORRECTION = "torque_correction"
     FEEDBACK_GAINS = "feedback_gains"
+    #: Handled by :mod:`predgait.workflows.decomposition` (no collocation).
+    PASSIVE_DECOMPOSITION = "passive_decomposition"
 
 
 @dataclass(frozen=True)
