@@ -213,3 +213,19 @@ def test_cli_failures_write_nothing(tmp_path):
     assert "quiet_phases" in run.stderr and "Traceback" not in run.stderr
     run = _solve(problem, out, "passive.knee.fixed={ c = 0.0 }")
     assert run.returncode == 2 and "passive.knee.fixed: c is both fixed" in run.stderr
+
+
+def test_knee_fit_says_what_it_is_and_prints_no_meaningless_interval(tmp_path):
+    """Issue 19: k = 1.62, c = 0 (bound) with 1e-15 intervals were reported as a passive knee."""
+    out = tmp_path / "knee"
+    run = _solve(REPO / "problems" / "knee_fit.toml", out)
+    assert run.returncode == 0, run.stderr
+    solution = json.loads((out / "solution.json").read_text())
+    assert "not tissue properties" in solution["what"] and "stabilising" in run.stdout
+    sensitivity = max(solution["diagnostics"]["sensitivity_deg"].values())
+    for name, half in solution["confidence95"].items():
+        if sensitivity > 1e4 or (name in ("k", "c") and solution["parameters"][name] <= 1e-4):
+            assert half.startswith("not meaningful"), (name, half)
+            assert f"{name}: 95 % interval not meaningful" in run.stdout
+        else:
+            assert isinstance(half, float)

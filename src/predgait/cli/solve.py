@@ -61,15 +61,15 @@ def run(args: argparse.Namespace) -> int:
         for line in ipopt_lines(SimpleNamespace(history=solution["ipopt_history"]),
                                 every=args.every):
             print(line)
-    sensitivity = solution.get("diagnostics", {}).get("sensitivity_deg", {})
-    if sensitivity and max(sensitivity.values()) > 1e4:
-        print(f"  note: the angles change by up to {max(sensitivity.values()):.1e} deg per unit "
-              "of a parameter: the open-loop fit balances on the leg's instability, the 95 % "
-              "intervals are formal only (try a shorter window)")
     check = solution["resimulation_check"]
     params = ", ".join(f"{k} = {v:.4g}" for k, v in solution["parameters"].items())
+
     print(f"{spec.kind.value}: {solution['ipopt_status']} in {solution['iterations']} "
           f"iterations, {solution['solve_time_s']:.3f} s; {params}; wrote {args.out}/")
+    if "what" in solution:
+        print(f"  these are a {solution['what']}")
+    for name, half in solution["confidence95"].items():
+        print(f"  {name}: 95 % interval " + (half if isinstance(half, str) else f"+-{half:.3g}"))
     print("  optimiser tracking RMS: " + ", ".join(
         f"{k} {v:.2f} deg" for k, v in solution["optimiser_tracking_rms_deg"].items()))
     for name, result in check.items():
