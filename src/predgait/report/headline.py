@@ -224,6 +224,28 @@ def _solve(s: dict) -> Headline:
     return Headline(title, trial_name(s["provenance"]), s["status"], numbers, sentence)
 
 
+def _decomposition(s: dict) -> Headline:
+    fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
+    numbers = []
+    for key, r in list(fitted.items())[:4]:
+        value = f"{r['value']:.4g} {r['unit']}"
+        if r["status"] == "not identifiable":
+            value += ", not identifiable"
+        elif r.get("interval95"):
+            value += f" [{r['interval95'][0]:.3g}, {r['interval95'][1]:.3g}]"
+        numbers.append((key, value))
+    numbers += [("gait cycles", str(s["gait_cycles"])),
+                ("quiet-phase residual SD", format_quantity("_n_m",
+                                                            s["quiet_phase_residual_sd_n_m"]))]
+    identified = [k for k, r in fitted.items() if r["status"] != "not identifiable"]
+    sentence = (f"Splitting the inverse-dynamics moments of {s['gait_cycles']} gait cycle(s) "
+                f"into passive and active parts (active ~ 0 in the quiet phases), "
+                f"{len(identified)} of {len(fitted)} fitted parameters are identifiable"
+                + (f" ({', '.join(identified)})." if identified else "."))
+    return Headline("Passive moment decomposition", trial_name(s["provenance"]),
+                    s["status"], numbers, sentence)
+
+
 def describe_edit(edit: dict) -> str:
     """An edit table in words: passive at the knee (k 100, c 2, theta0 10.0 deg)."""
     where = edit.get("joint") or edit.get("segment") or ""
@@ -288,7 +310,8 @@ def _kind(s: dict) -> str | None:
 
 BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynthesis,
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
-            "solve": _solve, "scenario": _scenario, "sweep": _sweep}
+            "solve": _solve, "scenario": _scenario, "sweep": _sweep,
+            "passive_decomposition": _decomposition}
 
 
 def summary_file(folder: Path) -> Path | None:
