@@ -26,6 +26,7 @@ class Headline:
     status: str
     numbers: list[tuple[str, str]] = field(default_factory=list)
     sentence: str = ""
+    note: str = ""
 
     @property
     def ok(self) -> bool:
@@ -221,7 +222,8 @@ def _solve(s: dict) -> Headline:
     if held is not None and after["status"] in ("event", "fell"):
         sentence += f", and then falls at {_t(after['end_s'])}"
     sentence += "."
-    return Headline(title, trial_name(s["provenance"]), s["status"], numbers, sentence)
+    note = f"These are a {s['what']}." if s.get("what") else ""
+    return Headline(title, trial_name(s["provenance"]), s["status"], numbers, sentence, note)
 
 
 def _decomposition(s: dict) -> Headline:
@@ -246,13 +248,21 @@ def _decomposition(s: dict) -> Headline:
                     s["status"], numbers, sentence)
 
 
+#: How a scenario edit kind reads in a sentence.
+EDIT_WORDS = {"passive": "a passive spring-damper", "scale_mass": "a scaled mass",
+              "scale_length": "a scaled length", "move_com": "a moved centre of mass",
+              "add_mass": "an added mass", "lock_joint": "a locked joint",
+              "range_of_motion": "a restricted range of motion"}
+
+
 def describe_edit(edit: dict) -> str:
-    """An edit table in words: passive at the knee (k 100, c 2, theta0 10.0 deg)."""
+    """An edit in words: a passive spring-damper at the knee (k 100, theta0 10.0 deg)."""
     where = edit.get("joint") or edit.get("segment") or ""
+    what = EDIT_WORDS.get(edit["kind"], edit["kind"].replace("_", " "))
     values = ", ".join(f"{k.removesuffix('_deg').removesuffix('_kg').removesuffix('_m')} "
                        f"{format_quantity(k, v)}" for k, v in edit.items()
                        if k not in ("kind", "joint", "segment"))
-    return f"{edit['kind'].replace('_', ' ')} at the {where} ({values})"
+    return f"{what} at the {where} ({values})"
 
 
 def _scenario(s: dict) -> Headline:
