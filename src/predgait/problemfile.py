@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from predgait.errors import InputError
+from predgait.textfile import read_text
 
 E = TypeVar("E", bound=enum.Enum)
 _MISSING = object()
@@ -88,6 +89,48 @@ class Table:
             raise self.error(key, f"{value!r} {unit} is outside {low:g}..{high:g} {unit}.")
         return value
 
+    def numbers(self, key: str, default: Any = _MISSING, *, low: float = -math.inf,
+                high: float = math.inf, unit: str = "", length: int | None = None,
+                increasing: bool = False) -> tuple[float, ...]:
+        """A list of finite floats within [low, high] (``length`` of them if given)."""
+        values = self.get(key, list, default)
+        if values is None:
+            return values
+        if length is not None and len(values) != length:
+            raise self.error(key, f"expected a list of {length} numbers, got {len(values)}.")
+        out = []
+        for index, value in enumerate(values):
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise self.error(key, f"entry {index + 1} is {value!r}; expected a number "
+                                      f"{unit}".rstrip() + ".")
+            if not math.isfinite(value) or not low <= value <= high:
+                raise self.error(key, f"entry {index + 1} = {value!r} {unit} is outside "
+                                      f"{low:g}..{high:g} {unit}.")
+            out.append(float(value))
+        if increasing and any(b <= a for a, b in zip(out, out[1:], strict=False)):
+            raise self.error(key, "the values must increase.")
+        return tuple(out)
+
+    def strings(self, key: str, default: Any = _MISSING) -> tuple[str, ...]:
+        """A list of strings."""
+        values = self.get(key, list, default)
+        if values is None:
+            return values
+        for index, value in enumerate(values):
+            if not isinstance(value, str):
+                raise self.error(key, f"entry {index + 1} is {value!r}; expected a string.")
+        return tuple(values)
+
+    def tables(self, key: str) -> list[Table]:
+        """The tables of an array of tables ``[[key]]`` (empty if absent)."""
+        items = self.data.get(key, [])
+        if isinstance(items, dict):
+            items = [items]
+        if not isinstance(items, list) or not all(isinstance(i, dict) for i in items):
+            raise self.error(key, f"expected tables [[{self.prefix}{key}]], got {items!r}.")
+        return [Table(item, self.path, self.text, f"{self.prefix}{key}.{index}.")
+                for index, item in enumerate(items)]
+
     def choice(self, key: str, enum_type: type[E], default: Any = _MISSING) -> E:
         """An enum member from its string value."""
         value = self.get(key, str, default)
@@ -109,17 +152,24 @@ class Table:
 
 
 def _find_line(text: str, key: str, prefix: str) -> int | None:
-    """Line number of ``key`` (inside its ``[section]`` when there is one)."""
-    section = prefix.rstrip(".")
+    """Line number of ``key`` inside its ``[section]`` (the n-th ``[[array]]`` for an index)."""
     lines = text.splitlines()
     start = 0
-    if section:
-        pattern = re.compile(rf"^\s*\[+\s*{re.escape(section)}\s*\]+")
-        for number, line in enumerate(lines):
-            if pattern.match(line):
-                start = number
-                break
-    key_pattern = re.compile(rf"^\s*\"?{re.escape(key)}\"?\s*=|^\s*\[+\s*{re.escape(prefix + key)}")
+    names: list[str] = []
+    for part in filter(None, prefix.split(".")):
+        if part.isdigit():
+            header = re.compile(rf"^\s*\[\[\s*{re.escape('.'.join(names))}\s*\]\]")
+            hits = [n for n in range(start, len(lines)) if header.match(lines[n])]
+            if int(part) < len(hits):
+                start = hits[int(part)]
+        else:
+            names.append(part)
+    section = ".".join(names)
+    if section and not prefix.rstrip(".").split(".")[-1].isdigit():
+        header = re.compile(rf"^\s*\[+\s*{re.escape(section)}\s*\]+")
+        start = next((n for n in range(start, len(lines)) if header.match(lines[n])), start)
+    dotted = f"{section}.{key}" if section else key
+    key_pattern = re.compile(rf"^\s*\"?{re.escape(key)}\"?\s*=|^\s*\[+\s*{re.escape(dotted)}\b")
     for number in range(start, len(lines)):
         if key_pattern.match(lines[number]):
             return number + 1
@@ -158,9 +208,9 @@ def load_problem(path: str | Path, overrides: Sequence[str] = ()) -> Table:
         InputError: Missing file, TOML syntax error (with its line) or a bad override.
     """
     path = Path(path)
-    if not path.is_file():
+    if not path.is_file() and not path.is_dir():
         raise InputError(f"{path}: problem file not found; copy one from problems/.")
-    text = path.read_text()
+    text = read_text(path, what="TOML problem file")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -38,6 +39,8 @@ def add_output_options(command: argparse.ArgumentParser, *, overrides: str | Non
                              help=f"override a key of the file, e.g. --set {overrides} "
                                   "(repeatable)")
     command.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    command.add_argument("--no-plots", action="store_true",
+                         help="write no PNG/GIF plots (batch use; numbers and tables only)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -72,8 +75,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.run(args) or 0)
-    except PredgaitError as exc:
+        from predgait.report.figures import plots_off
+
+        with plots_off(getattr(args, "no_plots", False)), \
+                warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("default")
+            status = int(args.run(args) or 0)
+        for warning in caught:  # shown only when the command did not fail
+            warnings.showwarning(warning.message, warning.category, warning.filename,
+                                 warning.lineno)
+        return status
+    except PredgaitError as exc:  # its warnings (e.g. numpy on bad numbers) are dropped
         print(f"predgait: error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # e.g. piped into head

@@ -93,8 +93,10 @@ def run_build(args: argparse.Namespace) -> int:
 
 def run_show(args: argparse.Namespace) -> int:
     """Print the model tables (a 3D model: its segments with mass and COM)."""
+    from predgait.textfile import read_text
+
     path = Path(args.urdf)
-    if path.is_file() and "base=free_flyer" in path.read_text()[:1000]:
+    if path.is_file() and "base=free_flyer" in read_text(path, what="URDF model")[:1000]:
         from predgait.models.loading3d import load_fullbody
 
         model = load_fullbody(path)

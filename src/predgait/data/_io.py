@@ -7,6 +7,7 @@ import tempfile
 from pathlib import Path
 
 from predgait.errors import InputError
+from predgait.textfile import read_text
 
 _INPUTS: set[Path] = set()
 
@@ -33,6 +34,22 @@ def open_input(path) -> Path:
         raise InputError(f"{path}: file not found. Check the path (cwd is {Path.cwd()}).")
     _INPUTS.add(path.resolve())
     return path
+
+
+def read_input(path, *, what: str) -> tuple[Path, str]:
+    """Check, remember and read an input text file (UTF-8, not empty); returns (path, text)."""
+    path = open_input(path)
+    return path, read_text(path, what=what)
+
+
+def duplicate_labels(labels, *, source: str, what: str = "column") -> None:
+    """Refuse a header that names the same column or marker twice."""
+    seen = set()
+    for label in labels:
+        if label in seen:
+            raise InputError(f"{source}: {what} {label!r} appears twice; every {what} needs "
+                             "its own name.")
+        seen.add(label)
 
 
 def check_output(path) -> Path:

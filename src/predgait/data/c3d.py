@@ -19,10 +19,11 @@ horizontal moment vanishes::
 from __future__ import annotations
 
 import logging
+import struct
 
 import numpy as np
 
-from predgait.data._io import length_factor, open_input
+from predgait.data._io import duplicate_labels, length_factor, open_input
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_trial
 from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.errors import InputError
@@ -131,6 +132,29 @@ def _plates(params, analogs: np.ndarray, rate: float, point_factor: float,
     return plates
 
 
+def _header_frames(path) -> int | None:
+    """Frames the C3D header announces (None if not stated there).
+
+    Checks first that the file holds its whole header and parameter section: ezc3d can
+    crash on a file cut inside them.
+    """
+    size = path.stat().st_size
+    with path.open("rb") as handle:
+        head = handle.read(512)
+        if len(head) < 512 or head[1] != 0x50 or head[0] < 2:
+            raise InputError(f"{path}: not a C3D file (no C3D header in its first 512 bytes).")
+        handle.seek((head[0] - 1) * 512 + 3)
+        processor = handle.read(1)
+    order = ">" if processor == bytes([86]) else "<"  # 86: MIPS (big-endian); 84/85: Intel/DEC
+    first, last = struct.unpack(f"{order}2H", head[6:10])
+    data_block = struct.unpack(f"{order}H", head[16:18])[0]
+    if data_block < 2 or size < (data_block - 1) * 512:
+        raise InputError(f"{path}: the file ends inside its header or parameters ({size} "
+                         f"bytes; data should start at byte {(data_block - 1) * 512}); it looks "
+                         "truncated. Re-export it.")
+    return None if last >= 65535 else last - first + 1
+
+
 def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | str = FileAxes.Z_UP,
              plates: bool = True) -> Trial:
     """Read a C3D file: markers (m) and force plates at the analog rate, lab frame.
@@ -148,12 +172,21 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     import ezc3d
 
     path = open_input(path)
+    expected = _header_frames(path)
     try:
         c3d = ezc3d.c3d(str(path))
     except Exception as exc:  # ezc3d raises RuntimeError/IOError for bad files
         raise InputError(f"{path}: ezc3d could not read it as C3D ({exc}).") from None
     params = c3d["parameters"]
     labels = [str(n).strip() for n in _param(params, "POINT", "LABELS", [])]
+    n_read = c3d["data"]["points"].shape[2]
+    if expected is not None and n_read < expected:
+        raise InputError(f"{path}: {n_read} frames read but the header says {expected}; the "
+                         "file looks truncated. Re-export it.")
+    if n_read < 2:
+        raise InputError(f"{path}: {n_read} frame(s); a trial needs at least two.")
+    duplicate_labels(labels[: c3d["data"]["points"].shape[1]], source=str(path),
+                     what="marker label")
     header_rate = c3d["header"]["points"]["frame_rate"]
     rate = float(np.ravel(_param(params, "POINT", "RATE", [header_rate]))[0])
     unit = _param(params, "POINT", "UNITS", ["mm"])[0]

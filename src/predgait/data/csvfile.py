@@ -7,7 +7,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from predgait.data._io import length_factor, open_input
+from predgait.data._io import duplicate_labels, length_factor, read_input
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers
 from predgait.data.trial import Markers, uniform_time
 from predgait.errors import InputError
@@ -34,17 +34,18 @@ def read_markers_csv(path, columns: Mapping[str, tuple[str, str, str]], *,
     Returns:
         Markers, lab frame, m, on a uniform time base.
     """
-    path = open_input(path)
-    lines = [ln for ln in path.read_text(errors="replace").splitlines()
-             if ln.strip() and not ln.lstrip().startswith("#")]
-    if len(lines) < 2:
-        raise InputError(f"{path}: needs a header row and at least one data row.")
+    path, text = read_input(path, what="CSV marker file")
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) < 3:
+        raise InputError(f"{path}: {max(len(lines) - 1, 0)} data row(s) after the header; "
+                         "a trial needs a header row and at least two data rows.")
     try:
         dialect = csv.Sniffer().sniff(lines[0], delimiters=",;\t")
     except csv.Error:
         dialect = csv.excel
     rows = list(csv.reader(lines, dialect))
     labels = [lb.strip() for lb in rows[0]]
+    duplicate_labels(labels, source=str(path))
     factor = length_factor(units, source=str(path), field="units")
 
     def column(label: str) -> int:
@@ -71,6 +72,10 @@ def read_markers_csv(path, columns: Mapping[str, tuple[str, str, str]], *,
     time = data[:, 0]
     if np.isnan(time).any():
         raise InputError(f"{path}: time column {time_column!r} has empty values.")
+    if not np.all(np.diff(time) > 0):
+        frame = int(np.flatnonzero(np.diff(time) <= 0)[0]) + 2
+        raise InputError(f"{path}: time column {time_column!r} does not increase at data row "
+                         f"{frame}; rows must be in time order, one per frame.")
     if rate is None:
         rate = float(1.0 / np.median(np.diff(time)))
     time = uniform_time(time, rate, source=str(path))

@@ -15,7 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from predgait.data._io import atomic_write_text, length_factor, open_input
+from predgait.data._io import (
+    atomic_write_text,
+    duplicate_labels,
+    length_factor,
+    open_input,
+    read_input,
+)
 from predgait.data.frames import FileAxes, lab_rotation, rotate_plate
 from predgait.data.trial import ForcePlate, uniform_time
 from predgait.errors import InputError
@@ -64,8 +70,8 @@ def read_storage(path) -> Storage:
     Raises:
         InputError: missing file, no ``endheader``, ragged or non-numeric rows.
     """
-    path = open_input(path)
-    lines = path.read_text(errors="replace").splitlines()
+    path, text = read_input(path, what="OpenSim .sto/.mot file")
+    lines = text.splitlines()
     end = next((i for i, ln in enumerate(lines) if ln.strip().lower() == "endheader"), None)
     if end is None:
         raise InputError(f"{path}: no 'endheader' line; is this an OpenSim .sto/.mot file?")
@@ -79,6 +85,7 @@ def read_storage(path) -> Storage:
         raise InputError(f"{path}: no column labels after 'endheader'.")
     labels = body[0].split("\t") if "\t" in body[0] else body[0].split()
     labels = [lb.strip() for lb in labels if lb.strip()]
+    duplicate_labels(labels, source=str(path))
     rows = []
     for number, line in enumerate(body[1:], start=end + 3):
         fields = line.split()
@@ -96,9 +103,17 @@ def read_storage(path) -> Storage:
             f"{path}: {len(rows)} rows but the header says nRows={header['nRows']}; "
             "the file looks truncated."
         )
+    if len(rows) < 2:
+        raise InputError(f"{path}: {len(rows)} data row(s) after the column labels; a trial "
+                         "needs at least two rows.")
     data = np.array(rows, dtype=float).reshape(len(rows), len(labels))
     lower = [lb.lower() for lb in labels]
     t_index = lower.index("time") if "time" in lower else 0
+    steps = np.diff(data[:, t_index])
+    if not np.all(np.isfinite(data[:, t_index])) or not np.all(steps > 0):
+        bad = int(np.flatnonzero(~(steps > 0))[0]) + 1 if steps.size else 0
+        raise InputError(f"{path}: the time column does not increase at line "
+                         f"{end + 3 + bad}; rows must be in time order, one per frame.")
     columns = {lb: data[:, i] for i, lb in enumerate(labels) if i != t_index}
     in_degrees = header.get("inDegrees", "no").lower().startswith("y")
     return Storage(data[:, t_index], columns, header, in_degrees, str(path))

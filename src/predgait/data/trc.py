@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 
-from predgait.data._io import length_factor, open_input
+from predgait.data._io import duplicate_labels, length_factor, read_input
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers
 from predgait.data.trial import Markers, uniform_time
 from predgait.errors import InputError
@@ -45,8 +45,8 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
         InputError: missing file, malformed header, bad number, or fewer frames than
             the header's ``NumFrames`` (a truncated file).
     """
-    path = open_input(path)
-    lines = path.read_text(errors="replace").splitlines()
+    path, text = read_input(path, what="TRC marker file")
+    lines = text.splitlines()
     if len(lines) < _N_HEADER:
         raise InputError(f"{path}: only {len(lines)} lines; a TRC file has a 5-line header.")
     keys, values = _split(lines[1]), _split(lines[2])
@@ -65,6 +65,10 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
         raise InputError(
             f"{path}: line 4 names {len(names)} markers but NumMarkers is {n_markers}."
         )
+    duplicate_labels(names, source=str(path), what="marker")
+    if n_markers < 1 or n_frames < 0:
+        raise InputError(f"{path}: header line 3 gives NumMarkers={n_markers}, "
+                         f"NumFrames={n_frames}; a TRC needs at least one marker.")
     rows = []
     for number, line in enumerate(lines[_N_HEADER:], start=_N_HEADER + 1):
         if not line.strip():
@@ -83,6 +87,8 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
             f"{path}: {len(rows)} data rows but the header says NumFrames={n_frames}; "
             "the file looks truncated. Re-export it."
         )
+    if len(rows) < 2:
+        raise InputError(f"{path}: {len(rows)} data row(s); a trial needs at least two frames.")
     if len(rows) > n_frames:
         logger.warning("%s: %d rows, NumFrames=%d; reading all rows", path, len(rows), n_frames)
     data = np.array(rows, dtype=float)

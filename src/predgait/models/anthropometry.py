@@ -183,21 +183,35 @@ def leg_from_csv(path: str | Path) -> LegParameters:
         InputError: The file is missing, a column or segment is missing, or a value is
             not a positive finite number.
     """
+    from predgait.textfile import read_text
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: segment table not found; give a CSV with columns "
                          f"{', '.join(SEGMENT_CSV_COLUMNS)}.")
-    with path.open(newline="") as handle:
-        reader = csv.DictReader(row for row in handle if not row.lstrip().startswith("#"))
-        header = [h.strip() for h in (reader.fieldnames or [])]
-        missing = [c for c in SEGMENT_CSV_COLUMNS if c not in header]
-        if missing:
-            raise InputError(f"{path}: missing column(s) {', '.join(missing)}; the file has "
-                             f"{', '.join(header) or 'no header'}.")
-        rows = {}
-        for line, row in enumerate(reader, start=2):
-            row = {k.strip(): (v or "").strip() for k, v in row.items() if k}
-            rows[row["segment"].lower()] = (line, row)
+    text = read_text(path, what="segment table CSV", allow_empty=True)
+    numbered = [(n, ln) for n, ln in enumerate(text.splitlines(), start=1)
+                if ln.strip() and not ln.lstrip().startswith("#")]
+    reader = csv.reader([ln for _, ln in numbered])
+    header = [h.strip() for h in next(reader, [])]
+    missing = [c for c in SEGMENT_CSV_COLUMNS if c not in header]
+    if missing:
+        raise InputError(f"{path}: missing column(s) {', '.join(missing)}; the file has "
+                         f"{', '.join(header) or 'no header'}.")
+    if len(set(header)) != len(header):
+        twice = next(h for h in header if header.count(h) > 1)
+        raise InputError(f"{path}: column {twice!r} appears twice in the header.")
+    rows = {}
+    for (line, _), fields in zip(numbered[1:], reader, strict=True):
+        row = dict(zip(header, (f.strip() for f in fields), strict=False))
+        name = row.get("segment", "").lower()
+        if name not in LEG_SEGMENTS:
+            raise InputError(f"{path}, line {line}: segment {row.get('segment', '')!r} is not "
+                             f"one of {', '.join(LEG_SEGMENTS)}.")
+        if name in rows:
+            raise InputError(f"{path}, line {line}: segment '{name}' again (first on line "
+                             f"{rows[name][0]}); give each segment once.")
+        rows[name] = (line, {c: row.get(c, "") for c in SEGMENT_CSV_COLUMNS})
     segments = {}
     for name in LEG_SEGMENTS:
         if name not in rows:

@@ -19,6 +19,8 @@ import pinocchio as pin
 
 from predgait.errors import InputError
 from predgait.models import anthropometry, urdf
+from predgait.models.urdf_read import build_pinocchio
+from predgait.textfile import read_text
 
 #: Standard gravity used by both Pinocchio and ADAM unless a problem file says otherwise.
 GRAVITY = 9.81
@@ -112,10 +114,7 @@ def model_from_urdf(text: str, *, source: str = "URDF", gravity: float = GRAVITY
         raise InputError(f"{source}: base '{info.base}' is not supported; expected planar_xz.")
     if not np.isfinite(gravity) or not 0.0 <= gravity <= 30.0:
         raise InputError(f"gravity = {gravity!r} m/s^2 is out of range 0..30.")
-    try:
-        pin_model = pin.buildModelFromXML(text, planar_root_joint(), "root")
-    except (RuntimeError, ValueError) as exc:
-        raise InputError(f"{source}: Pinocchio cannot read this URDF ({exc}).") from None
+    pin_model = build_pinocchio(text, planar_root_joint(), source=source)
     pin_model.gravity.linear = np.array([0.0, 0.0, -gravity])
     return Model(urdf=text, kind=info.kind, pin_model=pin_model, gravity=gravity, source=source)
 
@@ -162,4 +161,4 @@ def load_model(source: str | Path, *, gravity: float = GRAVITY) -> Model:
     if not path.is_file():
         raise InputError(f"{path}: model file not found; give a URDF made by "
                          "'predgait model build', or 'leg' / 'rod'.")
-    return model_from_urdf(path.read_text(), source=str(path), gravity=gravity)
+    return model_from_urdf(read_text(path, what="URDF model"), source=str(path), gravity=gravity)

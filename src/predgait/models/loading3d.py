@@ -25,6 +25,8 @@ from predgait.errors import InputError
 from predgait.models import urdf as urdf_info
 from predgait.models.fullbody import build_fullbody_urdf
 from predgait.models.loading import DEFAULT_SUBJECT, GRAVITY, RigidBodyModel
+from predgait.models.urdf_read import build_pinocchio
+from predgait.textfile import read_text
 
 ROOT_COORDINATES = ("pelvis_x", "pelvis_y", "pelvis_z", "pelvis_qx", "pelvis_qy",
                     "pelvis_qz", "pelvis_qw")
@@ -70,10 +72,7 @@ def model3d_from_urdf(text: str, *, source: str = "URDF", gravity: float = GRAVI
                          "with predgait.models.loading.load_model.")
     if not np.isfinite(gravity) or not 0.0 <= gravity <= 30.0:
         raise InputError(f"gravity = {gravity!r} m/s^2 is out of range 0..30.")
-    try:
-        pin_model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer(), "root")
-    except (RuntimeError, ValueError) as exc:
-        raise InputError(f"{source}: Pinocchio cannot read this URDF ({exc}).") from None
+    pin_model = build_pinocchio(text, pin.JointModelFreeFlyer(), source=source)
     pin_model.gravity.linear = np.array([0.0, 0.0, -gravity])
     return Model3D(urdf=text, kind=info.kind, pin_model=pin_model, gravity=gravity,
                    source=source)
@@ -93,7 +92,7 @@ def load_fullbody(source: str | Path = "fullbody", *, gravity: float = GRAVITY) 
     if not path.is_file():
         raise InputError(f"{path}: model file not found; give a URDF made by "
                          "'predgait model build fullbody', or 'fullbody'.")
-    return model3d_from_urdf(path.read_text(), source=str(path), gravity=gravity)
+    return model3d_from_urdf(read_text(path, what="URDF model"), source=str(path), gravity=gravity)
 
 
 def fullbody_for_subject(mass: float, height: float, sex: str = DEFAULT_SEX, *,

@@ -104,9 +104,8 @@ def parse_scenario(table: Table) -> ScenarioSpec:
     side = table.get("side", str, "right")
     if side not in ("right", "left"):
         raise table.error("side", f"'{side}' is not one of: right, left.")
-    window = table.get("window", list, [0.0, 1.0])
-    if len(window) != 2 or not all(isinstance(v, int | float) for v in window) or \
-            not window[0] < window[1]:
+    window = table.numbers("window", [0.0, 1.0], length=2, low=-5.0, high=30.0, unit="s")
+    if not window[0] < window[1]:
         raise table.error("window", "give [start, end] in s from heel strike, start < end.")
     control = table.table("control")
     control.check_keys(("kp", "kd", "torques", "gains", "reoptimize"))
@@ -115,10 +114,8 @@ def parse_scenario(table: Table) -> ScenarioSpec:
     options = IntegratorOptions(method=integrator.choice("method", Method, "rk4"),
                                 step=integrator.number("step", 2e-3, low=1e-5, high=0.02))
     edits = []
-    for index, item in enumerate(table.data.get("edit", [])):
-        if not isinstance(item, dict):
-            raise table.error("edit", "each [[edit]] must be a table.")
-        edits.append(parse_edit(Table(item, table.path, table.text, f"edit.{index}.")))
+    for edit in table.tables("edit"):
+        edits.append(parse_edit(edit))
     return ScenarioSpec(
         name=table.get("name", str, table.path.stem), source=table.path, side=side,
         window=(float(window[0]), float(window[1])),

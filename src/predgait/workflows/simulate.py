@@ -21,6 +21,7 @@ Strings become enums here; unknown keys are refused with their line.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -108,14 +109,20 @@ def _integrator(table: Table) -> IntegratorOptions:
     try:
         return IntegratorOptions(**values)
     except InputError as exc:
-        raise sub.error(next(iter(values), "method"), str(exc)) from None
+        named = re.search(r"option '(\w+)'", str(exc))
+        key = named.group(1) if named and named.group(1) in values else "method"
+        raise sub.error(key, str(exc)) from None
 
 
 def _passive(table: Table, key: str = "passive") -> dict[str, PassiveJoint]:
     sub = table.table(key)
     sub.check_keys(("ankle", "knee", "hip"))
-    return {name: parse_passive(sub.data[name], where=f"{table.path}: {sub.prefix}{name}")
-            for name in sub.data}
+    joints = {}
+    for name in sub.data:
+        joint = sub.table(name)
+        joint.check_keys(("k", "c", "theta0", "theta0_deg", "limits"))
+        joints[name] = parse_passive(joint.data, where=f"{table.path}: {sub.prefix}{name}")
+    return joints
 
 
 def _fall(table: Table) -> FallLimit:
@@ -127,18 +134,27 @@ def _fall(table: Table) -> FallLimit:
 
 
 def _variants(table: Table, key: str) -> tuple[Variant, ...]:
-    items = table.data.get(key, [])
-    if not isinstance(items, list):
-        raise table.error(key, "expected an array of tables [[...]].")
     out = []
-    for i, item in enumerate(items):
-        sub = Table(item, table.path, table.text, f"{key}.{i}.")
+    for sub in table.tables(key):
         sub.check_keys(("name", "step", "iterations", "passive"))
         out.append(Variant(name=sub.get("name", str),
                            step=sub.number("step", None, low=1e-6, high=0.1, unit="s"),
-                           iterations=sub.get("iterations", int, None),
+                           iterations=_iterations(sub),
                            passive=_passive(sub) if sub.has("passive") else None))
     return tuple(out)
+
+
+def _iterations(table: Table) -> int | None:
+    value = table.get("iterations", int, None)
+    if value is not None and not 1 <= value <= 100:
+        raise table.error("iterations", f"{value} is outside 1..100.")
+    return value
+
+
+def _stability_times(stab: Table, sim: Table) -> tuple[float, ...]:
+    duration = sim.number("duration", None, low=0.01, high=30, unit="s")
+    return stab.numbers("times", [0.05, 0.2, 0.4], low=0.0,
+                        high=30.0 if duration is None else duration, unit="s")
 
 
 def parse_spec(path: str | Path, overrides=()) -> Spec:
@@ -165,12 +181,12 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
         table.check_keys(("kind", "integrator", "rod"))
         rod = table.table("rod")
         rod.check_keys(("duration", "rate", "noise", "frames", "step_study"))
-        frames = rod.get("frames", list, ["inertial", "body"])
+        frames = rod.strings("frames", ["inertial", "body"])
         try:
             frames = tuple(ForceFrame(f) for f in frames)
         except ValueError:
             raise rod.error("frames", "use a list of \"inertial\" and/or \"body\".") from None
-        steps = tuple(float(s) for s in rod.get("step_study", list, []))
+        steps = rod.numbers("step_study", [], low=1e-6, high=0.1, unit="s")
         return RodSpec(integrator=integrator,
                        duration=rod.number("duration", 1.0, low=0.05, high=20, unit="s"),
                        rate=rod.number("rate", 60.0, low=10, high=10000, unit="Hz"),
@@ -208,5 +224,5 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
         threshold_deg=sim.number("threshold_deg", 5.0, low=0.01, high=90, unit="deg"),
         stick_interval=sim.number("stick_interval", 0.05, low=0.001, high=1, unit="s"),
         fall=_fall(table), passive=_passive(table), variants=_variants(table, "variants"),
-        stability_times=tuple(float(t) for t in stab.get("times", list, [0.05, 0.2, 0.4])),
+        stability_times=_stability_times(stab, sim),
         source=source)

@@ -12,7 +12,6 @@ deviates by more than ``threshold_deg`` is the figure of merit.
 from __future__ import annotations
 
 import enum
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,6 +30,8 @@ from predgait.problemfile import Table, load_problem
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
+from predgait.report.figures import plots_wanted
+from predgait.report.tidy import write_summary
 from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
 
@@ -41,6 +42,8 @@ class Kind(enum.Enum):
     KNEE_FIT = "knee_fit"
     TORQUE_CORRECTION = "torque_correction"
     FEEDBACK_GAINS = "feedback_gains"
+    #: Handled by :mod:`predgait.workflows.decomposition` (no collocation).
+    PASSIVE_DECOMPOSITION = "passive_decomposition"
 
 
 @dataclass(frozen=True)
@@ -185,6 +188,33 @@ def resimulations(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers,
     return report, sims
 
 
+KNEE_FIT_MEANING = (
+    "stabilising spring-damper added to the measured moments so that the synthesized "
+    "motion stays near the measured one (thesis Fig. 4.2.9); not tissue properties: the "
+    "measured moments already contain the knee's passive moment (for that, use kind "
+    "passive_decomposition)")
+#: Angle change per unit parameter (deg) beyond which open-loop intervals are formal only.
+FORMAL_SENSITIVITY_DEG = 1e4
+
+
+def _meaningful_intervals(spec: SolveSpec, fit: FitResult) -> dict:
+    """95 % half-widths, or why one means nothing (knee fit on a bound or on instability)."""
+    if spec.kind is not Kind.KNEE_FIT:
+        return fit.confidence95
+    sensitivity = fit.diagnostics.get("sensitivity_deg", {})
+    out = {}
+    for name, half in fit.confidence95.items():
+        if name in ("k", "c") and fit.parameters[name] <= 1e-4:
+            out[name] = f"not meaningful: {name} sits on its lower bound 0"
+        elif sensitivity and max(sensitivity.values()) > FORMAL_SENSITIVITY_DEG:
+            out[name] = (f"not meaningful: the angles change by up to "
+                         f"{max(sensitivity.values()):.1e} deg per unit of a parameter (the "
+                         "open-loop fit balances on the leg's instability)")
+        else:
+            out[name] = half
+    return out
+
+
 def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
     """Solve, check, and write solution.json, states.sto, corrected_moments.sto, plots."""
     inverse = _inverse(spec)
@@ -197,16 +227,18 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         "status": "solved" if s.success else s.status, "kind": spec.kind.value,
         "ipopt_status": s.status, "iterations": s.iterations, "solve_time_s": s.seconds,
         "objective": s.objective, "constraint_violation": s.constraint_violation,
-        "parameters": fit.parameters, "confidence95": fit.confidence95,
+        "parameters": fit.parameters, "confidence95": _meaningful_intervals(spec, fit),
         "ipopt_history": s.history,
         "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
-        "window_s": list(spec.window), "nodes": spec.nodes,
+        "window_s": list(spec.window), "threshold_deg": spec.threshold_deg, "nodes": spec.nodes,
         "transcription": spec.transcription.value, "diagnostics": fit.diagnostics,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
+    if spec.kind is Kind.KNEE_FIT:
+        solution["what"] = KNEE_FIT_MEANING
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
-        (stage / "solution.json").write_text(json.dumps(solution, indent=2, default=str) + "\n")
+        solution = write_summary(stage / "solution.json", solution)
         names = ("ankle", "knee", "ankle_speed", "knee_speed")
         write_storage(stage / "states.sto", fit.t, dict(zip(names, fit.x.T, strict=True)),
                       header={"units": "rad, rad/s (model coordinates)",
@@ -223,12 +255,13 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
                         "knee_flexion_moment_corrected": -corrected[:, 1]}
             write_storage(stage / "corrected_moments.sto", fit.t, clinical,
                           header={"units": "N m (clinical sign)"})
-        from predgait.report.solve_plots import save_solve_plots
+        if plots_wanted():
+            from predgait.report.solve_plots import save_solve_plots
 
-        save_solve_plots(stage, inverse, fit, sim, drivers)
-        labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
-                  "with_fit": "re-simulated, fitted (after)",
-                  "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}
-        save_diagnostics(stage, inverse.time, inverse.q, fit,
-                         {labels[k]: v for k, v in sims.items()})
+            save_solve_plots(stage, inverse, fit, sim, drivers)
+            labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
+                      "with_fit": "re-simulated, fitted (after)",
+                      "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}
+            save_diagnostics(stage, inverse.time, inverse.q, fit,
+                             {labels[k]: v for k, v in sims.items()})
     return solution
