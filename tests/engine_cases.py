@@ -26,7 +26,8 @@ PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 CASES = {
     "rod": ("rod.toml", ()),
     "collapse": ("collapse.toml", ()),
-    "resynthesis": ("resynthesis.toml", ("simulation.duration=0.6",)),
+    "resynthesis": ("resynthesis.toml", ("simulation.duration=0.6",
+                                         "stability.times=[0.05, 0.2, 0.4]")),
     "gait7": ("gait7_contact.toml", ("trial.duration=0.3", "integrator.method=rk4",
                                      "integrator.step=2e-4")),
     "fullbody": ("fullbody_resynthesis.toml", ("simulation.duration=0.15",)),
