@@ -137,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
                        stage / "05_scenario_stiff_knee")
         _stage("5 scenario: stiffer knee", started)
         write_text_atomic(build_report(stage, title="predgait demo: subject01 right leg",
-                                       source=str(out.resolve())),
+                                       source=str(out)),
                           stage / "report.html")
     print(f"wrote {out}/report.html (open it in a browser)")
     return 0

@@ -70,7 +70,9 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run and write a scenario."""
     from predgait.scenarios.run import load_scenario, run_scenario
+    from predgait.workflows.output import check_out
 
+    check_out(args.out, force=args.force, inputs=[args.scenario])  # before any computation
     result = run_scenario(load_scenario(args.scenario, args.set))
     write_scenario(result, args.out, force=args.force)
     m = result.metrics

@@ -46,7 +46,8 @@ def run(args: argparse.Namespace) -> int:
     from predgait.workflows.simulate_run import run_spec
 
     spec = parse_spec(args.problem, args.set)
-    with staged_output(args.out, force=args.force, inputs=[args.problem]) as stage:
+    inputs = [args.problem, getattr(spec, "inverse_problem", None)]
+    with staged_output(args.out, force=args.force, inputs=inputs) as stage:
         summary = run_spec(spec, stage, progress=True)
     print(f"wrote {args.out} ({summary['kind']}): status {summary['status']}")
     fall = summary.get("time_to_fall_s")

@@ -39,8 +39,10 @@ def run(args: argparse.Namespace) -> int:
 
     from predgait.errors import SolveFailed
     from predgait.problemfile import load_problem
+    from predgait.workflows.output import check_out
     from predgait.workflows.solve import parse_solve, run_solve
 
+    check_out(args.out, force=args.force, inputs=[args.problem])  # before any computation
     spec = parse_solve(load_problem(args.problem, args.set))
     try:
         solution = run_solve(spec, args.out, force=args.force)

@@ -116,10 +116,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the sweep and write its results."""
     from predgait.scenarios.run import load_scenario, scenario_metrics
     from predgait.scenarios.sweep import outcomes_table, run_sweep
-    from predgait.workflows.output import staged_output
+    from predgait.workflows.output import check_out, staged_output
 
+    check_out(args.out, force=args.force, inputs=[args.sweep])  # before any computation
     scenario, points = sweep_points(args.sweep)
     load_scenario(scenario)  # a bad scenario file fails here, once, not in every run
+    check_out(args.out, force=args.force, inputs=[args.sweep, scenario])
     started = time.perf_counter()
     outcomes = run_sweep(functools.partial(scenario_metrics, scenario), points,
                          workers=args.workers, scheduler=args.scheduler)

@@ -25,6 +25,7 @@ from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forward import LegSystem, SimulationResult, simulate_leg, simulate_rod
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import load_model
+from predgait.textfile import source_name
 from predgait.workflows.simulate import CollapseSpec, ResynthesisSpec, RodSpec, Variant
 
 
@@ -64,7 +65,7 @@ def _save(fig_or_axes, path: Path) -> None:
 
 def _summary(folder: Path, spec, data: dict) -> dict:
     data = {"kind": type(spec).__name__.replace("Spec", "").lower(), **data,
-            "provenance": {"problem": spec.source, "predgait": __version__}
+            "provenance": {"problem": source_name(spec.source), "predgait": __version__}
             | data.get("provenance", {})}
     (folder / "summary.json").write_text(json.dumps(data, indent=2, default=float) + "\n")
     return data

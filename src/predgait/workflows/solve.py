@@ -30,6 +30,7 @@ from predgait.problemfile import Table, load_problem
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
+from predgait.textfile import source_name
 from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
 
@@ -199,10 +200,11 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
         "window_s": list(spec.window), "nodes": spec.nodes,
         "transcription": spec.transcription.value, "diagnostics": fit.diagnostics,
-        "provenance": {"problem": str(spec.source), "model": inverse.model.source,
+        "provenance": {"problem": source_name(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
-    with staged_output(out, force=force, inputs=[spec.source]) as stage:
+    with staged_output(out, force=force,
+                       inputs=[spec.source, spec.inverse_problem]) as stage:
         (stage / "solution.json").write_text(json.dumps(solution, indent=2, default=str) + "\n")
         names = ("ankle", "knee", "ankle_speed", "knee_speed")
         write_storage(stage / "states.sto", fit.t, dict(zip(names, fit.x.T, strict=True)),
