@@ -77,6 +77,12 @@ def run(args: argparse.Namespace) -> int:
     write_scenario(result, args.out, force=args.force)
     m = result.metrics
     print(f"scenario '{result.spec.name}': {m['status']}; wrote {args.out}/")
+    if m["status"].startswith("diverged"):
+        import sys
+
+        print(f"predgait: error: the scenario {m['status']}, so it has no metrics: "
+              f"{m['message']} Partial states in {args.out}/.", file=sys.stderr)
+        return 1
     print(f"  knee angle change RMS {m['knee_rms_change_deg']:.2f} deg (max "
           f"{m['knee_max_change_deg']:.2f}); ankle {m['ankle_rms_change_deg']:.2f} deg")
     print(f"  extra feedback torque RMS: knee {m['knee_extra_feedback_rms_n_m']:.1f} N m, "
