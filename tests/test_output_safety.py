@@ -44,7 +44,7 @@ def test_inverse_out_holding_the_problem_file_is_refused(tmp_path, capsys, monke
     shutil.copy(PROBLEMS / "inverse_subject01.toml", folder / "p.toml")
     monkeypatch.chdir(tmp_path)
     status = main(["inverse", "dir/p.toml", "--out", "dir", "--force"])
-    _one_error(capsys, status, "would replace the input")
+    _one_error(capsys, status, "holds the input")
     assert (folder / "p.toml").read_text() == (PROBLEMS / "inverse_subject01.toml").read_text()
 
 
