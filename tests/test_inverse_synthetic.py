@@ -134,7 +134,7 @@ def test_moments_of_a_known_motion_and_load(tmp_path):
     result = run_inverse(options)
     keep = interior(result, exact["t"])
     np.testing.assert_allclose(result.q[keep], exact["q"][keep], atol=2e-4)
-    loaded = keep & (exact["force"][:, 2] > 100)     # away from the 20 N contact threshold
+    loaded = keep & (exact["force"][:, 2] > 100)     # away from the contact threshold
     swing = keep & (exact["force"][:, 2] == 0) & (result.grf[:, 2] == 0)
     assert loaded.sum() > 60 and swing.sum() > 60
     np.testing.assert_allclose(result.grf[loaded], exact["force"][loaded], atol=4.0)
@@ -147,8 +147,8 @@ def test_moments_of_a_known_motion_and_load(tmp_path):
         # Measured: 0.7 / 0.3 / 0.4 N m (hip / knee / ankle) against peaks of 191 / 43 / 59.
         assert error[loaded].max() < 0.01 * scale + 0.3, (name, error[loaded].max(), scale)
         assert error[swing].max() < 0.01 * scale + 0.3, (name, error[swing].max(), scale)
-    # Events where the sin^2 ramp crosses the 20 N threshold (52 ms inside the window).
-    ramp = np.arcsin(np.sqrt(20 / 750)) / np.pi * (STANCE[1] - STANCE[0])
+    # Events where the sin^2 ramp crosses the contact threshold (10 N: 37 ms inside).
+    ramp = np.arcsin(np.sqrt(options.threshold / 750)) / np.pi * (STANCE[1] - STANCE[0])
     t0 = result.provenance["time_zero_s"]
     assert t0 == pytest.approx(STANCE[0] + ramp, abs=1.5 / MARKER_RATE)
     toe_off = t0 + result.events.toe_offs[result.events.toe_offs > 0][0]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from predgait.cli import add_output_options
@@ -17,7 +18,14 @@ ground reaction), summary.json and PNG plots against % gait cycle into --out.
 
 Give either a TOML problem file (problems/inverse_*.toml: joint-centre rules, static trial)
 or a marker file (TRC, C3D or CSV with NAME_x/_y/_z columns) and the options below.
+With a problem file, an option given on the command line replaces the file's key
+(--mass -> trial.mass, --cutoff -> options.cutoff, ...), and --set KEY=VALUE sets any key.
 Time zero is heel strike of the analysed foot.
+
+Frames the model cannot follow (inverse kinematics on a joint limit, or not converged) are
+flagged: their results are NaN in the tables and gaps in the plots, and the run reports
+"completed with N flagged frames". When most frames are flagged the run fails (exit 3)
+after writing its outputs; --limit-margin widens the model's joint ranges.
 """
 
 
@@ -48,7 +56,7 @@ def register(commands: argparse._SubParsersAction) -> None:
                           "marker calibration and the marker map's [scaling]")
     cmd.add_argument("--mass", type=float, metavar="KG", help="body mass, kg (required)")
     cmd.add_argument("--height", type=float, metavar="M", help="standing height, m")
-    cmd.add_argument("--side", choices=("right", "left"), default="right")
+    cmd.add_argument("--side", choices=("right", "left"), help="analysed leg (default right)")
     cmd.add_argument("--markers", metavar="hip=NAME,knee=NAME,ankle=NAME,heel=NAME,toe=NAME",
                      help="trial markers (joint centres) of the leg; heel may be omitted")
     cmd.add_argument("--model", type=Path, metavar="LEG.urdf|fullbody",
@@ -61,29 +69,71 @@ def register(commands: argparse._SubParsersAction) -> None:
                           "problems/markers_fullbody_walking5.toml)")
     cmd.add_argument("--sex", choices=("male", "female"), default="male",
                      help="fullbody: de Leva (1996) segment parameters (default male)")
-    cmd.add_argument("--cutoff", type=float, default=6.0, metavar="HZ",
-                     help="marker low-pass cut-off, Hz (default 6)")
-    cmd.add_argument("--grf-cutoff", type=float, default=None, metavar="HZ",
-                     help="ground-reaction low-pass cut-off, Hz (0 = unfiltered; default 6 for "
-                          "the leg, unfiltered for fullbody as OpenSim's ID tool)")
-    add_output_options(cmd)
+    cmd.add_argument("--cutoff", metavar="HZ|0|auto",
+                     help="marker low-pass cut-off, Hz; 0 = unfiltered; auto = Winter's residual "
+                          "analysis (default 6; fullbody: of the coordinates)")
+    cmd.add_argument("--grf-cutoff", metavar="HZ|0",
+                     help="ground-reaction low-pass cut-off, Hz; 0 = unfiltered (default: the "
+                          "markers' cut-off for the leg, unfiltered for fullbody as OpenSim's ID "
+                          "tool)")
+    cmd.add_argument("--threshold", type=float, metavar="N",
+                     help="leg: vertical force a contact must reach, N (default 10); it lasts "
+                          "while the force stays above half of it")
+    cmd.add_argument("--limit-margin", type=float, metavar="DEG",
+                     help="leg: widen every joint range of the model by DEG at both ends for "
+                          "the inverse kinematics (default 0)")
+    add_output_options(cmd, overrides="options.cutoff=0")
     cmd.set_defaults(run=run)
 
 
+#: Command-line option -> (TOML key, table) it overrides in a problem file.
+OVERRIDES = {"grf": ("grf", "trial"), "static": ("static", "trial"), "mass": ("mass", "trial"),
+             "height": ("height", "trial"), "side": ("side", "trial"),
+             "model": ("model", "trial"), "cutoff": ("cutoff", "options"),
+             "grf_cutoff": ("grf_cutoff", "options"), "threshold": ("threshold", "options"),
+             "limit_margin": ("limit_margin", "options")}
+
+
+def _flag_options(args: argparse.Namespace) -> dict:
+    """InverseOptions fields given on the command line (parsed), by field name."""
+    from predgait.dynamics.inverse_trial import CutoffRule, parse_cutoff
+
+    given = {k: getattr(args, k) for k in OVERRIDES if getattr(args, k) is not None}
+    if "cutoff" in given:
+        given["cutoff"] = parse_cutoff(given["cutoff"], field="--cutoff",
+                                       rules=(CutoffRule.AUTO,))
+    if "grf_cutoff" in given:
+        given["grf_cutoff"] = parse_cutoff(given["grf_cutoff"], field="--grf-cutoff")
+    if "side" in given:
+        given["side"] = Side(given["side"])
+    for name, low, high, unit in (("mass", 20, 300, "kg"), ("height", 0.5, 2.5, "m"),
+                                  ("threshold", 0.1, 500, "N"), ("limit_margin", 0, 180, "deg")):
+        if name in given and not low <= given[name] <= high:
+            raise InputError(f"--{name.replace('_', '-')} {given[name]:g} {unit} is outside "
+                             f"{low:g}..{high:g} {unit}.")
+    return given
+
+
 def options_from_args(args: argparse.Namespace):
-    """InverseOptions from a problem file or the command-line options."""
+    """InverseOptions from a problem file (flags override its keys) or the options alone."""
+    from dataclasses import replace
+
     from predgait.dynamics.inverse_trial import InverseOptions
     from predgait.problemfile import load_problem
     from predgait.workflows.inverse_io import options_from_problem
 
+    flags = _flag_options(args)
     if args.input.suffix.lower() == ".toml":
-        given = [f"--{name.replace('_', '-')}" for name in
-                 ("grf", "static", "mass", "height", "markers", "model", "marker_map")
+        given = [f"--{name.replace('_', '-')}" for name in ("markers", "marker_map")
                  if getattr(args, name) is not None]
         if given:
-            raise InputError(f"{args.input} is a problem file: it gives the trial and options; "
-                             f"drop {', '.join(given)} (or edit the file).")
-        return options_from_problem(load_problem(args.input))
+            raise InputError(f"{args.input} is a problem file: its [points] table names the "
+                             f"markers; drop {', '.join(given)} (or edit the file).")
+        options = options_from_problem(load_problem(args.input, overrides=args.set))
+        return replace(options, **flags)
+    if args.set:
+        raise InputError("--set KEY=VALUE changes a problem file's key; give a PROBLEM.toml "
+                         "or use the options directly.")
     if args.mass is None:
         raise InputError("--mass (kg) is required: joint moments depend on the body mass.")
     if not args.markers:
@@ -91,10 +141,7 @@ def options_from_args(args: argparse.Namespace):
                          "--markers hip=RHJC,knee=RKJC,ankle=RAJC,heel=RCAL,toe=RMT2.")
     if not args.input.is_file():
         raise InputError(f"{args.input}: file not found.")
-    return InverseOptions(markers=args.input, grf=args.grf, static=args.static, mass=args.mass,
-                          height=args.height, side=Side(args.side), model=args.model,
-                          points=_parse_markers(args.markers), cutoff=args.cutoff,
-                          grf_cutoff=6.0 if args.grf_cutoff is None else args.grf_cutoff or None)
+    return InverseOptions(markers=args.input, points=_parse_markers(args.markers), **flags)
 
 
 def run_fullbody(args: argparse.Namespace) -> int:
@@ -106,11 +153,21 @@ def run_fullbody(args: argparse.Namespace) -> int:
                          "problems/markers_fullbody_subject01.toml).")
     if args.mass is None or args.height is None:
         raise InputError("--model fullbody needs --mass (kg) and --height (m).")
+    unused = [flag for flag, value in (("--threshold", args.threshold), ("--set", args.set),
+                                       ("--limit-margin", args.limit_margin),
+                                       ("--markers", args.markers), ("--side", args.side))
+              if value]
+    if unused:
+        raise InputError(f"{', '.join(unused)}: not used by --model fullbody (the marker map "
+                         "names the markers, plates are assigned to both feet); drop them.")
+    from predgait.dynamics.inverse_trial import parse_cutoff
+
+    cutoff = parse_cutoff(args.cutoff if args.cutoff is not None else 6.0, field="--cutoff")
+    grf_cutoff = parse_cutoff(args.grf_cutoff or 0, field="--grf-cutoff")
     files = [args.input] + ([args.grf] if args.grf else [])
     summary = run_inverse_fullbody(files, args.marker_map, mass=args.mass, height=args.height,
                                    sex=args.sex, out_dir=args.out, static=args.static,
-                                   cutoff=args.cutoff, grf_cutoff=args.grf_cutoff or None,
-                                   force=args.force)
+                                   cutoff=cutoff, grf_cutoff=grf_cutoff, force=args.force)
     print(f"3D inverse dynamics of the full body; wrote {args.out}/")
     for key in ("ik_rms_m", "ik_flagged_frames", "pelvis_residual_force_N",
                 "pelvis_residual_moment_Nm"):
@@ -120,7 +177,7 @@ def run_fullbody(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and write the result folder."""
-    from predgait.dynamics.inverse_trial import run_inverse
+    from predgait.dynamics.inverse_trial import MOST_FRAMES, run_inverse
     from predgait.workflows.inverse_io import summary, write_inverse_outputs
     from predgait.workflows.output import check_out
 
@@ -134,12 +191,24 @@ def run(args: argparse.Namespace) -> int:
     result = run_inverse(options)
     inputs = [p for p in (options.markers, options.grf, options.static) if p]
     write_inverse_outputs(result, args.out, force=args.force, inputs=inputs)
-    peaks = summary(result)["peak_moments_n_m_per_kg"]
+    info = summary(result)
+    peaks = info["peak_moments_n_m_per_kg"]
     print(f"inverse dynamics of the {result.side} leg, {result.time.size} frames "
-          f"({summary(result)['window']}); wrote {args.out}/")
+          f"({info['window']}): {info['status']}; wrote {args.out}/")
+    if info["flagged_frames"]:
+        limits = info["flagged_frames_at_joint_limits"]
+        print(f"  flagged frames (results NaN): {info['flagged_frames']} of {result.time.size}"
+              + (f"; held at a joint limit: {limits}" if limits else ""))
     if not result.has_grf:
         print("  no ground reaction in this trial: stance-phase moments are not valid.")
     for joint in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion"):
-        print(f"  {joint}_moment: {peaks[joint + '_moment_min']:+.2f} .. "
-              f"{peaks[joint + '_moment_max']:+.2f} N m/kg")
+        low, high = peaks[joint + "_moment_min"], peaks[joint + "_moment_max"]
+        if low is not None:
+            print(f"  {joint}_moment: {low:+.2f} .. {high:+.2f} N m/kg")
+    if info["flagged_frames"] > MOST_FRAMES * result.time.size:
+        print(f"predgait: error: inverse kinematics flagged {info['flagged_frames']} of "
+              f"{result.time.size} frames (the model cannot follow the markers there); the "
+              f"results in {args.out}/ are NaN at those frames. Check the marker names, or "
+              "widen the joint ranges with --limit-margin DEG.", file=sys.stderr)
+        return 3
     return 0

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from predgait.data.butterworth import butter_lowpass, filtfilt
 from predgait.errors import InputError
 
 
@@ -62,9 +63,7 @@ def lowpass(x, rate: float, cutoff: float, *, order: int = 2, axis: int = 0) -> 
             f"cannot low-pass a signal with NaNs (frames {frames[0] + 1}..{frames[-1] + 1}, "
             f"{frames.size} frames): fill gaps or trim the trial first."
         )
-    from scipy.signal import butter, filtfilt  # heavy: imported only when filtering
-
-    b, a = butter(order, corrected_cutoff(cutoff, rate, order=order), fs=rate)
+    b, a = butter_lowpass(order, corrected_cutoff(cutoff, rate, order=order), rate)
     padlen = 3 * max(len(a), len(b))
     if x.shape[axis] <= padlen:
         raise InputError(f"a signal of {x.shape[axis]} samples is too short to filter "

@@ -97,8 +97,6 @@ def fill_gaps(markers: Markers, *, max_gap_frames: int | None = None,
         if not gap.interior:
             logger.info("%s: %s at the edge of the trial", markers.source, where)
     xyz = markers.xyz.copy()
-    from scipy.interpolate import CubicSpline  # heavy: imported only when filling gaps
-
     for j, name in enumerate(markers.names):
         present = ~np.isnan(xyz[:, j]).any(axis=1)
         if present.all():
@@ -111,6 +109,8 @@ def fill_gaps(markers: Markers, *, max_gap_frames: int | None = None,
         inside[first:last + 1] = True
         fill = inside & ~present
         if fill.any():
+            from scipy.interpolate import CubicSpline  # heavy: only when there is a gap
+
             spline = CubicSpline(t[present], xyz[present, j], axis=0)
             xyz[fill, j] = spline(t[fill])
     filled = markers.with_xyz(xyz)

@@ -14,6 +14,10 @@ from predgait.errors import InputError
 
 #: Default vertical-force threshold (N) below which a foot is not in contact.
 CONTACT_THRESHOLD = 20.0
+#: Suggested release level (fraction of the threshold) of a contact with hysteresis:
+#: a contact extends on both sides while the vertical force stays above it, so the small
+#: but real forces at heel strike and toe off are kept. 1.0 = no hysteresis.
+RELEASE_FRACTION = 0.5
 
 
 class Resampling(StrEnum):
@@ -23,7 +27,7 @@ class Resampling(StrEnum):
     LOWPASS = "lowpass"    # low-pass below the marker Nyquist frequency, then interpolate
 
 
-def _hold(values: np.ndarray, valid: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+def hold_nearest(values: np.ndarray, valid: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     """Replace rows where ``valid`` is False with the nearest valid row (or ``fallback``)."""
     if not valid.any():
         return np.broadcast_to(fallback, values.shape).copy()
@@ -37,20 +41,48 @@ def _hold(values: np.ndarray, valid: np.ndarray, fallback: np.ndarray) -> np.nda
     return out
 
 
-def threshold_plate(plate: ForcePlate, *, threshold: float = CONTACT_THRESHOLD) -> ForcePlate:
-    """Zero the force and free moment where the vertical force is below ``threshold``.
+def contact_frames(fz: np.ndarray, threshold: float, *, release: float = 1.0) -> np.ndarray:
+    """(n,) bool: frames in contact, by a threshold with hysteresis.
 
-    The COP there is held at the nearest in-contact COP (or the plate centre, or the
-    origin), so it stays finite but carries no load: moments of the GRF about any point
-    are exactly zero out of contact.
+    A contact is a run of frames with ``fz >= threshold``, extended backward and forward
+    while ``fz > release * threshold`` (a Schmitt trigger run in both directions, so the
+    result does not depend on the direction of time).
+
+    Args:
+        fz: (n,) N, vertical force.
+        threshold: N, level a contact must reach.
+        release: fraction of ``threshold`` below which a contact ends (1: no hysteresis).
+    """
+    fz = np.nan_to_num(np.asarray(fz, dtype=float))
+    core = fz >= threshold
+    above = fz > release * threshold
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], above.astype(int), [0]])))
+    contact = np.zeros(fz.size, dtype=bool)
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        if core[start:stop].any():
+            contact[start:stop] = True
+    return contact
+
+
+def threshold_plate(plate: ForcePlate, *, threshold: float = CONTACT_THRESHOLD,
+                    release: float = 1.0) -> ForcePlate:
+    """Zero the force and free moment out of contact; hold the COP where it is undefined.
+
+    Contact frames come from :func:`contact_frames` (threshold with hysteresis); the
+    force there is kept as measured. The COP is defined where the vertical force reaches
+    ``threshold``; elsewhere it is held at the nearest such COP (or the plate centre, or
+    the origin), so it stays finite: out of contact it carries no load, and at the edges
+    of a contact the small force acts at the held COP.
 
     Args:
         plate: plate in the lab frame.
-        threshold: N, vertical force (lab Z) below which there is no contact.
+        threshold: N, vertical force (lab Z) a contact must reach.
+        release: fraction of ``threshold`` below which a contact ends (1: no hysteresis).
     """
-    contact = plate.force[:, 2] >= threshold
+    contact = contact_frames(plate.force[:, 2], threshold, release=release)
+    defined = (plate.force[:, 2] >= threshold) & np.isfinite(plate.cop).all(axis=1)
     centre = plate.corners.mean(axis=0) if plate.corners is not None else np.zeros(3)
-    cop = _hold(np.where(np.isfinite(plate.cop), plate.cop, 0.0), contact, centre)
+    cop = hold_nearest(np.where(np.isfinite(plate.cop), plate.cop, 0.0), defined, centre)
     return dataclasses.replace(
         plate,
         force=np.where(contact[:, None], plate.force, 0.0),
@@ -60,7 +92,7 @@ def threshold_plate(plate: ForcePlate, *, threshold: float = CONTACT_THRESHOLD) 
 
 
 def filter_plate(plate: ForcePlate, cutoff: float, *, threshold: float = CONTACT_THRESHOLD,
-                 order: int = 2) -> ForcePlate:
+                 release: float = 1.0, order: int = 2) -> ForcePlate:
     """Low-pass a plate's force, free moment and COP (via Fz * COP), then re-threshold.
 
     Filtering the moment-like product Fz * COP instead of the COP keeps the COP finite at
@@ -70,9 +102,10 @@ def filter_plate(plate: ForcePlate, cutoff: float, *, threshold: float = CONTACT
         plate: plate in the lab frame.
         cutoff: Hz, -3 dB of the zero-lag filter.
         threshold: N, contact threshold applied before and after filtering.
+        release: its release fraction (see :func:`contact_frames`).
         order: order of each Butterworth pass.
     """
-    plate = threshold_plate(plate, threshold=threshold)
+    plate = threshold_plate(plate, threshold=threshold, release=release)
     rate = plate.rate
     fz = plate.force[:, 2]
     force = lowpass(plate.force, rate, cutoff, order=order)
@@ -82,11 +115,11 @@ def filter_plate(plate: ForcePlate, cutoff: float, *, threshold: float = CONTACT
     safe = np.where(np.abs(fz_f) > 1e-9, fz_f, 1.0)
     cop = np.where((fz_f >= threshold)[:, None], weighted / safe[:, None], plate.cop)
     out = dataclasses.replace(plate, force=force, free_moment=free, cop=cop)
-    return threshold_plate(out, threshold=threshold)
+    return threshold_plate(out, threshold=threshold, release=release)
 
 
 def resample_plate(plate: ForcePlate, time, *, method: Resampling | str = Resampling.AVERAGE,
-                   threshold: float = CONTACT_THRESHOLD) -> ForcePlate:
+                   threshold: float = CONTACT_THRESHOLD, release: float = 1.0) -> ForcePlate:
     """Bring plate data to marker times with anti-aliasing, then apply the contact threshold.
 
     Args:
@@ -95,6 +128,7 @@ def resample_plate(plate: ForcePlate, time, *, method: Resampling | str = Resamp
         method: "average" (mean of plate samples within +-half a marker frame) or
             "lowpass" (Butterworth at 0.4 x the marker Nyquist, then linear interpolation).
         threshold: N, contact threshold.
+        release: its release fraction (see :func:`contact_frames`).
 
     Returns:
         ForcePlate at ``time``. Marker frames outside the plate's time span are an error.
@@ -110,7 +144,7 @@ def resample_plate(plate: ForcePlate, time, *, method: Resampling | str = Resamp
             f"force plate {plate.name!r} covers t = {plate.time[0]:.4f}..{plate.time[-1]:.4f} s "
             f"but marker times run {time[0]:.4f}..{time[-1]:.4f} s; trim the markers."
         )
-    plate = threshold_plate(plate, threshold=threshold)
+    plate = threshold_plate(plate, threshold=threshold, release=release)
     fz = plate.force[:, 2]
     signals = np.concatenate([plate.force, plate.free_moment, plate.cop * fz[:, None],
                               fz[:, None], plate.cop], axis=1)
@@ -140,4 +174,4 @@ def resample_plate(plate: ForcePlate, time, *, method: Resampling | str = Resamp
     cop = np.where((np.abs(fz_mean) > 1e-9)[:, None], weighted / safe[:, None], cop_plain)
     out = ForcePlate(time=time, force=force, cop=cop, free_moment=free, name=plate.name,
                      corners=plate.corners)
-    return threshold_plate(out, threshold=threshold)
+    return threshold_plate(out, threshold=threshold, release=release)

@@ -3,13 +3,15 @@
 Per frame, minimise ``sum_i w_i |p_i(q) - m_i|^2`` over the configuration q (free-flyer
 pelvis + 29 Cardan/hinge angles) by Levenberg-Marquardt: with the stacked marker
 residual r and the frame Jacobians J (``LOCAL_WORLD_ALIGNED`` linear rows, w.r.t. the
-velocity v), solve ``(J^T W J + lambda I) dv = -J^T W r`` and update ``q <- integrate(q,
-dv)`` (the quaternion stays on its manifold), then clamp the joint angles to their limits
-(projected Gauss-Newton). Frames are warm-started from the previous solution; markers
+velocity v), solve ``(J^T W J + lambda I) dv = -J^T W r`` with dv bounded so that
+``q <- integrate(q, dv)`` stays within the joint limits (the quaternion stays on its
+manifold; the one bounded solver of :mod:`predgait.kinematics.bounded_ik`, nothing
+clipped after a step). Frames are warm-started from the previous solution; markers
 missing in a frame (NaN) are left out of that frame. A frame that hits the iteration cap
-without the step or the relative cost decrease falling below its tolerance is flagged
-(``converged`` False) and the run goes on. Marker positions and Jacobians are computed
-for all markers at once from the joint placements and ``data.J`` (see ``_Fitter``).
+without the step or the relative cost decrease falling below its tolerance, or that
+ends on a joint limit the markers push against, is flagged and the run goes on. Marker
+positions and Jacobians are computed for all markers at once from the joint placements
+and ``data.J`` (see ``_Fitter``).
 
 Output coordinates are the model's: the joint coordinates ARE the Cardan X-Y-Z angles
 (thesis 2.3.2); :func:`pelvis_cardan` gives the pelvis orientation in the lab the same way.
@@ -24,6 +26,7 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.errors import InputError
+from predgait.kinematics.bounded_ik import BoundedSolver, SolverOptions
 from predgait.models.loading3d import Model3D
 
 
@@ -61,6 +64,8 @@ class IKResult:
         rms: (n,) m, RMS marker distance per frame.
         iterations: (n,) iterations used.
         converged: (n,) bool; False for frames flagged (see ``failed_frames``).
+        at_limit: (n, nv) bool, velocity coordinates held at a joint limit against the
+            markers (such frames are flagged too).
     """
 
     time: np.ndarray
@@ -71,6 +76,12 @@ class IKResult:
     rms: np.ndarray
     iterations: np.ndarray
     converged: np.ndarray
+    at_limit: np.ndarray | None = None
+
+    @property
+    def flagged(self) -> np.ndarray:
+        """(n,) bool: frames flagged (not converged, marker RMS too large, on a limit)."""
+        return ~self.converged
 
     @property
     def failed_frames(self) -> np.ndarray:
@@ -139,7 +150,9 @@ class _Fitter:
                 start = pm.joints[s].idx_v
                 self.support[i, start:start + pm.joints[s].nv] = True
         self.w = np.repeat(np.sqrt(np.asarray(weights, dtype=float)), 3)
-        self.lower, self.upper = _limits(model)
+        lower, upper = _limits(model)
+        self.solver = BoundedSolver(pm, lower, upper, SolverOptions(
+            options.max_iterations, options.tolerance, options.cost_tolerance, options.damping))
 
     def points(self, q, *, jacobians: bool = False) -> np.ndarray:
         """(m, 3) marker-frame positions at q; with ``jacobians`` also data.J is updated."""
@@ -162,45 +175,23 @@ class _Fitter:
         return self.points(q) - targets
 
     def solve(self, q, targets, max_iterations):
-        """Levenberg-Marquardt with adaptive damping (a step is kept if the cost drops)."""
-        pm, opts = self.pm, self.options
+        """Bounded Levenberg-Marquardt (:mod:`predgait.kinematics.bounded_ik`) on one frame."""
         ok = np.repeat(np.isfinite(targets).all(axis=1), 3)
         w = self.w[ok]
         flat = np.where(np.isfinite(targets), targets, 0.0).ravel()[ok]
-        eye = np.eye(pm.nv)
 
-        def stacked(pts):
-            return w * (pts.ravel()[ok] - flat)
+        def residual(qq):
+            return w * (self.points(qq).ravel()[ok] - flat)
 
-        lam = opts.damping
-        converged = False
-        it = 0
-        pts = self.points(q, jacobians=True)
-        r = stacked(pts)
-        cost = float(r @ r)
-        for it in range(1, max_iterations + 1):  # noqa: B007
-            jac = self.jacobian(pts)[ok] * w[:, None] * self.free
-            jtj, grad = jac.T @ jac, jac.T @ r
-            for _ in range(12):
-                step = np.linalg.solve(jtj + lam * eye, -grad)
-                trial = np.clip(pin.integrate(pm, q, step), self.lower, self.upper)
-                r_new = stacked(self.points(trial))
-                cost_new = float(r_new @ r_new)
-                if cost_new <= cost:
-                    lam = max(lam / 3.0, opts.damping)
-                    break
-                lam *= 4.0
-            else:
-                converged = np.linalg.norm(step) < 1e3 * opts.tolerance
-                break
-            q, r, cost, previous = trial, r_new, cost_new, cost
-            if (np.linalg.norm(step) < opts.tolerance
-                    or previous - cost <= opts.cost_tolerance * previous):
-                converged = True
-                break
-            pts = self.points(q, jacobians=True)
-        res = self.residual(q, targets)
-        return q, np.linalg.norm(res, axis=1), it, converged
+        def jacobian(qq):
+            pts = self.points(qq, jacobians=True)
+            return (w * (pts.ravel()[ok] - flat),
+                    self.jacobian(pts)[ok] * w[:, None] * self.free)
+
+        solver = self.solver
+        fit = solver.solve(solver.project(q), residual, jacobian, max_iterations)
+        res = self.residual(fit.q, targets)
+        return fit.q, np.linalg.norm(res, axis=1), fit.iterations, fit.converged, fit.at_limit
 
 
 def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
@@ -245,17 +236,18 @@ def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
     residuals = np.full((n, len(ids)), np.nan)
     iterations = np.zeros(n, dtype=int)
     converged = np.zeros(n, dtype=bool)
+    at_limit = np.zeros((n, model.nv), dtype=bool)
     for k in range(n):
         cap = options.max_iterations * (5 if k == 0 else 1)
-        q, dist, iterations[k], converged[k] = fitter.solve(q, xyz[k], cap)
+        q, dist, iterations[k], converged[k], at_limit[k] = fitter.solve(q, xyz[k], cap)
         qs[k] = q
         visible = np.isfinite(xyz[k]).all(axis=1)
         residuals[k, visible] = dist[visible]
     rms = np.sqrt(np.nanmean(residuals**2, axis=1))
-    converged &= rms <= options.flag_rms
+    converged &= (rms <= options.flag_rms) & ~at_limit.any(axis=1)
     return IKResult(time=np.asarray(time, dtype=float), q=qs, marker_frames=tuple(marker_frames),
                     marker_names=tuple(marker_names or marker_frames), residuals=residuals,
-                    rms=rms, iterations=iterations, converged=converged)
+                    rms=rms, iterations=iterations, converged=converged, at_limit=at_limit)
 
 
 def with_marker_frames(model: Model3D, placements: Mapping[str, tuple[str, np.ndarray]]

@@ -1,7 +1,8 @@
 """Least-squares inverse kinematics of the planar leg onto measured points.
 
 Each frame solves min_q sum_i w_i |p_i(q) - m_i|^2 + w_f (pitch(q) - pitch_m)^2 over the
-leg coordinates (ankle position, foot pitch, ankle, knee) by Gauss-Newton with the
+leg coordinates (ankle position, foot pitch, ankle, knee) within the joint ranges, by
+bounded Gauss-Newton steps (:mod:`predgait.kinematics.bounded_ik`, damping 0) with the
 Pinocchio frame Jacobians, warm-started from the previous frame. The points are the
 model's joint-centre frames (``ankle_center``, ``knee_center``, ``hip_center``) in the
 sagittal (X, Z) plane; the foot pitch comes from the heel-toe marker line. The result is
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from predgait.kinematics.bounded_ik import BoundedSolver, SolverOptions
 from predgait.models.loading import Model
 
 POINTS = ("ankle_center", "knee_center", "hip_center")
@@ -33,6 +35,8 @@ class IKResult:
         pitch_residual: (n,) foot pitch error, rad.
         iterations: (n,) Gauss-Newton iterations used.
         converged: (n,) bool.
+        at_limit: (n, nv) bool, coordinates held at a joint limit against the data.
+        coordinate_names: names of the columns of ``q`` and ``at_limit``.
     """
 
     q: np.ndarray
@@ -40,6 +44,18 @@ class IKResult:
     pitch_residual: np.ndarray
     iterations: np.ndarray
     converged: np.ndarray
+    at_limit: np.ndarray
+    coordinate_names: tuple[str, ...] = ()
+
+    @property
+    def flagged(self) -> np.ndarray:
+        """(n,) bool: frames that did not converge or end on a joint limit."""
+        return ~self.converged | self.at_limit.any(axis=1)
+
+    def limited_coordinates(self) -> dict[str, int]:
+        """Coordinate name -> number of frames held at one of its limits."""
+        return {name: int(self.at_limit[:, i].sum())
+                for i, name in enumerate(self.coordinate_names) if self.at_limit[:, i].any()}
 
     def rms(self) -> dict[str, float]:
         """RMS residual per point, m."""
@@ -58,10 +74,26 @@ def initial_guess(model: Model, points: Mapping[str, np.ndarray], pitch: float) 
     return np.array([ankle[0], ankle[2], pitch, shank - pitch, thigh - shank])
 
 
+def joint_limits(model: Model, *, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(nq,) position limits of the leg: the model's joint ranges widened by ``margin`` (rad).
+
+    The base (ankle position, foot pitch) is unbounded.
+    """
+    pm = model.pin_model
+    lower = np.array(pm.lowerPositionLimit, dtype=float)
+    upper = np.array(pm.upperPositionLimit, dtype=float)
+    lower[:model.n_base], upper[:model.n_base] = -np.inf, np.inf
+    return lower - margin, upper + margin
+
+
 def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndarray, *,
              weights: Mapping[str, float] | None = None, pitch_weight: float = 0.1,
-             tolerance: float = 1e-10, max_iterations: int = 30) -> IKResult:
+             tolerance: float = 1e-10, max_iterations: int = 30,
+             limit_margin: float = 0.0) -> IKResult:
     """Fit the leg to joint centres (n, 3) and a foot pitch (n,) in every frame.
+
+    The fit is bounded by the model's joint ranges (:mod:`predgait.kinematics.bounded_ik`);
+    frames that end on a limit the data push against, or do not converge, are flagged.
 
     Args:
         model: The leg.
@@ -70,7 +102,8 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
         weights: Per-point weights (default 1).
         pitch_weight: Weight of the pitch residual, m/rad (0.1: 1 deg ~ 1.7 mm).
         tolerance: Step size (norm) at which a frame counts as converged.
-        max_iterations: Gauss-Newton iterations per frame.
+        max_iterations: Iterations per frame.
+        limit_margin: rad added to both ends of every joint range.
     """
     pm = model.pin_model
     data = pm.createData()
@@ -78,40 +111,50 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
     weight = np.array([(weights or {}).get(n, 1.0) for n in names])
     ids = [model.frame_id(n) for n in names]
     n_frames = len(foot_pitch)
-    lower, upper = pm.lowerPositionLimit.copy(), pm.upperPositionLimit.copy()
-    q = initial_guess(model, {n: points[n][0] for n in POINTS}, foot_pitch[0])
+    pitch_row = np.zeros((1, pm.nv))
+    pitch_row[0, 2] = pitch_weight
+    frame = {"targets": None, "pitch": 0.0}
+
+    def residual(q):
+        pin.framesForwardKinematics(pm, data, q)
+        rows = [w * (data.oMf[fid].translation[[0, 2]] - t)
+                for w, fid, t in zip(weight, ids, frame["targets"], strict=True)]
+        rows.append([pitch_weight * (q[2] - frame["pitch"])])
+        return np.concatenate(rows)
+
+    def jacobian(q):
+        pin.computeJointJacobians(pm, data, q)
+        pin.updateFramePlacements(pm, data)
+        rows, jac = [], []
+        for w, fid, t in zip(weight, ids, frame["targets"], strict=True):
+            rows.append(w * (data.oMf[fid].translation[[0, 2]] - t))
+            full = pin.getFrameJacobian(pm, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+            jac.append(w * full[[0, 2], :])
+        rows.append([pitch_weight * (q[2] - frame["pitch"])])
+        jac.append(pitch_row)
+        return np.concatenate(rows), np.vstack(jac)
+
+    lower, upper = joint_limits(model, margin=limit_margin)
+    settings = SolverOptions(max_iterations=max_iterations, tolerance=tolerance,
+                             cost_tolerance=0.0, damping=0.0)
+    solver = BoundedSolver(pm, lower, upper, settings)
+    q = solver.project(initial_guess(model, {n: points[n][0] for n in POINTS}, foot_pitch[0]))
     out = np.zeros((n_frames, pm.nq))
     resid = np.zeros((n_frames, len(names)))
     pitch_res = np.zeros(n_frames)
     iterations = np.zeros(n_frames, dtype=int)
     converged = np.zeros(n_frames, dtype=bool)
+    at_limit = np.zeros((n_frames, pm.nv), dtype=bool)
     for k in range(n_frames):
-        targets = [points[n][k][[0, 2]] for n in names]
-        for it in range(1, max_iterations + 1):  # noqa: B007 - the count is kept
-            pin.computeJointJacobians(pm, data, q)
-            pin.updateFramePlacements(pm, data)
-            rows, jac = [], []
-            for w, fid, target in zip(weight, ids, targets, strict=True):
-                pos = data.oMf[fid].translation[[0, 2]]
-                full = pin.getFrameJacobian(pm, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-                rows.append(w * (pos - target))
-                jac.append(w * full[[0, 2], :])
-            rows.append([pitch_weight * (q[2] - foot_pitch[k])])
-            pitch_row = np.zeros((1, pm.nv))
-            pitch_row[0, 2] = pitch_weight
-            jac.append(pitch_row)
-            r, j = np.concatenate(rows), np.vstack(jac)
-            step = np.linalg.lstsq(j, -r, rcond=None)[0]
-            q = q + step
-            q[3:] = np.clip(q[3:], lower[3:], upper[3:])
-            if np.linalg.norm(step) < tolerance:
-                converged[k] = True
-                break
+        frame["targets"] = [points[n][k][[0, 2]] for n in names]
+        frame["pitch"] = foot_pitch[k]
+        fit = solver.solve(q, residual, jacobian)
+        q = fit.q
         pin.framesForwardKinematics(pm, data, q)
         resid[k] = [np.linalg.norm(data.oMf[fid].translation[[0, 2]] - t)
-                    for fid, t in zip(ids, targets, strict=True)]
+                    for fid, t in zip(ids, frame["targets"], strict=True)]
         pitch_res[k] = q[2] - foot_pitch[k]
-        iterations[k] = it
+        iterations[k], converged[k], at_limit[k] = fit.iterations, fit.converged, fit.at_limit
         out[k] = q
     return IKResult(out, {n: resid[:, i] for i, n in enumerate(names)}, pitch_res, iterations,
-                    converged)
+                    converged, at_limit, tuple(model.coordinate_names))

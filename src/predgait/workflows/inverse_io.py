@@ -12,17 +12,23 @@ from predgait.data import Side, write_csv, write_storage
 from predgait.data.bundled import bundled_path
 from predgait.dynamics.inverse_trial import (
     POINT_NAMES,
+    RELEASE_FRACTION,
+    THRESHOLD,
+    CutoffRule,
     HipRegression,
     InverseOptions,
     InverseResult,
     StaticCentre,
+    parse_cutoff,
 )
+from predgait.errors import InputError
 from predgait.problemfile import Table
 from predgait.report.gait_plots import cycle_axis, save_gait_plots
 from predgait.workflows.output import staged_output
 
 TRIAL_KEYS = ("markers", "grf", "static", "mass", "height", "side", "model")
-OPTION_KEYS = ("cutoff", "grf_cutoff", "threshold", "scale_to_markers", "max_gap_frames")
+OPTION_KEYS = ("cutoff", "grf_cutoff", "threshold", "release", "scale_to_markers",
+               "max_gap_frames", "limit_margin")
 
 
 def _path(table: Table, key: str) -> Path | None:
@@ -72,13 +78,25 @@ def options_from_problem(table: Table) -> InverseOptions:
         height=trial.number("height", None, low=0.5, high=2.5, unit="m"),
         model=_path(trial, "model"), side=Side(side),
         points={name: _point(points, name) for name in points.data},
-        cutoff=opts.number("cutoff", 6.0, low=0.5, high=100, unit="Hz"),
-        grf_cutoff=opts.number("grf_cutoff", 6.0, low=0.5, high=500, unit="Hz")
-        if opts.get("grf_cutoff", (float, bool), 6.0) is not False else None,
-        threshold=opts.number("threshold", 20.0, low=1, high=500, unit="N"),
+        cutoff=_cutoff(opts, "cutoff", 6.0, (CutoffRule.AUTO,)),
+        grf_cutoff=_cutoff(opts, "grf_cutoff", CutoffRule.MARKERS, (CutoffRule.MARKERS,)),
+        threshold=opts.number("threshold", THRESHOLD, low=0.1, high=500, unit="N"),
+        release=opts.number("release", RELEASE_FRACTION, low=0.0, high=1.0),
         scale_to_markers=opts.get("scale_to_markers", bool, True),
         max_gap_frames=int(opts.number("max_gap_frames", 10, low=0, high=1000)),
+        limit_margin=opts.number("limit_margin", 0.0, low=0.0, high=180.0, unit="deg"),
     )
+
+
+def _cutoff(table: Table, key: str, default, rules):
+    """A cut-off key: Hz, 0 or false (unfiltered), or one of ``rules`` (a string)."""
+    if key not in table.data:
+        return default
+    try:
+        return parse_cutoff(table.data[key], field=key, rules=rules)
+    except InputError as exc:
+        words = ", ".join(["a number of Hz", "0 or false (unfiltered)", *(f'"{r}"' for r in rules)])
+        raise table.error(key, f"{table.data[key]!r} is not a cut-off; give {words}.") from exc
 
 
 def result_columns(result: InverseResult) -> tuple[dict, dict]:
@@ -86,7 +104,7 @@ def result_columns(result: InverseResult) -> tuple[dict, dict]:
     kin = dict(result.clinical_angles())
     kinetics = dict(result.clinical_moments())
     for joint in ("ankle", "knee", "hip"):
-        force = result.joint_force[joint]
+        force = np.where(result.valid[:, None], result.joint_force[joint], np.nan)
         kinetics[f"{joint}_force_x"] = force[:, 0]
         kinetics[f"{joint}_force_z"] = force[:, 2]
     kinetics.update(result.powers())
@@ -113,22 +131,42 @@ def summary(result: InverseResult) -> dict:
     mask, _, xlabel = cycle_axis(result)
     moments = result.clinical_moments()
     angles = result.clinical_angles()
+    ik = result.ik
     return {
-        "status": "completed",
+        "status": result.status(),
         "predgait": __version__,
         "window": "first gait cycle" if xlabel.startswith("%") else "whole trial",
         "peak_moments_n_m_per_kg": {
-            f"{k}_min": float(v[mask].min() / result.body_mass) for k, v in moments.items()
-        } | {f"{k}_max": float(v[mask].max() / result.body_mass) for k, v in moments.items()},
-        "angle_range_deg": {k: [float(np.degrees(v[mask].min())), float(np.degrees(v[mask].max()))]
+            f"{k}_min": _finite(np.nanmin, v[mask] / result.body_mass)
+            for k, v in moments.items()
+        } | {f"{k}_max": _finite(np.nanmax, v[mask] / result.body_mass)
+             for k, v in moments.items()},
+        "angle_range_deg": {k: [_finite(np.nanmin, np.degrees(v[mask])),
+                                _finite(np.nanmax, np.degrees(v[mask]))]
                             for k, v in angles.items()},
-        "ik_rms_residual_m": result.ik.rms(),
-        "ik_frames_not_converged": int((~result.ik.converged).sum()),
+        "ik_rms_residual_m": ik.rms(),
+        "ik_frames_not_converged": int((~ik.converged).sum()),
+        "flagged_frames": int(ik.flagged.sum()),
+        "flagged_frames_at_joint_limits": ik.limited_coordinates(),
+        "frames_without_results": int((~result.valid).sum()),
+        "flagged_times_s": _runs(result.time, ik.flagged),
         "heel_strikes_s": [float(t) for t in result.events.heel_strikes],
         "toe_offs_s": [float(t) for t in result.events.toe_offs],
         "ground_reaction": "measured" if result.has_grf else "none (moments valid in swing only)",
         "provenance": result.provenance,
     }
+
+
+def _finite(reduce, values: np.ndarray) -> float | None:
+    """``reduce`` of the finite values, None when there are none (every frame flagged)."""
+    return float(reduce(values)) if np.isfinite(values).any() else None
+
+
+def _runs(time: np.ndarray, flags: np.ndarray) -> list[list[float]]:
+    """[start, end] times (s) of each run of flagged frames."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
+    return [[float(time[a]), float(time[b - 1])] for a, b in zip(edges[::2], edges[1::2],
+                                                                   strict=True)]
 
 
 def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool = False,

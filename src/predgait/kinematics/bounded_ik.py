@@ -1,0 +1,193 @@
+"""One bounded least-squares solver for inverse kinematics (planar leg and 3D body).
+
+Each frame minimises ``|r(q)|^2`` (weighted marker or joint-centre residuals) over the
+configuration q by Levenberg-Marquardt on the tangent space: the increment dv solves
+
+    min |J dv + r|^2 + lambda |dv|^2   subject to   lower - q <= dv <= upper - q
+
+on the coordinates that have joint limits, and ``q <- pin.integrate(q, dv)``. The
+bounds sit on the increment, so every iterate lies inside the joint ranges and nothing
+is clipped after a step (a clipped Gauss-Newton step is not a descent step and stalls
+at the limit without converging). The box-constrained subproblem is solved in closed
+form when the free step is feasible, else by bounded-variable least squares
+(Stark & Parker 1995, Comput Stat 10:129-141; ``scipy.optimize.lsq_linear``).
+With damping 0 (the planar leg: three points and a pitch for five coordinates) the steps
+are bounded Gauss-Newton steps, each taken.
+
+A frame is *flagged* when it did not converge or when it ends on a joint limit that
+the data push against (the KKT multiplier of the bound is positive): the model cannot
+follow the markers there, and the frame's results are not presented as results.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+from scipy.optimize import lsq_linear
+
+#: A joint coordinate closer than this to its limit (rad or m) counts as on the limit.
+ON_LIMIT = 1e-7
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Levenberg-Marquardt settings.
+
+    Attributes:
+        max_iterations: iterations per frame.
+        tolerance: converged when |dv| < tolerance (rad or m).
+        cost_tolerance: or when a step lowers the cost by less than this fraction.
+        damping: smallest Levenberg-Marquardt lambda (the damping adapts upward); 0
+            gives bounded Gauss-Newton (every step taken, for well-posed small fits).
+    """
+
+    max_iterations: int = 50
+    tolerance: float = 1e-4
+    cost_tolerance: float = 1e-4
+    damping: float = 1e-4
+
+
+@dataclass(frozen=True)
+class FrameSolution:
+    """One frame's fit.
+
+    Attributes:
+        q: (nq,) configuration.
+        iterations: iterations used.
+        converged: step or cost change fell below its tolerance.
+        at_limit: (nv,) bool, coordinates held at a joint limit against the data.
+    """
+
+    q: np.ndarray
+    iterations: int
+    converged: bool
+    at_limit: np.ndarray
+
+
+def velocity_bounds(model: pin.Model, lower: np.ndarray, upper: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Map position limits onto the tangent space.
+
+    Returns:
+        (q index, lower, upper) per velocity coordinate (nv,): for a one-coordinate
+        joint (revolute, prismatic, a planar root's components) the index of its
+        position coordinate; -1 (unbounded) for joints whose nq != nv (free flyer).
+    """
+    index = np.full(model.nv, -1)
+    lo, hi = np.full(model.nv, -np.inf), np.full(model.nv, np.inf)
+    for joint in model.joints[1:]:
+        if joint.nq != joint.nv:
+            continue
+        for i in range(joint.nv):
+            qi, vi = joint.idx_q + i, joint.idx_v + i
+            index[vi] = qi
+            lo[vi], hi[vi] = lower[qi], upper[qi]
+    return index, lo, hi
+
+
+def bounded_step(jac: np.ndarray, r: np.ndarray, damping: float, lo: np.ndarray,
+                 hi: np.ndarray) -> np.ndarray:
+    """The increment dv minimising |J dv + r|^2 + damping |dv|^2 within lo <= dv <= hi."""
+    nv = jac.shape[1]
+    if damping > 0:
+        step = np.linalg.solve(jac.T @ jac + damping * np.eye(nv), -jac.T @ r)
+    else:  # Gauss-Newton
+        step = np.linalg.lstsq(jac, -r, rcond=None)[0]
+    if np.all(step >= lo) and np.all(step <= hi):
+        return step
+    lo = np.minimum(lo, 0.0)    # the current point is feasible: 0 lies in the box
+    hi = np.maximum(hi, 0.0)
+    pinned = hi - lo <= 0.0     # at a limit with no room: lsq_linear needs lo < hi
+    a = np.vstack([jac, np.sqrt(damping) * np.eye(nv)])[:, ~pinned]
+    b = np.concatenate([-r, np.zeros(nv)])  # with damping 0 the extra rows are inert
+    out = np.zeros(nv)
+    out[~pinned] = lsq_linear(a, b, bounds=(lo[~pinned], hi[~pinned]), method="bvls").x
+    return out
+
+
+class BoundedSolver:
+    """Bounded Levenberg-Marquardt for one model (see module docstring).
+
+    Args:
+        model: Pinocchio model (its ``integrate`` moves q along dv).
+        lower, upper: (nq,) position limits; +-inf where unbounded.
+        options: solver settings.
+    """
+
+    def __init__(self, model: pin.Model, lower: np.ndarray, upper: np.ndarray,
+                 options: SolverOptions):
+        self.model, self.options = model, options
+        self.index, self.vlo, self.vhi = velocity_bounds(model, lower, upper)
+        self.bounded = self.index >= 0
+
+    def project(self, q: np.ndarray) -> np.ndarray:
+        """A start point inside the limits (only for a first guess, never after a step)."""
+        q = np.array(q, dtype=float)
+        qi = self.index[self.bounded]
+        q[qi] = np.clip(q[qi], self.vlo[self.bounded], self.vhi[self.bounded])
+        return q
+
+    def _increment_bounds(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = np.full(self.model.nv, -np.inf), np.full(self.model.nv, np.inf)
+        qi = q[self.index[self.bounded]]
+        lo[self.bounded] = self.vlo[self.bounded] - qi
+        hi[self.bounded] = self.vhi[self.bounded] - qi
+        return lo, hi
+
+    def solve(self, q: np.ndarray, residual: Callable[[np.ndarray], np.ndarray],
+              jacobian: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+              max_iterations: int | None = None) -> FrameSolution:
+        """Fit one frame from the feasible start ``q``.
+
+        Args:
+            q: (nq,) start inside the limits (the previous frame, or :meth:`project`).
+            residual: q -> (m,) weighted residual.
+            jacobian: q -> ((m,) residual, (m, nv) its Jacobian w.r.t. the velocity).
+            max_iterations: overrides the options' cap.
+        """
+        opts = self.options
+        cap = max_iterations or opts.max_iterations
+        lam = opts.damping
+        r, jac = jacobian(q)
+        cost = float(r @ r)
+        converged, it = False, 0
+        for it in range(1, cap + 1):  # noqa: B007 - the count is kept
+            lo, hi = self._increment_bounds(q)
+            if opts.damping == 0:   # Gauss-Newton: every (bounded) step is taken
+                step = bounded_step(jac, r, 0.0, lo, hi)
+                q = pin.integrate(self.model, q, step)
+                if np.linalg.norm(step) < opts.tolerance:
+                    converged = True
+                    break
+                r, jac = jacobian(q)
+                continue
+            for _ in range(12):
+                step = bounded_step(jac, r, lam, lo, hi)
+                trial = pin.integrate(self.model, q, step)
+                r_new = residual(trial)
+                cost_new = float(r_new @ r_new)
+                if cost_new <= cost:
+                    lam = max(lam / 3.0, opts.damping)
+                    break
+                lam *= 4.0
+            else:  # no step lowers the cost: at the minimum to rounding
+                converged = bool(np.linalg.norm(step) < 1e3 * opts.tolerance)
+                break
+            previous = cost
+            q, cost = trial, cost_new
+            if (np.linalg.norm(step) < opts.tolerance
+                    or previous - cost <= opts.cost_tolerance * previous):
+                converged = True
+                break
+            r, jac = jacobian(q)
+        r, jac = jacobian(q)
+        return FrameSolution(q, it, converged, self.limits_held(q, jac.T @ r))
+
+    def limits_held(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+        """(nv,) coordinates on a limit whose cost gradient points out of the range."""
+        lo, hi = self._increment_bounds(q)
+        scale = 1e-9 * max(1.0, float(np.abs(gradient).max()))
+        return ((lo > -ON_LIMIT) & (gradient > scale)) | ((hi < ON_LIMIT) & (gradient < -scale))
