@@ -39,8 +39,8 @@ def check_not_input(out: str | Path, inputs: Iterable[str | Path] = (), *,
     target = Path(out).resolve()
     for path in [*(Path(p).resolve() for p in inputs if p is not None), *sorted(_READ)]:
         if path == target:
-            raise InputError(f"{option} {out} would replace the input {path}; choose another "
-                             "path.")
+            raise InputError(f"{option} {out}: refusing to overwrite an input file ({path}); "
+                             "choose another path.")
         if target in path.parents:
             raise InputError(f"{option} {out} holds the input {path}; choose another path.")
         if path in target.parents:
