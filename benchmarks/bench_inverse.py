@@ -1,71 +1,58 @@
-"""Inverse dynamics speed: 1000 frames of the leg, OpenSim on the same leg, the pipeline.
+"""Inverse dynamics speed: the leg's ID on 1000 frames and `predgait inverse` as a process.
 
-Run: python benchmarks/bench_inverse.py          (add `pip install opensim` for the
-OpenSim rows; without it they are skipped with a note)
+Run: python benchmarks/bench_inverse.py [--repeat N]
+(OpenSim rows: set OPENSIM_PYTHON to a Python with `pip install opensim`, and GAIT2354_DIR to
+opensim-models' Pipelines/Gait2354_Simbody files, see opensim_subject01.py; otherwise they
+print "peer not available".)
 
-1. 1000 random frames of the shipped leg: bare Pinocchio RNEA; predgait's
-   ``leg_inverse_dynamics`` (RNEA with the ground reaction, hip-load solve, joint forces);
-   the same computation as a CasADi function of the ADAM expressions, mapped over frames
-   (serial, 2 threads, JIT).
-2. OpenSim 4.6's InverseDynamicsSolver on the same planar foot-shank-thigh, built with the
-   OpenSim API from the URDF's masses, centres of mass and inertias (PlanarJoint + two
-   PinJoints, Y-up), called per frame from Python: the figure issue 4 asks us to compare
-   with. Its generalised forces are printed against Pinocchio's (same model, same states).
-3. The bundled subject01 trial (151 frames, 60 Hz) and walking5.c3d (250 Hz) through
-   ``run_inverse``, stage by stage, and the writing of the result folder.
-
-Timings are the best of several runs (``time.perf_counter``), in one process, 2 cores.
+1. 1000 random frames of the shipped leg (5 DOF, ground reaction at a COP): predgait's
+   ``leg_inverse_dynamics`` as ``run_inverse`` calls it (batched, one LoadHistory) against
+   OpenSim 4.6's InverseDynamicsSolver on the same planar foot-shank-thigh built with the
+   OpenSim API (opensim_leg.py), called per frame from Python, in the peer's process; plus,
+   without a peer, the bare Pinocchio RNEA loop and the same ID as a CasADi function mapped
+   over frames (serial, JIT: benchmark only, not the product path).
+2. Whole processes: `predgait inverse problems/inverse_subject01.toml` (read TRC, MOT and
+   static TRC, joint centres, planar IK, 6 Hz filters, ID of the right leg on 151 frames,
+   STO/CSV/JSON and PNG plots) against OpenSim's InverseDynamicsTool (Python start, import
+   opensim, load the 23-DOF Gait2354 model, ID on the shipped IK motion 0.4-1.6 s, 73
+   frames, write the .sto) and its InverseKinematicsTool + InverseDynamicsTool.
+3. The stages of ``run_inverse`` on subject01 (no peer).
 """
 
-import importlib.util
-import subprocess
+from __future__ import annotations
+
+import argparse
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-import casadi as cs
 import numpy as np
 import pinocchio as pin
-
-from predgait.data import fill_gaps, read_trc
-from predgait.dynamics.external import Load
-from predgait.dynamics.inverse import leg_inverse_dynamics
-from predgait.dynamics.inverse_trial import (
-    InverseOptions,
-    _needed_markers,
-    bundled_options,
-    foot_pitch,
-    joint_points,
-    read_trial,
-    run_inverse,
+from timing import (
+    REPO,
+    Row,
+    gait2354_folder,
+    leg_segments,
+    opensim_python,
+    print_rows,
+    run_peer_npz,
+    time_call,
+    time_process,
 )
-from predgait.kinematics.planar_ik import solve_ik
+
+from predgait.dynamics.inverse import LoadHistory, leg_inverse_dynamics
 from predgait.models.loading import load_model
-from predgait.models.symbolic import symbolic_model
-from predgait.workflows.inverse_io import write_inverse_outputs
 
 N = 1000
-WALKING5 = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_walking5_c3d" / \
-    "walking5.c3d"
-#: Lab (X forward, Y left, Z up) to OpenSim ground (X forward, Y up, Z right).
-LAB_TO_OSIM = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
-#: Runs OpenSim in a process of its own: OpenSim's wheel bundles a CasADi library that
-#: clashes with the casadi wheel once both are loaded.
-OPENSIM_SCRIPT = Path(__file__).resolve().with_name("opensim_leg.py")
-
-
-def best_of(function, repeat=5):
-    best = np.inf
-    for _ in range(repeat):
-        start = time.perf_counter()
-        function()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 def casadi_inverse(model):
     """The same ID as a CasADi function of one frame (ADAM dynamics), for map()."""
+    import casadi as cs
+
+    from predgait.models.symbolic import symbolic_model
+
     sym = symbolic_model(model)
     q, qd, qdd = (cs.SX.sym(n, model.nq) for n in ("q", "qd", "qdd"))
     force, cop = cs.SX.sym("force", 3), cs.SX.sym("cop", 3)
@@ -83,113 +70,121 @@ def casadi_inverse(model):
                        ["q", "qd", "qdd", "force", "cop"], ["tau", "hip"])
 
 
-def opensim_rows(model, q, qd, qdd, reference_tau):
-    """Time OpenSim's InverseDynamicsSolver per frame; None if opensim is not installed."""
-    if importlib.util.find_spec("opensim") is None:
-        print("OpenSim: not installed here ('pip install opensim' adds the comparison)")
-        return None
-    pm = model.pin_model
-    inertias = [pm.inertias[j] for j in range(1, pm.njoints)]
-    segments = {
-        "mass": [i.mass for i in inertias], "inertia": [i.inertia[1, 1] for i in inertias],
-        "com": [LAB_TO_OSIM @ i.lever for i in inertias],
-        "offset": [LAB_TO_OSIM @ pm.jointPlacements[j].translation for j in range(1, 4)],
-    }
-    with tempfile.TemporaryDirectory() as tmp:
-        npz = Path(tmp) / "states.npz"
-        np.savez(npz, q=q, qd=qd, qdd=qdd, gravity=model.gravity, **segments)
-        child = subprocess.run([sys.executable, str(OPENSIM_SCRIPT), str(npz)],
-                               capture_output=True, text=True)
-        if child.returncode != 0:
-            print(f"OpenSim: failed ({child.stderr.strip().splitlines()[-1]})")
-            return None
-        out = np.load(npz)
-        seconds, tau, version = float(out["seconds"]), out["tau"], str(out["version"])
-    print(f"{N} frames, OpenSim {version} InverseDynamicsSolver, per frame from Python: "
-          f"{seconds * 1e3:7.2f} ms  (same leg, same states: max |tau_OpenSim - tau_Pinocchio| "
-          f"= {np.abs(tau - reference_tau).max():.1e} N m)")
-    return seconds
-
-
-def per_frame_rows(model):
-    pm = model.pin_model
-    data = pm.createData()
+def random_frames(model):
     rng = np.random.default_rng(0)
     q, qd, qdd = (rng.uniform(-0.5, 0.5, (N, model.nq)) for _ in range(3))
     force = np.column_stack([rng.uniform(-50, 50, N), np.zeros(N), rng.uniform(300, 800, N)])
     cop = np.column_stack([q[:, 0] + 0.05, np.zeros(N), np.zeros(N)])
-    loads = [[Load("foot", force[k], point=cop[k])] for k in range(N)]
+    return q, qd, qdd, force, cop
 
-    def bare():
-        return np.array([pin.rnea(pm, data, q[k], qd[k], qdd[k]) for k in range(N)])
 
-    rows = {"bare Pinocchio RNEA loop (no loads)": best_of(bare)}
-    opensim = opensim_rows(model, q, qd, qdd, bare())
-    rows["predgait leg_inverse_dynamics (GRF, hip solve, joint forces)"] = best_of(
-        lambda: leg_inverse_dynamics(model, q, qd, qdd, loads))
+def leg_id_rows(repeat: int) -> list[Row]:
+    """Leg ID of 1000 frames: the product path against OpenSim's solver loop."""
+    model = load_model("leg")
+    pm, data = model.pin_model, model.pin_model.createData()
+    q, qd, qdd, force, cop = random_frames(model)
+    loads = [LoadHistory("foot", force, cop)]
+    ours = time_call(lambda: leg_inverse_dynamics(model, q, qd, qdd, loads), repeat,
+                     warmup=True)
+    # OpenSim gets the states without the ground reaction (its solver takes no loads here);
+    # the equality check below uses the same states through bare RNEA.
+    peer = run_peer_npz("opensim_leg.py", mode="inverse", q=q, qd=qd, qdd=qdd, repeat=repeat,
+                        **leg_segments(model))
+    what_peer = "InverseDynamicsSolver per frame from Python, same leg and states"
+    if "error" not in peer:
+        bare = np.array([pin.rnea(pm, data, q[k], qd[k], qdd[k]) for k in range(N)])
+        what_peer += (f", OpenSim {peer['version']}; max |tau_OpenSim - tau_Pinocchio| = "
+                      f"{np.abs(peer['tau'] - bare).max():.1e} N m")
+    else:
+        what_peer += f" ({peer['error']})"
+    rows = [Row(f"leg ID, {N} frames (5 DOF, ground reaction, hip solve, joint forces)",
+                ours, "leg_inverse_dynamics, batched, the path run_inverse uses",
+                peer.get("timing"), what_peer)]
+    bare = time_call(lambda: [pin.rnea(pm, data, q[k], qd[k], qdd[k]) for k in range(N)],
+                     repeat)
+    rows.append(Row(f"bare Pinocchio RNEA loop, {N} frames, no loads", bare,
+                    "pin.rnea per frame from Python"))
+    rows.extend(casadi_rows(model, q, qd, qdd, force, cop, loads, repeat))
+    return rows
+
+
+def casadi_rows(model, q, qd, qdd, force, cop, loads, repeat) -> list[Row]:
+    """The ID as a mapped CasADi function (serial and JIT-compiled): benchmark only."""
+    import casadi as cs
+
     f = casadi_inverse(model)
     args = (q.T, qd.T, qdd.T, force.T, cop.T)
-    serial, threaded = f.map(N), f.map(N, "thread", 2)
-    rows["CasADi map of the ADAM expression, serial"] = best_of(lambda: serial(*args))
-    rows["CasADi map, 2 threads"] = best_of(lambda: threaded(*args))
+    serial = f.map(N)
+    rows = [Row(f"leg ID, {N} frames, CasADi map of the ADAM expression (benchmark only)",
+                time_call(lambda: serial(*args), repeat), "serial map, SX virtual machine")]
+    tau = leg_inverse_dynamics(model, q, qd, qdd, loads).tau[:, 3:]
+    check = np.abs(np.array(serial(*args)[0]).T - tau).max()
     try:
         start = time.perf_counter()
         jit = cs.Function("inverse_dynamics_jit", f.sx_in(), f.call(f.sx_in()),
-                          {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O3"]}})
-        jit_map = jit.map(N)
-        jit_map(*args)
+                          {"jit": True, "compiler": "shell",
+                           "jit_options": {"flags": ["-O3"]}}).map(N)
         compile_time = time.perf_counter() - start
-        rows[f"CasADi map, JIT with the C compiler ({compile_time:.2f} s to compile)"] = \
-            best_of(lambda: jit_map(*args))
+        rows.append(Row(f"leg ID, {N} frames, CasADi map JIT-compiled (benchmark only)",
+                        time_call(lambda: jit(*args), repeat, warmup=True),
+                        f"compiled with -O3 in {compile_time:.1f} s, not counted; "
+                        f"max |tau_CasADi - tau_predgait| = {check:.1e} N m"))
     except RuntimeError as exc:
         print(f"JIT unavailable here ({exc})")
-    tau_cs = np.array(serial(*args)[0]).T
-    tau_pin = leg_inverse_dynamics(model, q, qd, qdd, loads).tau[:, 3:]
-    for label, seconds in rows.items():
-        ratio = f"  ({opensim / seconds:5.2f}x OpenSim)" if opensim else ""
-        print(f"{N} frames, {label:64s} {seconds * 1e3:7.2f} ms{ratio}")
-    print(f"  max |tau_CasADi - tau_Pinocchio| = {np.abs(tau_cs - tau_pin).max():.1e} N m")
+    return rows
 
 
-def stage_rows(options, label):
-    """Time run_inverse and its main stages on one trial."""
-    total = best_of(lambda: run_inverse(options), repeat=3)
-    result = run_inverse(options)
-    trial, _ = read_trial(options)
-    markers = fill_gaps(trial.markers, names=_needed_markers(options.points),
-                        max_gap_frames=options.max_gap_frames, edges="trim")
-    read = best_of(lambda: (read_trial(options),
-                            read_trc(options.static) if options.static else None), repeat=3)
-    static = read_trc(options.static) if options.static else None
-    points = joint_points(markers, options, static)
-    centres = best_of(lambda: joint_points(markers, options, static), repeat=3)
-    centre_points = {f"{k}_center": points[k] for k in ("hip", "knee", "ankle")}
-    ik = best_of(lambda: solve_ik(result.model, centre_points, foot_pitch(points)), repeat=3)
-    loads = [[Load("foot", result.grf[k], point=result.cop[k], moment=result.free_moment[k])]
-             if result.grf[k, 2] > 0 else [] for k in range(result.time.size)]
-    dynamics = best_of(lambda: leg_inverse_dynamics(result.model, result.q, result.qd,
-                                                    result.qdd, loads), repeat=3)
-    n = result.time.size
-    print(f"{label}: run_inverse {total * 1e3:7.1f} ms for {n} frames "
-          f"({total / n * 1e6:.0f} us/frame): read files {read * 1e3:.1f} ms, joint centres "
-          f"{centres * 1e3:.1f} ms, IK {ik * 1e3:.1f} ms, inverse dynamics "
-          f"{dynamics * 1e3:.1f} ms, the rest {(total - read - centres - ik - dynamics) * 1e3:.1f}"
-          " ms")
-    return result
-
-
-def main():
-    per_frame_rows(load_model("leg"))
-    result = stage_rows(bundled_options("right"), "subject01 (TRC + MOT + static TRC)")
-    if WALKING5.is_file():
-        stage_rows(InverseOptions(markers=WALKING5, mass=72.0, points={
-            "hip": "RHJC", "knee": "RKJC", "ankle": "RAJC", "heel": "RCAL", "toe": "RMT2"}),
-            "walking5 (C3D, markers 250 Hz, plates 2000 Hz)")
+def whole_process_rows(repeat: int) -> list[Row]:
+    """`predgait inverse` against OpenSim's tools, each as whole processes."""
+    problem = REPO / "problems" / "inverse_subject01.toml"
     with tempfile.TemporaryDirectory() as tmp:
-        counter = iter(range(100))
-        writing = best_of(lambda: write_inverse_outputs(result, f"{tmp}/o{next(counter)}"),
-                          repeat=2)
-    print(f"writing the result folder (2 STO, 2 CSV, JSON, 4 PNG plots): {writing * 1e3:.0f} ms")
+        ours = time_process([sys.executable, "-m", "predgait", "inverse", str(problem),
+                             "--out", f"{tmp}/out", "--force"], repeat)
+    does = ("read TRC+MOT+static, joint centres, planar IK, filters, ID of one leg "
+            "(5 DOF, 151 frames), STO/CSV/JSON and PNG plots")
+    folder, python = gait2354_folder(), opensim_python()
+    script = str(Path(__file__).with_name("opensim_subject01.py"))
+    rows = []
+    for tools, label in (("id", "ID tool on the shipped IK motion (23 DOF, 73 frames)"),
+                         ("ik,id", "IK tool then ID tool (23 DOF, 76 frames)")):
+        peer = None
+        if folder and python:
+            peer = time_process([python, script, folder, "--tools", tools, "--repeat", "1"],
+                                repeat)
+        rows.append(Row(f"predgait inverse subject01 vs OpenSim {tools.upper()} tool(s), "
+                        "whole processes", ours, does, peer,
+                        f"Python + import opensim + {label}, writes .sto", unit="s"))
+    return rows
+
+
+def stage_rows() -> None:
+    """Print the stages of run_inverse on subject01 (no peer)."""
+    from predgait.dynamics.inverse_trial import bundled_options, run_inverse
+
+    options = bundled_options("right")
+    total = time_call(lambda: run_inverse(options), 3)
+    result = run_inverse(options)
+    contact = (result.grf[:, 2] > 0)[:, None]
+    loads = [LoadHistory("foot", np.where(contact, result.grf, 0.0), result.cop,
+                         np.where(contact, result.free_moment, 0.0))]
+    dynamics = time_call(lambda: leg_inverse_dynamics(result.model, result.q, result.qd,
+                                                      result.qdd, loads), 5)
+    print(f"run_inverse on subject01 ({result.time.size} frames): {total.describe()}; "
+          f"of which inverse dynamics {dynamics.describe()}")
+
+
+def rows(repeat: int) -> list[Row]:
+    """Every compared row of this benchmark (for run_all.py)."""
+    return leg_id_rows(repeat) + whole_process_rows(repeat)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    repeat = parser.parse_args().repeat
+    print(f"min / median of {repeat} repeats, wall (CPU)")
+    print_rows(rows(repeat))
+    stage_rows()
 
 
 if __name__ == "__main__":

@@ -1,13 +1,21 @@
-"""OpenSim's InverseDynamicsSolver on predgait's planar leg (run by bench_inverse.py).
+"""OpenSim on predgait's planar leg (the peer of bench_inverse.py and bench_forward.py).
 
-Usage: python benchmarks/opensim_leg.py STATES.npz
+Usage: OPENSIM_PYTHON benchmarks/opensim_leg.py STATES.npz
 
-Reads the segments (mass, sagittal inertia, COM and joint offsets in OpenSim axes) and the
-states (q, qd, qdd, predgait's coordinates, one row per frame) from STATES.npz, builds the
-leg with the OpenSim API (PlanarJoint on the foot, PinJoints at ankle and knee, Y-up),
-solves each frame from Python, and writes tau (predgait's coordinates and signs), the best
-of three timings and the OpenSim version back into the same file. Only numpy and opensim
-are imported here: OpenSim's bundled CasADi clashes with the casadi wheel.
+Reads the segments (mass, sagittal inertia, COM and joint offsets in OpenSim axes) from
+STATES.npz and builds the leg with the OpenSim API (PlanarJoint on the foot, PinJoints at
+ankle and knee, Y-up). Then, by the file's ``mode``:
+
+* ``inverse``: the states (q, qd, qdd, predgait's coordinates, one row per frame) are solved
+  frame by frame from Python with the InverseDynamicsSolver; writes tau (predgait's
+  coordinates and signs).
+* ``forward``: the foot is welded to the ground and the Manager (Runge-Kutta-Merson,
+  accuracy ``accuracy``) integrates ``duration`` s from ``x0`` = (ankle, knee, rates in
+  predgait's coordinates), no torques; writes the final free state ``xf``.
+
+Each is run ``repeat`` times; writes the wall and CPU seconds of each run (``wall``,
+``cpu``) and the OpenSim version back into the same file. Only numpy and opensim are
+imported here: OpenSim's bundled CasADi clashes with the casadi wheel.
 """
 
 import sys
@@ -21,7 +29,7 @@ import opensim as osim
 ORDER, SIGN = [2, 0, 1, 3, 4], np.array([-1.0, 1.0, 1.0, -1.0, -1.0])
 
 
-def build_leg(segments, gravity):
+def build_leg(segments, gravity, *, weld_foot=False):
     """The leg as an OpenSim model; returns (model, initial state)."""
     model = osim.Model()
     model.setGravity(osim.Vec3(0, -gravity, 0))
@@ -33,16 +41,29 @@ def build_leg(segments, gravity):
         model.addBody(body)
         bodies.append(body)
     zero = osim.Vec3(0)
-    model.addJoint(osim.PlanarJoint("base", model.getGround(), zero, zero, bodies[0], zero,
-                                    zero))
+    if weld_foot:
+        model.addJoint(osim.WeldJoint("base", model.getGround(), zero, zero, bodies[0], zero,
+                                      zero))
+    else:
+        model.addJoint(osim.PlanarJoint("base", model.getGround(), zero, zero, bodies[0],
+                                        zero, zero))
     for i, name in ((1, "ankle"), (2, "knee")):
         model.addJoint(osim.PinJoint(name, bodies[i - 1], osim.Vec3(*segments["offset"][i]),
                                      zero, bodies[i], zero, zero))
     return model, model.initSystem()
 
 
-def main(path):
-    data = dict(np.load(path))
+def timed(run, repeat):
+    wall, cpu = [], []
+    for _ in range(repeat):
+        w0, c0 = time.perf_counter(), time.process_time()
+        result = run()
+        cpu.append(time.process_time() - c0)
+        wall.append(time.perf_counter() - w0)
+    return result, {"wall": np.array(wall), "cpu": np.array(cpu)}
+
+
+def inverse(data):
     model, state = build_leg(data, float(data["gravity"]))
     solver = osim.InverseDynamicsSolver(model)
     q, qd, qdd = data["q"], data["qd"], data["qdd"]
@@ -60,12 +81,37 @@ def main(path):
             out[k, ORDER] = SIGN * np.array([tau.get(i) for i in range(q.shape[1])])
         return out
 
-    best = np.inf
-    for _ in range(3):
-        start = time.perf_counter()
-        solve_all()
-        best = min(best, time.perf_counter() - start)
-    np.savez(path, tau=solve_all(), seconds=best, version=osim.__version__)
+    tau, times = timed(solve_all, int(data["repeat"]))
+    return {"tau": tau, **times}
+
+
+def forward(data):
+    """Manager run of the welded-foot leg; the model is built once, as a tool would."""
+    model, _ = build_leg(data, float(data["gravity"]), weld_foot=True)
+    x0 = data["x0"]
+    free_sign = SIGN[3:]
+
+    def run():
+        state = model.initSystem()
+        state.setQ(osim.Vector.createFromMat(free_sign * x0[:2]))
+        state.setU(osim.Vector.createFromMat(free_sign * x0[2:]))
+        manager = osim.Manager(model)
+        manager.setIntegratorMethod(osim.Manager.IntegratorMethod_RungeKuttaMerson)
+        manager.setIntegratorAccuracy(float(data["accuracy"]))
+        manager.initialize(state)
+        end = manager.integrate(float(data["duration"]))
+        q, u = end.getQ(), end.getU()
+        return np.concatenate([free_sign * np.array([q.get(0), q.get(1)]),
+                               free_sign * np.array([u.get(0), u.get(1)])])
+
+    xf, times = timed(run, int(data["repeat"]))
+    return {"xf": xf, **times}
+
+
+def main(path):
+    data = dict(np.load(path))
+    result = (forward if str(data["mode"]) == "forward" else inverse)(data)
+    np.savez(path, version=osim.__version__, **result)
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ import os
 import resource
 import statistics
 import subprocess
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -121,3 +122,70 @@ def ratio(ours: Timing | None, peer: Timing | None) -> str:
         return NOT_AVAILABLE
     return (f"{peer.best / ours.best:.2f}x (min), {peer.median / ours.median:.2f}x (median); "
             "> 1 = predgait faster")
+
+
+def gait2354_folder() -> str | None:
+    """opensim-models' Pipelines/Gait2354_Simbody files (GAIT2354_DIR), if given."""
+    folder = os.environ.get("GAIT2354_DIR")
+    return folder if folder and Path(folder, "subject01_simbody.osim").is_file() else None
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of the comparison table: the same work done by predgait and by the peer."""
+
+    work: str
+    ours: Timing | None
+    ours_does: str
+    peer: Timing | None = None
+    peer_does: str = ""
+    unit: str = "ms"
+
+    def lines(self) -> list[str]:
+        """The row as text: what each side does, min / median wall and CPU, the ratio."""
+        ours = self.ours.describe(self.unit) if self.ours else "not run"
+        peer = self.peer.describe(self.unit) if self.peer else NOT_AVAILABLE
+        out = [f"{self.work}", f"    predgait: {ours}  [{self.ours_does}]",
+               f"    OpenSim:  {peer}" + (f"  [{self.peer_does}]" if self.peer_does else "")]
+        if self.peer is not None and self.ours is not None:
+            out.append(f"    ratio OpenSim/predgait: {ratio(self.ours, self.peer)}")
+        return out
+
+
+def print_rows(rows: Sequence[Row]) -> None:
+    for row in rows:
+        print("\n".join(row.lines()))
+
+
+def run_peer_npz(script: str, **arrays) -> dict:
+    """Run ``benchmarks/SCRIPT FILE.npz`` in the peer's Python on ``arrays``; returns the
+    arrays it wrote back (with ``timing``: a :class:`Timing` from its ``wall``/``cpu``), or
+    ``{"error": reason}``."""
+    import numpy as np
+
+    python = opensim_python()
+    if python is None:
+        return {"error": "OPENSIM_PYTHON is not set to a Python that imports opensim"}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "exchange.npz"
+        np.savez(path, **arrays)
+        done = subprocess.run([python, str(HERE / script), str(path)], capture_output=True,
+                              text=True)
+        if done.returncode != 0:
+            return {"error": (done.stderr.strip().splitlines() or ["failed"])[-1]}
+        out = dict(np.load(path))
+    out["timing"] = Timing(tuple(map(float, out["wall"])), tuple(map(float, out["cpu"])))
+    return out
+
+
+def leg_segments(model) -> dict:
+    """The leg's segments in OpenSim axes (Y up) for opensim_leg.py."""
+    import numpy as np
+
+    lab_to_osim = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    pm = model.pin_model
+    inertias = [pm.inertias[j] for j in range(1, pm.njoints)]
+    return {"mass": [i.mass for i in inertias], "inertia": [i.inertia[1, 1] for i in inertias],
+            "com": [lab_to_osim @ i.lever for i in inertias],
+            "offset": [lab_to_osim @ pm.jointPlacements[j].translation for j in range(1, 4)],
+            "gravity": model.gravity}

@@ -70,3 +70,14 @@ def test_probe_sees_heavy_imports():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=120, check=True)
     assert done.stdout.strip() == "True"
+
+
+def test_leg_inverse_pipeline_imports_no_heavy_module():
+    """run_inverse on subject01 (read, joint centres, IK, filters, ID) stays on numpy and
+    Pinocchio; SciPy's optimize may come in only when an IK bound binds (not here)."""
+    code = ("import sys; from predgait.dynamics.inverse_trial import bundled_options, "
+            "run_inverse; run_inverse(bundled_options('right')); "
+            f"print(sorted(m for m in {HEAVY!r} if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=True)
+    assert done.stdout.strip().splitlines()[-1] == "[]"

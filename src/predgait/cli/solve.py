@@ -14,6 +14,9 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
   knee_fit           k (N m/rad), c (N m s/rad), theta0 of a passive knee spring-damper
   torque_correction  smallest smooth changes of the ankle and knee moments (N m)
   feedback_gains     PD gains on the tracking error that reject a perturbed start
+  passive_decomposition  passive knee/ankle moments split from the measured moments
+                     (no simulation; problems/passive_decomposition.toml), with
+                     bootstrap intervals or "not identifiable"
 Writes solution.json (status, iterations, solve time, objective, constraint violation,
 parameters with 95 % intervals, re-simulation check), states.sto, resimulated_states.sto,
 corrected_moments.sto (torque correction) and plots into --out. A solve that does not
@@ -43,7 +46,10 @@ def run(args: argparse.Namespace) -> int:
     from predgait.workflows.solve import parse_solve, run_solve
 
     check_out(args.out, force=args.force, inputs=[args.problem])  # before any computation
-    spec = parse_solve(load_problem(args.problem, args.set))
+    table = load_problem(args.problem, args.set)
+    if table.data.get("kind") == "passive_decomposition":
+        return _run_decomposition(table, args)
+    spec = parse_solve(table)
     try:
         solution = run_solve(spec, args.out, force=args.force)
     except SolveFailed as exc:
@@ -57,15 +63,15 @@ def run(args: argparse.Namespace) -> int:
         for line in ipopt_lines(SimpleNamespace(history=solution["ipopt_history"]),
                                 every=args.every):
             print(line)
-    sensitivity = solution.get("diagnostics", {}).get("sensitivity_deg", {})
-    if sensitivity and max(sensitivity.values()) > 1e4:
-        print(f"  note: the angles change by up to {max(sensitivity.values()):.1e} deg per unit "
-              "of a parameter: the open-loop fit balances on the leg's instability, the 95 % "
-              "intervals are formal only (try a shorter window)")
     check = solution["resimulation_check"]
     params = ", ".join(f"{k} = {v:.4g}" for k, v in solution["parameters"].items())
+
     print(f"{spec.kind.value}: {solution['ipopt_status']} in {solution['iterations']} "
           f"iterations, {solution['solve_time_s']:.3f} s; {params}; wrote {args.out}/")
+    if "what" in solution:
+        print(f"  these are a {solution['what']}")
+    for name, half in solution["confidence95"].items():
+        print(f"  {name}: 95 % interval " + (half if isinstance(half, str) else f"+-{half:.3g}"))
     print(f"  optimiser tracking RMS (deg): {solution['optimiser_tracking_rms_deg']}")
     for name, result in check.items():
         when = result["time_to_threshold_s"]
@@ -73,4 +79,26 @@ def run(args: argparse.Namespace) -> int:
         print(f"  re-simulation {name}: deviation > {spec.threshold_deg:g} deg at "
               f"{'never' if when is None else f'{when:.3f} s'}, within it from "
               f"{'never' if settled is None else f'{settled:.3f} s'} (end {result['end_s']:.3f} s)")
+    return 0
+
+
+def _run_decomposition(table, args) -> int:
+    import sys
+
+    from predgait.errors import SolveFailed
+    from predgait.workflows.decomposition import (
+        parse_decomposition,
+        run_decomposition,
+        summary_lines,
+    )
+
+    spec = parse_decomposition(table)
+    try:
+        solution = run_decomposition(spec, args.out, force=args.force)
+    except SolveFailed as exc:
+        print(f"predgait: solve failed: {exc}", file=sys.stderr)
+        return 3
+    for line in summary_lines(solution):
+        print(line)
+    print(f"  wrote {args.out}/ (solution.json, passive_moments.sto, active_passive.png)")
     return 0

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import lsq_linear
 
 #: A joint coordinate closer than this to its limit (rad or m) counts as on the limit.
 ON_LIMIT = 1e-7
@@ -103,6 +102,8 @@ def bounded_step(jac: np.ndarray, r: np.ndarray, damping: float, lo: np.ndarray,
     pinned = hi - lo <= 0.0     # at a limit with no room: lsq_linear needs lo < hi
     a = np.vstack([jac, np.sqrt(damping) * np.eye(nv)])[:, ~pinned]
     b = np.concatenate([-r, np.zeros(nv)])  # with damping 0 the extra rows are inert
+    from scipy.optimize import lsq_linear  # heavy (1 s of imports): only when a bound binds
+
     out = np.zeros(nv)
     out[~pinned] = lsq_linear(a, b, bounds=(lo[~pinned], hi[~pinned]), method="bvls").x
     return out

@@ -41,6 +41,8 @@ class Kind(enum.Enum):
     KNEE_FIT = "knee_fit"
     TORQUE_CORRECTION = "torque_correction"
     FEEDBACK_GAINS = "feedback_gains"
+    #: Handled by :mod:`predgait.workflows.decomposition` (no collocation).
+    PASSIVE_DECOMPOSITION = "passive_decomposition"
 
 
 @dataclass(frozen=True)
@@ -183,6 +185,33 @@ def resimulations(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers,
     return report, sims
 
 
+KNEE_FIT_MEANING = (
+    "stabilising spring-damper added to the measured moments so that the synthesized "
+    "motion stays near the measured one (thesis Fig. 4.2.9); not tissue properties: the "
+    "measured moments already contain the knee's passive moment (for that, use kind "
+    "passive_decomposition)")
+#: Angle change per unit parameter (deg) beyond which open-loop intervals are formal only.
+FORMAL_SENSITIVITY_DEG = 1e4
+
+
+def _meaningful_intervals(spec: SolveSpec, fit: FitResult) -> dict:
+    """95 % half-widths, or why one means nothing (knee fit on a bound or on instability)."""
+    if spec.kind is not Kind.KNEE_FIT:
+        return fit.confidence95
+    sensitivity = fit.diagnostics.get("sensitivity_deg", {})
+    out = {}
+    for name, half in fit.confidence95.items():
+        if name in ("k", "c") and fit.parameters[name] <= 1e-4:
+            out[name] = f"not meaningful: {name} sits on its lower bound 0"
+        elif sensitivity and max(sensitivity.values()) > FORMAL_SENSITIVITY_DEG:
+            out[name] = (f"not meaningful: the angles change by up to "
+                         f"{max(sensitivity.values()):.1e} deg per unit of a parameter (the "
+                         "open-loop fit balances on the leg's instability)")
+        else:
+            out[name] = half
+    return out
+
+
 def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
     """Solve, check, and write solution.json, states.sto, corrected_moments.sto, plots."""
     inverse = _inverse(spec)
@@ -195,7 +224,7 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         "status": "solved" if s.success else s.status, "kind": spec.kind.value,
         "ipopt_status": s.status, "iterations": s.iterations, "solve_time_s": s.seconds,
         "objective": s.objective, "constraint_violation": s.constraint_violation,
-        "parameters": fit.parameters, "confidence95": fit.confidence95,
+        "parameters": fit.parameters, "confidence95": _meaningful_intervals(spec, fit),
         "ipopt_history": s.history,
         "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
         "window_s": list(spec.window), "nodes": spec.nodes,
@@ -203,6 +232,8 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         "provenance": {"problem": source_name(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
+    if spec.kind is Kind.KNEE_FIT:
+        solution["what"] = KNEE_FIT_MEANING
     with staged_output(out, force=force,
                        inputs=[spec.source, spec.inverse_problem]) as stage:
         (stage / "solution.json").write_text(json.dumps(solution, indent=2, default=str) + "\n")

@@ -1,0 +1,153 @@
+"""Which fitted passive parameters the data identify, and their 95 % intervals.
+
+Two independent views of one fit (:mod:`predgait.problems.decomposition`):
+
+* Fisher information F (Hessian / 2 of the fit's negative log-likelihood objective, in
+  effectively independent samples): standard errors sqrt(diag F^-1) and the correlation
+  matrix. A parameter is reported **not identifiable** when the data constrain it no
+  better than its bounds (1.96 SE >= half the bound range); the report then names the
+  parameters it is confounded with (|correlation| >= 0.99). A high correlation alone
+  does not condemn a parameter whose own SE is small.
+* Bootstrap over gait cycles (or blocks of samples): half-width
+  t_{U-1, 0.975} sqrt(U / (U - 1)) SD_boot (U resampling units; the small-sample
+  correction of the bootstrap SE, Davison & Hinkley 1997, sec. 2.3). The reported 95 %
+  interval is the estimate +- the wider of this and the Fisher half-width 1.96 SE (with
+  few units the bootstrap SD is itself uncertain; the Fisher one alone without a
+  bootstrap), clipped to the bounds. The bootstrap
+  also flags non-identifiability when its interval spans at least half of the bound
+  range.
+
+A parameter whose interval reaches its lower bound 0 is reported as consistent with zero;
+a neutral angle theta0 whose spring k is consistent with zero is not identifiable (with
+k = 0 it has no effect).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+
+from predgait.problems.decomposition import Bootstrap, Decomposition
+from predgait.problems.passive_model import PassiveModel
+
+#: |correlation| at or above which two parameters are called confounded.
+CONFOUNDED = 0.99
+#: Fraction of the bound range an interval may span before the parameter is unidentified.
+BOUND_FRACTION = 0.5
+
+
+class Status(enum.Enum):
+    """Verdict on one parameter."""
+
+    FIXED = "fixed"
+    IDENTIFIED = "identified"
+    NOT_IDENTIFIABLE = "not identifiable"
+
+
+@dataclass(frozen=True)
+class ParameterReport:
+    """One parameter's value, verdict and interval.
+
+    Attributes:
+        key: ``joint.name``.
+        value: Estimate (or fixed value), SI.
+        unit: SI unit.
+        status: :class:`Status`.
+        interval95: (low, high) or None (fixed, not identifiable).
+        fisher_se: Standard error from the Fisher information (None when fixed).
+        reasons: Why it is not identifiable (empty otherwise).
+        note: E.g. "consistent with 0 (interval reaches the lower bound)".
+    """
+
+    key: str
+    value: float
+    unit: str
+    status: Status
+    interval95: tuple[float, float] | None
+    fisher_se: float | None
+    reasons: tuple[str, ...] = ()
+    note: str = ""
+
+    def as_dict(self) -> dict:
+        """JSON-ready."""
+        return {"value": self.value, "unit": self.unit, "status": self.status.value,
+                "interval95": list(self.interval95) if self.interval95 else None,
+                "fisher_standard_error": self.fisher_se, "reasons": list(self.reasons),
+                "note": self.note}
+
+
+def _t975(dof: int) -> float:
+    from scipy.stats import t
+
+    return float(t.ppf(0.975, max(dof, 1)))
+
+
+def fisher(information: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Standard errors (f,) and correlation matrix (f, f) from the Fisher information."""
+    covariance = np.linalg.pinv(information, rcond=1e-12, hermitian=True)
+    se = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        correlation = covariance / np.outer(se, se)
+    return se, np.nan_to_num(correlation)
+
+
+def assess(model: PassiveModel, fit: Decomposition, boot: Bootstrap | None
+           ) -> tuple[list[ParameterReport], np.ndarray]:
+    """Reports for every parameter (fixed ones too) and the fitted ones' correlation."""
+    fitted = model.fitted
+    se, correlation = fisher(fit.information)
+    spread = None
+    if boot is not None and len(boot.values) > 1 and boot.n_units > 1:
+        u = boot.n_units
+        spread = (_t975(u - 1) * np.sqrt(u / (u - 1))
+                  * np.std(boot.values, axis=0, ddof=1))
+    keys = [p.key for p in fitted]
+    reports = {p.key: _report(p, fit, keys, se, correlation, spread)
+               for p in model.parameters}
+    for p in fitted:
+        if p.name == "theta0":
+            report = reports[p.key]
+            spring = reports.get(f"{p.joint}.k")
+            if spring is not None and report.status is Status.IDENTIFIED and (
+                    spring.status is Status.NOT_IDENTIFIABLE or spring.note):
+                report = ParameterReport(
+                    report.key, report.value, report.unit, Status.NOT_IDENTIFIABLE, None,
+                    report.fisher_se, (f"its spring {spring.key} is consistent with 0 or "
+                                       "not identifiable, and with k = 0 theta0 has no "
+                                       "effect",))
+            reports[p.key] = report
+    return list(reports.values()), correlation
+
+
+def _report(p, fit, keys, se, correlation, spread) -> ParameterReport:
+    """The verdict on one parameter (module docstring); ``keys`` the fitted keys in order."""
+    value = float(fit.values[p.key])
+    if not p.fit:
+        return ParameterReport(p.key, value, p.unit, Status.FIXED, None, None)
+    i = keys.index(p.key)
+    span = p.upper - p.lower
+    reasons = []
+    if 1.96 * se[i] >= BOUND_FRACTION * span:
+        reasons.append(f"the quiet-phase moments constrain it no better than its bounds "
+                       f"(Fisher 95 % half-width {1.96 * se[i]:.3g} {p.unit} vs bounds "
+                       f"[{p.lower:g}, {p.upper:g}])")
+    half = 1.96 * se[i] if spread is None else max(spread[i], 1.96 * se[i])
+    interval = (max(p.lower, value - half), min(p.upper, value + half))
+    if interval[1] - interval[0] >= BOUND_FRACTION * span and not reasons:
+        reasons.append(f"its 95 % interval [{interval[0]:.3g}, {interval[1]:.3g}] spans "
+                       "half its bounds or more")
+    if reasons:   # say which parameter it trades off with, if any
+        reasons += [f"confounded with {other} (correlation {correlation[i, k]:+.3f})"
+                    for k, other in enumerate(keys)
+                    if k != i and abs(correlation[i, k]) >= CONFOUNDED]
+    if reasons:
+        return ParameterReport(p.key, value, p.unit, Status.NOT_IDENTIFIABLE, None,
+                               float(se[i]), tuple(reasons))
+    note = ""
+    if interval[0] <= p.lower and p.lower == 0:
+        note = (f"consistent with 0: the interval reaches the lower bound (at most "
+                f"{interval[1]:.3g} {p.unit})")
+    return ParameterReport(p.key, value, p.unit, Status.IDENTIFIED, interval, float(se[i]),
+                           (), note)

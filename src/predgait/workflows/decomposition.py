@@ -1,0 +1,262 @@
+"""``predgait solve`` kind ``passive_decomposition``: problem file -> fit -> result folder.
+
+The trial's inverse dynamics is recomputed with a marker cut-off chosen by Winter's
+residual analysis (forces filtered at the same cut-off, Kristianslund et al. 2012):
+low-pass filtering removes part of the passive moment in swing, so the usual 6 Hz is not
+taken for granted. The fit (:mod:`predgait.problems.decomposition`) is bootstrapped and
+assessed (:mod:`predgait.problems.identifiability`), and repeated at other cut-offs
+(``[filter] sensitivity_hz``) to show how much the values depend on the filter.
+Writes solution.json, passive_moments.sto and active_passive.png.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from predgait.data import write_storage
+from predgait.dynamics.inverse_trial import InverseOptions, bundled_options, run_inverse
+from predgait.errors import InputError, SolveFailed
+from predgait.problemfile import Table, load_problem
+from predgait.problems.decomposition import (
+    GaitSamples,
+    Settings,
+    bootstrap,
+    check_samples,
+    fit_decomposition,
+)
+from predgait.problems.identifiability import Status, assess
+from predgait.problems.passive_model import JOINTS, PassiveModel, build_model
+from predgait.workflows.inverse_io import options_from_problem
+from predgait.workflows.output import staged_output
+
+METHOD = ("decomposition of the inverse-dynamics moment, tau_ID = tau_active + "
+          "tau_passive(theta, theta'; p), with tau_active ~ 0 in the quiet phases (no "
+          "simulation); 95 % intervals from a bootstrap over gait cycles (or blocks) "
+          "widened to the Fisher-information interval where that is wider")
+
+
+@dataclass(frozen=True)
+class DecompositionSpec:
+    """A parsed ``passive_decomposition`` problem file (see problems/passive_decomposition.toml)."""
+
+    source: Path
+    inverse_problem: Path | None
+    side: str
+    model: PassiveModel
+    settings: Settings
+    cutoff: float | None            # Hz; None: residual analysis
+    sensitivity_hz: tuple[float, ...]
+    repeats: int
+    seed: int
+    min_cycles: int
+    block_s: float
+
+
+def parse_decomposition(table: Table) -> DecompositionSpec:
+    """DecompositionSpec from a problem file (errors name the file, key and line)."""
+    table.check_keys(("kind", "joints", "quiet_phases", "smoothness_weight", "trial", "filter",
+                      "uncertainty", "passive", "solver"))
+    joints = table.strings("joints", ("knee", "ankle"))
+    for joint in joints:
+        if joint not in JOINTS:
+            raise table.error("joints", f"'{joint}' is not one of: {', '.join(JOINTS)}.")
+    if not joints:
+        raise table.error("joints", "give at least one joint (knee, ankle).")
+    phases = table.get("quiet_phases", list, [[73.0, 100.0]])
+    checked = []
+    for phase in phases:
+        if not (isinstance(phase, list) and len(phase) == 2
+                and all(isinstance(v, int | float) and not isinstance(v, bool) for v in phase)
+                and 0 <= phase[0] < phase[1] <= 100):
+            raise table.error("quiet_phases", f"{phase!r}: give [start, end] pairs in % gait "
+                                              "cycle with 0 <= start < end <= 100.")
+        checked.append((float(phase[0]), float(phase[1])))
+    if not checked:
+        raise table.error("quiet_phases", "give at least one [start, end] phase.")
+    trial = table.table("trial")
+    trial.check_keys(("source", "side", "inverse_problem"))
+    source = trial.get("source", str, "bundled:subject01")
+    if source != "bundled:subject01":
+        raise trial.error("source", "use 'bundled:subject01' or set inverse_problem.")
+    side = trial.get("side", str, "right")
+    if side not in ("right", "left"):
+        raise trial.error("side", f"'{side}' is not one of: right, left.")
+    inverse_problem = trial.path_value("inverse_problem") if trial.has("inverse_problem") \
+        else None
+    filt = table.table("filter")
+    filt.check_keys(("marker_cutoff", "sensitivity_hz"))
+    cutoff = filt.get("marker_cutoff", (str, float), "residual")
+    if isinstance(cutoff, str) and cutoff != "residual":
+        raise filt.error("marker_cutoff", f"'{cutoff}': give a cut-off in Hz or \"residual\".")
+    if not isinstance(cutoff, str):
+        cutoff = filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
+    unc = table.table("uncertainty")
+    unc.check_keys(("bootstrap", "seed", "min_cycles", "block_s"))
+    solver = table.table("solver")
+    solver.check_keys(("max_iter",))
+    settings = Settings(quiet_phases=tuple(checked),
+                        smoothness_weight=table.number("smoothness_weight", 0.01, low=0.0),
+                        max_iter=int(solver.number("max_iter", 200, low=1, high=10000)))
+    return DecompositionSpec(
+        source=table.path, inverse_problem=inverse_problem, side=side,
+        model=_passive_model(table.table("passive"), joints), settings=settings,
+        cutoff=None if isinstance(cutoff, str) else cutoff,
+        sensitivity_hz=filt.numbers("sensitivity_hz", [4.0, 6.0, 8.0, 12.0, 20.0], low=0.5,
+                                    high=100, unit="Hz", increasing=True),
+        repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
+        seed=int(unc.number("seed", 0, low=0)),
+        min_cycles=int(unc.number("min_cycles", 6, low=2, high=1000)),
+        block_s=unc.number("block_s", 0.1, low=0.01, high=2.0, unit="s"))
+
+
+def _passive_model(passive: Table, joints) -> PassiveModel:
+    passive.check_keys(JOINTS)
+    choices = {"elements": {}, "fit": {}, "fixed": {}, "bounds": {}, "priors": {}, "stops": {}}
+    for joint in joints:
+        sub = passive.table(joint)
+        sub.check_keys(("elements", "fit", "fixed", "bounds", "priors", "stops_deg"))
+        if sub.has("elements"):
+            choices["elements"][joint] = sub.strings("elements")
+        if sub.has("fit"):
+            choices["fit"][joint] = sub.strings("fit")
+        choices["fixed"][joint] = {k: sub.table("fixed").number(k) for k in sub.table("fixed").data}
+        for key, length in (("bounds", 2), ("priors", 2)):
+            inner = sub.table(key)
+            choices[key][joint] = {k: inner.numbers(k, length=length) for k in inner.data}
+        if sub.has("stops_deg"):
+            lower, upper = sub.numbers("stops_deg", length=2, increasing=True, unit="deg")
+            choices["stops"][joint] = (np.radians(lower), np.radians(upper))
+    return build_model(joints, where=f"{passive.path}: passive", **choices)
+
+
+def _options(spec: DecompositionSpec) -> InverseOptions:
+    if spec.inverse_problem is not None:
+        return options_from_problem(load_problem(spec.inverse_problem))
+    return bundled_options(spec.side)
+
+
+def residual_cutoff(options: InverseOptions) -> float:
+    """Marker cut-off (Hz) by Winter's residual analysis of the markers the trial uses."""
+    from predgait.data import fill_gaps, residual_analysis
+    from predgait.dynamics.inverse_trial import _needed_markers, read_trial
+
+    trial, _ = read_trial(options)
+    names = _needed_markers(options.points)
+    markers = fill_gaps(trial.markers, names=names, max_gap_frames=options.max_gap_frames,
+                        edges="trim")
+    columns = [markers.names.index(n) for n in names]
+    xyz = markers.xyz[:, columns, :].reshape(markers.n_frames, -1)
+    return float(residual_analysis(xyz, markers.rate).chosen)
+
+
+def _samples(options: InverseOptions, cutoff: float) -> tuple[GaitSamples, object]:
+    inverse = run_inverse(replace(options, cutoff=cutoff, grf_cutoff=cutoff))
+    return GaitSamples.from_inverse(inverse), inverse
+
+
+def cutoff_sensitivity(spec: DecompositionSpec, options: InverseOptions) -> dict:
+    """Fitted values (no bootstrap) with inverse dynamics at each ``sensitivity_hz``."""
+    table = {}
+    for cutoff in spec.sensitivity_hz:
+        try:
+            samples, _ = _samples(options, cutoff)
+            fit = fit_decomposition(samples, spec.model, spec.settings)
+        except (InputError, SolveFailed) as exc:
+            table[f"{cutoff:g}"] = {"failed": str(exc)}
+            continue
+        table[f"{cutoff:g}"] = {p.key: fit.values[p.key] for p in spec.model.fitted}
+    return table
+
+
+def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False) -> dict:
+    """Fit, bootstrap, assess, repeat at other cut-offs; write the result folder.
+
+    Raises:
+        InputError: Bad trial or phases (nothing written).
+        SolveFailed: Ipopt failed on the main fit (nothing written).
+    """
+    options = _options(spec)
+    chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
+    samples, inverse = _samples(options, chosen)
+    where = f"{spec.source}: quiet_phases"
+    check_samples(samples, spec.model, spec.settings, where=where)
+    fit = fit_decomposition(samples, spec.model, spec.settings)
+    boot = bootstrap(samples, spec.model, fit, spec.settings, repeats=spec.repeats,
+                     seed=spec.seed, min_cycles=spec.min_cycles, block_s=spec.block_s) \
+        if spec.repeats > 1 else None
+    reports, correlation = assess(spec.model, fit, boot)
+    sensitivity = cutoff_sensitivity(spec, options)
+    quiet = fit.quiet
+    solution = {
+        "status": "solved", "kind": "passive_decomposition", "method": METHOD,
+        "what": "passive joint moments (tissue properties under the quiet-muscle assumption), "
+                "not stabilising elements of a re-synthesis",
+        "ipopt_status": fit.status, "iterations": fit.iterations, "solve_time_s": fit.seconds,
+        "parameters": {r.key: r.as_dict() for r in reports},
+        "fitted_correlation": {"parameters": [p.key for p in spec.model.fitted],
+                               "matrix": np.round(correlation, 4).tolist()},
+        "quiet_phase_residual_sd_n_m": fit.noise_sd,
+        "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
+        "quiet_samples": int(quiet.sum()),
+        "gait_cycles": int(np.unique(samples.cycle[samples.cycle >= 0]).size),
+        "cycle_timing": samples.timing,
+        "bootstrap": None if boot is None else {
+            "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
+            "units": boot.n_units, "seed": spec.seed},
+        "marker_cutoff_hz": chosen,
+        "marker_cutoff_choice": "given" if spec.cutoff is not None else
+        "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
+        "cutoff_sensitivity": sensitivity,
+        "provenance": {"problem": str(spec.source), "model": inverse.model.source,
+                       **inverse.provenance},
+    }
+    columns = {"percent_gait_cycle": samples.percent}
+    for joint in spec.model.joints:
+        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
+        columns[f"{joint}_moment_passive"] = fit.passive[joint]
+        columns[f"{joint}_moment_active"] = fit.active[joint]
+    columns["quiet_phase"] = quiet.astype(float)
+    with staged_output(out, force=force, inputs=[spec.source]) as stage:
+        (stage / "solution.json").write_text(json.dumps(solution, indent=2, default=str) + "\n")
+        write_storage(stage / "passive_moments.sto", samples.time, columns,
+                      header={"units": "N m (clinical sign: positive toward knee flexion / "
+                                       "ankle dorsiflexion), % gait cycle",
+                              "what": "inverse-dynamics moment split into passive + active",
+                              "marker_cutoff_hz": f"{chosen:.3g}"})
+        from predgait.report.decomposition_plots import plot_active_passive
+
+        plot_active_passive(samples, fit, spec.model.joints, spec.settings.quiet_phases,
+                            stage / "active_passive.png")
+    return solution
+
+
+def summary_lines(solution: dict) -> list[str]:
+    """What the CLI prints: one line per fitted parameter, then the cut-off sensitivity."""
+    lines = [f"passive_decomposition: {solution['ipopt_status']} in {solution['iterations']} "
+             f"iterations, {solution['solve_time_s']:.3f} s; marker cut-off "
+             f"{solution['marker_cutoff_hz']:.3g} Hz; {solution['gait_cycles']} gait cycle(s), "
+             f"{solution['quiet_samples']} quiet samples"]
+    for key, report in solution["parameters"].items():
+        status = report["status"]
+        if status == Status.FIXED.value:
+            continue
+        head = f"  {key} = {report['value']:.4g} {report['unit']}"
+        if status == Status.NOT_IDENTIFIABLE.value:
+            lines.append(f"{head}: not identifiable ({'; '.join(report['reasons'])})")
+        elif report["interval95"] is None:
+            lines.append(f"{head} (no bootstrap: no interval)")
+        else:
+            low, high = report["interval95"]
+            note = f"; {report['note']}" if report["note"] else ""
+            lines.append(f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}")
+    for cutoff, values in solution["cutoff_sensitivity"].items():
+        if "failed" in values:
+            lines.append(f"  at {cutoff} Hz: fit failed ({values['failed']})")
+        else:
+            lines.append(f"  at {cutoff} Hz: " + ", ".join(f"{k} = {v:.4g}"
+                                                          for k, v in values.items()))
+    return lines
