@@ -13,7 +13,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from timing import NOT_AVAILABLE, Timing, opensim_python, ratio, time_process
+from timing import NOT_AVAILABLE, Row, Timing, opensim_python, ratio, time_process
 
 PREDGAIT = [sys.executable, "-m", "predgait"]
 
@@ -30,6 +30,18 @@ def measure(repeat: int) -> dict[str, Timing | None]:
     rows["OpenSim: python -c 'import opensim'"] = (
         time_process([peer, "-c", "import opensim"], repeat) if peer else None)
     return rows
+
+
+def rows(repeat: int) -> list[Row]:
+    """The compared rows (for run_all.py)."""
+    measured = measure(repeat)
+    pinocchio = measured["python -c 'import pinocchio'"]
+    opensim = measured["OpenSim: python -c 'import opensim'"]
+    return [Row(f"`{name}` vs `import opensim`, whole processes", measured[name],
+                f"{measured[name].best / pinocchio.best:.2f}x `import pinocchio` "
+                f"({pinocchio.best:.2f} s; goal <= 1.5x)", opensim,
+                "Python + import opensim", unit="s")
+            for name in ("predgait --help", "predgait model show leg")]
 
 
 def main() -> None:
