@@ -64,7 +64,7 @@ def rows(repeat: int) -> list[Row]:
         solved = fit.solved
         out.append(Row(f"{name} cold, in process (1 s, 100 Hermite-Simpson intervals)",
                        cold_time, "generate the solver, then Ipopt; imports excluded",
-                       None, NO_PEER))
+                       None, NO_PEER, unit="s"))
         out.append(Row(f"{name} cached solver, in process (another 1 s window)", cached,
                        f"Ipopt only: {solved.iterations} iterations, "
                        f"{solved.seconds * 1e3:.0f} ms in the solver", None, NO_PEER))
