@@ -1,5 +1,7 @@
 """Shared fixtures: the real-data folder beside the checkout, and the shipped models."""
 
+import json
+import re
 from pathlib import Path
 
 import pytest
@@ -14,3 +16,53 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         raise FileNotFoundError(f"{SHARED_DATA} is missing: clone predgait beside shared/.")
     return SHARED_DATA
+
+
+#: Text that is a Python repr rather than a value: None/True/nan as words, ``Name(...)``,
+#: ``array(``, a dict or list printed as text, ``<... object at 0x...>``.
+PYTHON_REPR = re.compile(r"^(None|True|False|nan|-?inf)$|^[A-Za-z_][\w.]*\(.*\)$|array\(|"
+                         r"^[\[{].*[\]}]$|object at 0x")
+
+
+def _strings(value):
+    if isinstance(value, str):
+        yield value
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            yield key
+            yield from _strings(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from _strings(item)
+
+
+def check_report_page(page: str, folder: Path) -> None:
+    """A report page: no Python None, no folder above the result folder."""
+    text = re.sub(r"data:[\w/+]+;base64,[\w+/=]+", "", page)
+    assert "None" not in text, "None in the report page"
+    for outside in {str(Path(folder).resolve().parent), str(REPO), "/tmp/", "/work/"}:
+        assert outside not in text, f"path {outside} in the report page"
+
+
+@pytest.fixture(scope="session")
+def assert_tidy_result():
+    """A check of a result folder's summary file and of the report page of that folder.
+
+    The summary holds JSON values only, no string that is a Python repr; the page has a
+    headline with numbers and a sentence, no ``None`` and no path outside the folder.
+    """
+    from predgait.report.headline import headline
+    from predgait.report.html import build_report
+
+    def check(path: Path) -> dict:
+        text = Path(path).read_text()
+        data = json.loads(text)
+        assert "NaN" not in text and "Infinity" not in text  # json.loads accepts both
+        bad = [s for s in _strings(data) if PYTHON_REPR.search(s.strip())]
+        assert not bad, f"{path}: Python reprs in JSON: {bad[:5]}"
+        folder = Path(path).parent
+        head = headline(folder)
+        assert head is not None and len(head.numbers) >= 2 and head.sentence, head
+        check_report_page(build_report(folder), folder)
+        return data
+    return check

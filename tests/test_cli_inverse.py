@@ -17,7 +17,7 @@ def run_cli(*args):
                           text=True, timeout=300)
 
 
-def test_problem_file_writes_every_output(tmp_path):
+def test_problem_file_writes_every_output(tmp_path, assert_tidy_result):
     out = tmp_path / "inv"
     result = run_cli("inverse", str(REPO / "problems" / "inverse_subject01.toml"), "--out",
                      str(out))
@@ -31,7 +31,7 @@ def test_problem_file_writes_every_output(tmp_path):
     for name in ("hip_flexion_moment", "knee_flexion_moment", "ankle_dorsiflexion_moment",
                  "knee_force_x", "ankle_dorsiflexion_power"):
         assert name in kinetics.columns
-    summary = json.loads((out / "summary.json").read_text())
+    summary = assert_tidy_result(out / "summary.json")
     assert summary["window"] == "first gait cycle"
     assert -2.0 < summary["peak_moments_n_m_per_kg"]["ankle_dorsiflexion_moment_min"] < -1.0
     again = run_cli("inverse", str(REPO / "problems" / "inverse_subject01.toml"), "--out",

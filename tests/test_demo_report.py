@@ -1,10 +1,12 @@
 """``predgait demo`` in an empty folder, and ``predgait report`` on its results."""
 
+import json
 import subprocess
 import sys
 
 import pytest
 
+from conftest import check_report_page
 from predgait.errors import InputError
 from predgait.report.html import build_report
 
@@ -23,12 +25,23 @@ def demo_folder(tmp_path_factory):
     return cwd / "predgait-demo"
 
 
-def test_demo_writes_results_and_a_report(demo_folder):
+def test_demo_writes_results_and_a_report(demo_folder, assert_tidy_result):
     assert (demo_folder / "01_inverse_dynamics" / "inverse_dynamics.sto").is_file()
     html = (demo_folder / "report.html").read_text()
     assert html.count("data:image/png;base64,") >= 4
-    assert "peak_moments_n_m_per_kg" in html and "src=" in html
     assert "file:" not in html  # self-contained: no links to local files
+    check_report_page(html, demo_folder)
+    for path in sorted(demo_folder.glob("0*/*.json")):
+        assert_tidy_result(path)
+    # A walk-through in order, each step with its headline and a sentence from its numbers.
+    steps = [html.index(f"<h2>{n}. ") for n in range(1, 6)]
+    assert steps == sorted(steps) and html.count("class='interpretation'") == 5
+    resynthesis = json.loads((demo_folder / "02_resynthesis" / "summary.json").read_text())
+    fall = f"falls at {resynthesis['time_to_fall_s']:.3f} s"
+    assert fall in html[steps[1]:steps[2]]
+    assert "peak ankle plantarflexor moment" in html and "N m/kg" in html
+    assert html.index("class='headline'", steps[0]) < html.index("<img", steps[0]) < html.index(
+        "<details>", steps[0])
 
 
 def test_demo_replaces_only_its_own_folder(demo_folder):

@@ -16,12 +16,12 @@ from predgait.workflows.simulate import CollapseSpec, parse_spec
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
 
-def test_collapse_cli_writes_outputs(tmp_path, capsys):
+def test_collapse_cli_writes_outputs(tmp_path, capsys, assert_tidy_result):
     out = tmp_path / "collapse"
     code = main(["simulate", str(PROBLEMS / "collapse.toml"), "--out", str(out),
                  "--set", "collapse.duration=0.45"])
     assert code == 0
-    summary = json.loads((out / "summary.json").read_text())
+    summary = assert_tidy_result(out / "summary.json")
     assert summary["status"] == "event" and 0.2 < summary["time_to_fall_s"] < 0.45
     assert summary["stability_at_start"]["unstable"] >= 1
     for name in ("states.sto", "stick.png", "stick.gif", "angles.png"):
@@ -31,12 +31,12 @@ def test_collapse_cli_writes_outputs(tmp_path, capsys):
     assert "time to fall" in capsys.readouterr().out
 
 
-def test_rod_cli_body_beats_inertial(tmp_path):
+def test_rod_cli_body_beats_inertial(tmp_path, assert_tidy_result):
     out = tmp_path / "rod"
     code = main(["simulate", str(PROBLEMS / "rod.toml"), "--out", str(out),
                  "--set", "rod.step_study=[]", "--set", "rod.duration=1.5"])
     assert code == 0
-    rms = json.loads((out / "summary.json").read_text())["rms"]
+    rms = assert_tidy_result(out / "summary.json")["rms"]
     assert rms["body"]["base_pitch"] < rms["inertial"]["base_pitch"]
 
 
@@ -73,14 +73,14 @@ def test_divergence_writes_partial_and_exits_nonzero(tmp_path, capsys):
     assert "t = " in err and "partial" in err
 
 
-def test_resynthesis_subject01(tmp_path):
+def test_resynthesis_subject01(tmp_path, assert_tidy_result):
     out = tmp_path / "re"
     code = main(["simulate", str(PROBLEMS / "resynthesis.toml"), "--out", str(out),
                  "--set", "simulation.duration=0.5", "--set", "stability.times=[0.05, 0.2, 0.4]",
                  "--set", "integrator.method='rk4'",
                  "--set", "integrator.step=0.002"])
     assert code == 0
-    s = json.loads((out / "summary.json").read_text())
+    s = assert_tidy_result(out / "summary.json")
     runs = {r["name"]: r for r in s["runs"]}
     # Without passive elements the leg leaves the measured path within 0.5 s; with the
     # thesis' k=100, c=100 knee it stays closer (Fig. 4.2.9).

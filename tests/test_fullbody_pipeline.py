@@ -17,14 +17,14 @@ TRIAL = [DATA / "subject01_walk1.trc", DATA / "subject01_walk1_grf.mot"]
 pytestmark = pytest.mark.skipif(not DATA.is_dir(), reason="shared data not available")
 
 
-def test_subject01_whole_body(tmp_path):
+def test_subject01_whole_body(tmp_path, assert_tidy_result):
     info = run_inverse_fullbody(TRIAL, MAP, mass=72.6, height=1.8034, sex="male",
                                 out_dir=tmp_path / "out", static=DATA / "subject01_static.trc")
     out = tmp_path / "out"
     for name in ("kinematics3d.sto", "inverse_dynamics3d.sto", "inverse_dynamics3d.csv",
                  "ik_residuals.csv", "summary.json"):
         assert (out / name).is_file()
-    assert json.loads((out / "summary.json").read_text())["frames"] == 151
+    assert assert_tidy_result(out / "summary.json")["frames"] == 151
     # Plate 0 is the right foot, plate 1 the left (subject01_walk1_grf.xml).
     assert {(s["plate"], s["side"]) for s in info["stances"]} == {("0", "r"), ("1", "l")}
     legs = [m for m in info["ik_marker_rms_m"] if m.startswith(("R.Heel", "L.Heel", "R.Shank",

@@ -9,7 +9,6 @@ inverse-dynamics moment stays on the reference; stiffer knee springs delay the f
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -256,17 +255,17 @@ def test_bad_input_names_the_key(setting, key):
         parse_spec(PROBLEM, [setting])
 
 
-def test_cli_writes_the_result_folder(tmp_path, capsys):
+def test_cli_writes_the_result_folder(tmp_path, capsys, assert_tidy_result):
     out = tmp_path / "gait7"
     assert main(["simulate", str(PROBLEM), "--out", str(out)]) == 0
     for name in ("states.sto", "states_knee.sto", "grf.sto", "grf.csv", "grf.png",
-                 "knee.png", "stick.png", "summary.json"):
+                 "knee.png", "stick.png", "stick.gif", "summary.json"):
         assert (out / name).is_file(), name
-    summary = json.loads((out / "summary.json").read_text())
+    summary = assert_tidy_result(out / "summary.json")
     assert summary["kind"] == "gait7" and summary["grf"]["right"]["correlation"] > 0.5
     names = [r["name"] for r in summary["runs"]]
     assert names[0] == "main" and "meglan" in names
-    assert "GRF vs plates" in capsys.readouterr().out
+    assert "GRF r R/L" in capsys.readouterr().out
     assert main(["simulate", str(PROBLEM), "--out", str(out), "--set",
                  "contact.model=coulomb"]) == 2
     assert "contact.model" in capsys.readouterr().err

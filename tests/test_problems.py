@@ -110,16 +110,15 @@ def test_failures_are_reported_not_returned(trial):
         NodeData.from_drivers(drivers, 0.0, 9.0, 50)
 
 
-def test_cli_solve_with_resimulation_check(tmp_path):
+def test_cli_solve_with_resimulation_check(tmp_path, assert_tidy_result):
     run = [sys.executable, "-m", "predgait", "solve"]
     out = tmp_path / "knee"
     result = subprocess.run([*run, str(REPO / "problems" / "knee_fit.toml"), "--set",
                              "nodes=200", "--set", "window=[0.0, 0.6]", "--out", str(out)],
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
-    import json
 
-    solution = json.loads((out / "solution.json").read_text())
+    solution = assert_tidy_result(out / "solution.json")
     check = solution["resimulation_check"]
     assert solution["status"] == "solved"
     assert check["with_fit"]["time_to_threshold_s"] > \

@@ -101,7 +101,7 @@ def lambda_free_task(point):
     return scenario_metrics(STIFF_KNEE, point)
 
 
-def test_cli_scenario_and_sweep(tmp_path):
+def test_cli_scenario_and_sweep(tmp_path, assert_tidy_result):
     run = [sys.executable, "-m", "predgait"]
     result = subprocess.run([*run, "scenario", str(STIFF_KNEE), "--set", "window=[0.0, 0.5]",
                              "--out", str(tmp_path / "s")], capture_output=True, text=True,
@@ -109,6 +109,9 @@ def test_cli_scenario_and_sweep(tmp_path):
     assert result.returncode == 0, result.stderr
     assert {"summary.json", "states_baseline.sto", "states_edited.sto", "edited_leg.urdf",
             "angles.png"} <= {p.name for p in (tmp_path / "s").iterdir()}
+    edits = assert_tidy_result(tmp_path / "s" / "summary.json")["edits"]
+    assert edits == [{"kind": "passive", "joint": "knee", "k": 100.0, "c": 2.0,
+                      "theta0_deg": 10.0}]
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(f'scenario = "{STIFF_KNEE}"\n[grid]\n"edit.0.k" = [0.0, 100.0]\n'
                      f'"edit.0.c" = [0.0, -5.0]\n')
@@ -120,3 +123,5 @@ def test_cli_scenario_and_sweep(tmp_path):
     # A negative damping is refused by the scenario file check: recorded, sweep goes on.
     assert sum(",failed," in row for row in rows) == 2
     assert "outside 0..10000" in rows[2]
+    failures = assert_tidy_result(tmp_path / "w" / "summary.json")["failures"]
+    assert [f["point"]["edit.0.c"] for f in failures] == [-5.0, -5.0]

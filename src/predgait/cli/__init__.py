@@ -39,6 +39,8 @@ def add_output_options(command: argparse.ArgumentParser, *, overrides: str | Non
                              help=f"override a key of the file, e.g. --set {overrides} "
                                   "(repeatable)")
     command.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    command.add_argument("--no-plots", action="store_true",
+                         help="write no PNG/GIF plots (batch use; numbers and tables only)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -73,7 +75,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        with warnings.catch_warnings(record=True) as caught:
+        from predgait.report.figures import plots_off
+
+        with plots_off(getattr(args, "no_plots", False)), \
+                warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("default")
             status = int(args.run(args) or 0)
         for warning in caught:  # shown only when the command did not fail

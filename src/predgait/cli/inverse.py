@@ -168,10 +168,9 @@ def run_fullbody(args: argparse.Namespace) -> int:
     summary = run_inverse_fullbody(files, args.marker_map, mass=args.mass, height=args.height,
                                    sex=args.sex, out_dir=args.out, static=args.static,
                                    cutoff=cutoff, grf_cutoff=grf_cutoff, force=args.force)
-    print(f"3D inverse dynamics of the full body; wrote {args.out}/")
-    for key in ("ik_rms_m", "ik_flagged_frames", "pelvis_residual_force_N",
-                "pelvis_residual_moment_Nm"):
-        print(f"  {key}: {summary.get(key)}")
+    from predgait.report.console import inverse3d_text
+
+    print(inverse3d_text(summary, args.out))
     return 0
 
 

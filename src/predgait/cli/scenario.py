@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from predgait.cli import add_output_options
@@ -29,42 +28,31 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def write_scenario(result, out: Path, *, force: bool = False) -> None:
     """Write the scenario's result folder whole or not at all."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
     from predgait.data import write_storage
+    from predgait.report.figures import plots_wanted
+    from predgait.report.scenario_plots import save_scenario_plot
+    from predgait.report.tidy import write_summary
+    from predgait.scenarios.edits import edit_record
     from predgait.workflows.output import staged_output
 
     with staged_output(out, force=force, inputs=[result.spec.source]) as stage:
         summary = {"status": result.metrics["status"], "scenario": result.spec.name,
-                   "edits": [repr(e) for e in result.spec.edits],
+                   "trial": "bundled:subject01", "side": result.spec.side,
+                   "torques": result.spec.torques.value, "gains": result.spec.gains.value,
+                   "edits": [edit_record(e) for e in result.spec.edits],
                    "window_s": list(result.spec.window),
                    "control": {"kp_n_m_per_rad": result.spec.kp,
                                "kd_n_m_s_per_rad": result.spec.kd},
                    "metrics": result.metrics}
-        (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        write_summary(stage / "summary.json", summary)
         for name, sim in (("baseline", result.baseline), ("edited", result.edited)):
             columns = {n: sim.q[:, i] for i, n in enumerate(sim.coordinate_names)}
             columns |= {f"{n}_speed": sim.qd[:, i] for i, n in enumerate(sim.coordinate_names)}
             write_storage(stage / f"states_{name}.sto", sim.t, columns,
                           header={"units": "m, rad, m/s, rad/s", "scenario": result.spec.name})
         (stage / "edited_leg.urdf").write_text(result.edited_urdf)
-        fig, axes = plt.subplots(1, 2, figsize=(10, 3.5), constrained_layout=True)
-        for ax, joint, i, sign in ((axes[0], "ankle dorsiflexion", 3, 1),
-                                   (axes[1], "knee flexion", 4, -1)):
-            for sim, label in ((result.baseline, "baseline"), (result.edited, "edited")):
-                ax.plot(sim.t, np.degrees(sign * sim.q[:, i]), label=label)
-            ax.set_title(joint)
-            ax.set_xlabel("time from heel strike (s)")
-            ax.set_ylabel("deg")
-            ax.grid(alpha=0.3)
-        axes[0].legend()
-        fig.suptitle(f"Scenario: {result.spec.name}")
-        fig.savefig(stage / "angles.png", dpi=110)
-        plt.close(fig)
+        if plots_wanted():
+            save_scenario_plot(stage, result)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,8 +63,8 @@ def run(args: argparse.Namespace) -> int:
     write_scenario(result, args.out, force=args.force)
     m = result.metrics
     print(f"scenario '{result.spec.name}': {m['status']}; wrote {args.out}/")
-    print(f"  knee angle change RMS {m['knee_rms_change_deg']:.2f} deg (max "
-          f"{m['knee_max_change_deg']:.2f}); ankle {m['ankle_rms_change_deg']:.2f} deg")
+    print(f"  knee angle change RMS {m['knee_rms_change_deg']:.1f} deg (max "
+          f"{m['knee_max_change_deg']:.1f}); ankle {m['ankle_rms_change_deg']:.1f} deg")
     print(f"  extra feedback torque RMS: knee {m['knee_extra_feedback_rms_n_m']:.1f} N m, "
           f"ankle {m['ankle_extra_feedback_rms_n_m']:.1f} N m")
     return 0

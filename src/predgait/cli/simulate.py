@@ -41,6 +41,7 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Parse, run, write the folder whole; exit 1 (with partial states) on divergence."""
+    from predgait.report.console import simulate_text
     from predgait.workflows.output import staged_output
     from predgait.workflows.simulate import parse_spec
     from predgait.workflows.simulate_run import run_spec
@@ -48,33 +49,7 @@ def run(args: argparse.Namespace) -> int:
     spec = parse_spec(args.problem, args.set)
     with staged_output(args.out, force=args.force, inputs=[args.problem]) as stage:
         summary = run_spec(spec, stage, progress=True)
-    print(f"wrote {args.out} ({summary['kind']}): status {summary['status']}")
-    fall = summary.get("time_to_fall_s")
-    print(f"  time to fall: {'none' if fall is None else f'{fall:.3f} s'}")
-    for row in summary.get("runs", []):
-        name = row.get("name") or row.get("frame")
-        bits = [row["status"]]
-        if row.get("time_to_fall_s") is not None:
-            bits.append(f"fall {row['time_to_fall_s']:.3f} s")
-        if row.get("fall_criterion"):
-            bits.append(row["fall_criterion"])
-        if "rms_deg" in row:
-            bits.append("RMS " + ", ".join(f"{k} {v:.2f} deg" for k, v in row["rms_deg"].items()))
-            t5 = row.get("time_to_threshold_s")
-            bits.append(f"deviation > {summary.get('threshold_deg', 5):g} deg at "
-                        + ("never" if t5 is None else f"{t5:.3f} s"))
-        if "rms" in row:
-            bits.append("RMS theta "
-                        f"{row['rms']['base_pitch'] * 57.29578:.4f} deg, x "
-                        f"{row['rms']['base_x'] * 1000:.3f} mm")
-        if "grf" in row:  # gait7: vertical GRF vs plates, knee-driven run
-            bits.append("GRF vs plates " + ", ".join(
-                f"{side} r {g['correlation']:.2f} RMS {g['rms_n']:.0f} N"
-                for side, g in row["grf"].items()))
-            knee = row.get("knee_run")
-            if knee:
-                bits.append(f"knee-driven ({knee['moment']} moment) {knee['status']}")
-        print(f"  {name}: " + "; ".join(bits))
+    print(simulate_text(summary, args.out))
     if summary["status"] == "diverged":
         print(f"predgait: error: {summary['message']} (partial states written to {args.out})",
               file=sys.stderr)

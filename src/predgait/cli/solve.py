@@ -42,11 +42,12 @@ def run(args: argparse.Namespace) -> int:
 
     from predgait.errors import SolveFailed
     from predgait.problemfile import load_problem
-    from predgait.workflows.solve import parse_solve, run_solve
 
     table = load_problem(args.problem, args.set)
-    if table.data.get("kind") == "passive_decomposition":
+    if table.data.get("kind") == "passive_decomposition":   # no collocation, lighter imports
         return _run_decomposition(table, args)
+    from predgait.workflows.solve import parse_solve, run_solve
+
     spec = parse_solve(table)
     try:
         solution = run_solve(spec, args.out, force=args.force)
@@ -70,7 +71,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  these are a {solution['what']}")
     for name, half in solution["confidence95"].items():
         print(f"  {name}: 95 % interval " + (half if isinstance(half, str) else f"+-{half:.3g}"))
-    print(f"  optimiser tracking RMS (deg): {solution['optimiser_tracking_rms_deg']}")
+    print("  optimiser tracking RMS: " + ", ".join(
+        f"{k} {v:.2f} deg" for k, v in solution["optimiser_tracking_rms_deg"].items()))
     for name, result in check.items():
         when = result["time_to_threshold_s"]
         settled = result["within_threshold_from_s"]

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import csv
 import functools
-import json
 import time
 from pathlib import Path
 
@@ -69,51 +68,28 @@ def sweep_points(path: Path):
                                    seed=int(rnd.number("seed", 0, low=0, high=2**31)))
 
 
-def _plots(outcomes, folder: Path) -> None:
-    import matplotlib
+def _baseline(scenario: Path, keys) -> dict:
+    """The scenario file's own value of each swept key (``edit.0.k`` style), if it has one."""
+    from predgait.problemfile import load_problem
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    ok = [o for o in outcomes if o.ok]
-    if not ok:
-        return
-    params = list(ok[0].point.values)
-    if len(params) == 2 and len(ok) == len(outcomes):
-        xs = sorted({o.point.values[params[0]] for o in ok})
-        ys = sorted({o.point.values[params[1]] for o in ok})
-        if len(xs) * len(ys) == len(ok):
-            for metric in METRICS_PLOTTED:
-                grid = np.full((len(ys), len(xs)), np.nan)
-                for o in ok:
-                    grid[ys.index(o.point.values[params[1]]),
-                         xs.index(o.point.values[params[0]])] = o.metrics.get(metric, np.nan)
-                fig, ax = plt.subplots(figsize=(5.5, 4.2), constrained_layout=True)
-                image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
-                ax.set_xticks(range(len(xs)), [f"{x:g}" for x in xs])
-                ax.set_yticks(range(len(ys)), [f"{y:g}" for y in ys])
-                ax.set_xlabel(params[0])
-                ax.set_ylabel(params[1])
-                fig.colorbar(image, label=metric)
-                fig.savefig(folder / f"heatmap_{metric}.png", dpi=110)
-                plt.close(fig)
-            return
-    for param in params:
-        fig, axes = plt.subplots(1, len(METRICS_PLOTTED), figsize=(12, 3.4),
-                                 constrained_layout=True)
-        x = [o.point.values[param] for o in ok]
-        for ax, metric in zip(axes, METRICS_PLOTTED, strict=True):
-            ax.plot(x, [o.metrics.get(metric, np.nan) for o in ok], "o")
-            ax.set_xlabel(param)
-            ax.set_title(metric, fontsize=9)
-            ax.grid(alpha=0.3)
-        fig.savefig(folder / f"outcome_vs_{param.replace('.', '_')}.png", dpi=110)
-        plt.close(fig)
+    values = {}
+    for key in keys:
+        node = load_problem(scenario).data
+        for part in key.split("."):
+            node = node[int(part)] if isinstance(node, list) and part.isdigit() else (
+                node.get(part) if isinstance(node, dict) else None)
+            if node is None:
+                break
+        if isinstance(node, int | float):
+            values[key] = float(node)
+    return values
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep and write its results."""
+    from predgait.report.figures import plots_wanted
+    from predgait.report.sweep_plots import save_sweep_plots
+    from predgait.report.tidy import write_summary
     from predgait.scenarios.run import load_scenario, scenario_metrics
     from predgait.scenarios.sweep import outcomes_table, run_sweep
     from predgait.workflows.output import staged_output
@@ -133,11 +109,13 @@ def run(args: argparse.Namespace) -> int:
         failed = [o for o in outcomes if not o.ok]
         summary = {"status": "completed" if not failed else "completed with failures",
                    "scenario": str(scenario), "runs": len(outcomes), "failed": len(failed),
-                   "failures": {str(o.point.values): o.reason for o in failed},
+                   "failures": [{"point": o.point.values, "reason": o.reason} for o in failed],
                    "wall_time_s": seconds, "scenarios_per_second": len(outcomes) / seconds,
                    "workers": "dask" if args.scheduler else args.workers}
-        (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        _plots(outcomes, stage)
+        write_summary(stage / "summary.json", summary)
+        if plots_wanted() and outcomes:
+            save_sweep_plots(outcomes, stage, METRICS_PLOTTED,
+                             baseline=_baseline(scenario, outcomes[0].point.values))
     print(f"sweep: {len(outcomes)} runs ({len(failed)} failed) in {seconds:.1f} s "
           f"({len(outcomes) / seconds:.2f} per s); wrote {args.out}/")
     return 0

@@ -12,11 +12,9 @@ flexion = -q_knee; moments likewise), see :mod:`predgait.kinematics.clinical`.
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from predgait.report.figures import new_figure, save_figure
 
 #: Free joint -> (column in the full coordinates, column in the free state, clinical sign).
 JOINTS = {"ankle": (3, 0, 1.0), "knee": (4, 1, -1.0)}
@@ -25,7 +23,7 @@ CLINICAL = {"ankle": "ankle dorsiflexion", "knee": "knee flexion"}
 
 def _axes(ax):
     if ax is None:
-        _, ax = plt.subplots(figsize=(5, 3.4), constrained_layout=True)
+        _, ax = new_figure(figsize=(5, 3.4))
     return ax
 
 
@@ -133,16 +131,14 @@ def ipopt_lines(solved, *, every: int = 5) -> list[str]:
 def save_diagnostics(folder, measured_t, measured_q, fit, simulations) -> list[str]:
     """Write before_after.png and convergence.png into ``folder``; their names."""
     written = []
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), constrained_layout=True)
+    fig, axes = new_figure(1, 2, figsize=(11, 3.8), wspace=0.25, title=True)
     for ax, joint in zip(axes, JOINTS, strict=True):
         plot_angles(joint, measured_t, measured_q, fit=fit, simulations=simulations, ax=ax)
     axes[0].legend(fontsize=7)
     fig.suptitle(f"{fit.kind.replace('_', ' ')}: measured vs synthesized before/after")
-    fig.savefig(folder / "before_after.png", dpi=110)
-    plt.close(fig)
+    save_figure(fig, folder / "before_after.png")
     written.append("before_after.png")
     ax = plot_history(fit.solved)
-    ax.figure.savefig(folder / "convergence.png", dpi=110)
-    plt.close(ax.figure)
+    save_figure(ax.figure, folder / "convergence.png")
     written.append("convergence.png")
     return written

@@ -25,10 +25,11 @@ def plot_fullbody_runs(runs: Sequence, joint_names: Sequence[str],
     Returns:
         The matplotlib figure.
     """
-    import matplotlib.pyplot as plt
+    from predgait.report.figures import new_figure
 
-    fig, axes = plt.subplots(len(panels) + 1, 1, figsize=(7, 2.0 * (len(panels) + 1)),
-                             sharex=True)
+    rows = (len(runs) + 2) // 2  # legend rows below the axes
+    fig, axes = new_figure(len(panels) + 1, 1, figsize=(7, 2.0 * (len(panels) + 1)),
+                           sharex=True, hspace=0.12, legend_below=0.3 + 0.17 * rows)
     longest = max(runs, key=lambda r: r.t[-1])
     for k, run in enumerate(runs):
         color = f"C{k}"
@@ -50,7 +51,5 @@ def plot_fullbody_runs(runs: Sequence, joint_names: Sequence[str],
     axes[0].set_title("simulated vs measured; x = fall", fontsize=9)
     axes[-1].set_xlabel(f"time after start (s){f', start {t0:.3f} s' if t0 else ''}")
     handles, labels = axes[0].get_legend_handles_labels()
-    rows = (len(labels) + 1) // 2
     fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=7, frameon=False)
-    fig.tight_layout(rect=(0, (0.1 + 0.17 * rows) / fig.get_figheight(), 1, 1))
     return fig

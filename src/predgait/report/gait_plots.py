@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from predgait.kinematics.clinical import ANGLES  # noqa: E402
+from predgait.kinematics.clinical import ANGLES
+from predgait.report.figures import new_figure, save_figure
 
 LABELS = {"hip_flexion": "hip flexion", "knee_flexion": "knee flexion",
           "ankle_dorsiflexion": "ankle dorsiflexion"}
@@ -38,7 +35,7 @@ def plot_series(result, series: dict[str, np.ndarray], *, scale: float, ylabel: 
                 suffix: str, title: str):
     """One row of three panels (hip, knee, ankle); returns the figure."""
     mask, x, xlabel = cycle_axis(result)
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.4), constrained_layout=True)
+    fig, axes = new_figure(1, 3, figsize=(12, 3.4), wspace=0.25, title=True)
     for ax, name in zip(axes, ANGLES, strict=True):
         ax.plot(x, scale * series[f"{name}{suffix}"][mask], color="#2a6f97", lw=1.8)
         ax.axhline(0, color="0.3", lw=0.6)
@@ -64,7 +61,7 @@ def save_gait_plots(result, folder) -> list[str]:
                                   ylabel="power (W/kg)", suffix="_power", title="Joint powers"),
     }
     mask, x, xlabel = cycle_axis(result)
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4), constrained_layout=True)
+    fig, axes = new_figure(1, 2, figsize=(9, 3.4), wspace=0.3, title=True)
     for label, column in (("Fx (forward)", 0), ("Fz (vertical)", 2)):
         axes[0].plot(x, result.grf[mask, column] / (mass * 9.81), label=label)
     axes[0].set_ylabel("ground reaction (body weight)")
@@ -80,6 +77,5 @@ def save_gait_plots(result, folder) -> list[str]:
     fig.suptitle("Ground reaction on the analysed foot")
     figures["grf.png"] = fig
     for name, figure in figures.items():
-        figure.savefig(f"{folder}/{name}", dpi=110)
-        plt.close(figure)
+        save_figure(figure, f"{folder}/{name}")
     return list(figures)

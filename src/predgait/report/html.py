@@ -1,9 +1,12 @@
 """A self-contained HTML page for any predgait result folder.
 
-Images (PNG) are embedded as base64 data URIs, JSON summaries become tables, and STO/CSV
-tables are summarised per column (unit, minimum, maximum, mean) with a link-free preview,
-so the page can be mailed or archived as one file. Sub-folders (e.g. the demo's stages)
-become sections, in name order.
+Each result (the folder, or each sub-folder holding a summary, e.g. the demo's stages)
+becomes a section: a headline block first (what was run, on which trial, status, the
+numbers that matter with units, one sentence written from those numbers; see
+:mod:`predgait.report.headline`), then the plots, then the details folded away (every
+setting and provenance entry, per-column statistics of the STO/CSV tables). Images are
+embedded as data URIs, so the page can be mailed or archived as one file; file paths are
+shown by their name only, never a folder outside the result.
 """
 
 from __future__ import annotations
@@ -11,55 +14,103 @@ from __future__ import annotations
 import base64
 import html
 import json
+import re
 from datetime import UTC, datetime
-from pathlib import Path
+from pathlib import Path, PurePath
 
 import numpy as np
 
 from predgait import __version__
 from predgait.errors import InputError
+from predgait.report.headline import GOOD, Headline, headline, summary_file
+from predgait.report.tidy import format_quantity
+from predgait.report.viewer import viewer_markup, viewer_script
 
 _STYLE = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:2rem auto;
 max-width:1100px;color:#222;line-height:1.45;padding:0 1rem}
-h1{border-bottom:2px solid #2a6f97;padding-bottom:.3rem}h2{color:#2a6f97;margin-top:2.2rem}
-h3{margin-bottom:.3rem}table{border-collapse:collapse;margin:.5rem 0 1rem;font-size:.9rem}
+h1{border-bottom:2px solid #2a6f97;padding-bottom:.3rem}h2{color:#2a6f97;margin-top:2.4rem}
+section{border-top:1px solid #ddd;margin-top:1.5rem}
+table{border-collapse:collapse;margin:.4rem 0 1rem;font-size:.9rem}
 td,th{border:1px solid #ccc;padding:.25rem .6rem;text-align:left;vertical-align:top}
-th{background:#eef4f8}td.num{text-align:right;font-variant-numeric:tabular-nums}
-figure{margin:1rem 0}figure img{max-width:100%;border:1px solid #ddd}
-figcaption{font-size:.85rem;color:#555}.meta{color:#666;font-size:.85rem}
-.status-bad{color:#b00020;font-weight:bold}.status-ok{color:#1b7f3b;font-weight:bold}
+th{background:#eef4f8;font-weight:600}td.num{text-align:right;font-variant-numeric:tabular-nums}
+.headline{background:#f6f9fb;border-left:4px solid #2a6f97;padding:.6rem 1rem;margin:.8rem 0}
+.headline table{margin:.4rem 0}.headline td{border:none;padding:.1rem .8rem .1rem 0}
+.headline td.num{font-weight:600}.interpretation{font-size:1.02rem;margin:.5rem 0 0}
+.figures{display:flex;flex-wrap:wrap;gap:1rem}figure{margin:.5rem 0;max-width:100%}
+figure img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.85rem;color:#555}
+.meta{color:#666;font-size:.85rem}.badge{padding:.1rem .5rem;border-radius:.6rem;
+font-size:.85rem;font-weight:600}.ok{background:#d8f0df;color:#1b5e20}
+.finding{background:#fff1cc;color:#6d4c00}.bad{background:#fbd9dc;color:#8e0015}
+details{margin:1rem 0;border:1px solid #ddd;border-radius:.3rem;padding:.3rem .8rem}
+summary{cursor:pointer;color:#2a6f97;font-weight:600}
+ol.walk li{margin:.4rem 0}
 """
+
+#: Caption of a plot by its file stem (prefix match for heat maps and outcome plots).
+CAPTIONS = {
+    "angles": "Joint angles", "moments": "Joint moments", "powers": "Joint powers",
+    "grf": "Ground reaction force", "stick": "Stick figures (darker = later)",
+    "contributions": "Contributions to the joint accelerations (thesis Fig. 4.2.12)",
+    "before_after": "Measured vs synthesized motion, before and after the optimisation",
+    "convergence": "Ipopt convergence", "fullbody": "Whole-body runs against the measured motion",
+    "knee": "Knee angles of the knee-driven runs (x = fall)",
+    "rod_trajectories": "Rod coordinates, simulated and synthetic trial",
+    "step_study": "Error against integrator step",
+    "clinical_angles": "Clinical joint angles, left and right",
+    "deviation": "Deviation from the measured motion: threshold band and fall",
+    "active_passive": "Inverse-dynamics moment split into passive and active parts",
+    "clinical_moments": "Clinical joint moments, left and right",
+    "heatmap_": "Sweep outcome", "outcome_vs_": "Sweep outcome",
+}
+_ORDER = ("angles", "clinical_angles", "deviation", "moments", "clinical_moments", "powers",
+          "grf", "fullbody", "knee", "before_after", "contributions", "stick")
+_PATH = re.compile(r"(?<![\w.])(?:[A-Za-z]:)?(?:~|\.{1,2})?(?:[/\\][^\s;,'\"()<>|]+)+"
+                   r"|(?<![\w./])[\w.-]+(?:/[\w.-]+)+\.[A-Za-z]\w{0,4}\b")
 
 
 def _esc(value) -> str:
     return html.escape(str(value))
 
 
-def _format_value(value) -> str:
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    if isinstance(value, list) and len(value) > 12:
-        return _esc(f"[{len(value)} values]")
-    if isinstance(value, dict | list):
-        return _esc(json.dumps(value, default=str)[:400])
-    return _esc(value)
+def scrub_paths(text: str) -> str:
+    """Every file path in ``text`` replaced by its last part (no folder is shown)."""
+    return _PATH.sub(lambda m: PurePath(m.group(0).replace("\\", "/")).name or "/", text)
 
 
-def _json_table(data: dict) -> str:
-    rows = []
-    for key, value in data.items():
-        if isinstance(value, dict) and all(not isinstance(v, dict | list) for v in value.values()):
-            inner = "".join(f"<tr><th>{_esc(k)}</th><td class='num'>{_format_value(v)}</td></tr>"
-                            for k, v in value.items())
-            rows.append(f"<tr><th>{_esc(key)}</th><td><table>{inner}</table></td></tr>")
-            continue
-        css = ""
-        if key == "status":
-            good = str(value).lower() in ("completed", "solved", "ok", "success", "converged")
-            css = " class='status-ok'" if good else " class='status-bad'"
-        rows.append(f"<tr><th>{_esc(key)}</th><td{css}>{_format_value(value)}</td></tr>")
-    return "<table>" + "".join(rows) + "</table>"
+def _value(key: str, value) -> str:
+    """A JSON value of the field ``key`` as HTML text, with unit and precision."""
+    if value is None:
+        return "–"
+    if isinstance(value, str):
+        return _esc(scrub_paths(value))
+    if isinstance(value, list):
+        if value and all(isinstance(v, int | float) and not isinstance(v, bool)
+                         for v in value):
+            if len(value) > 12:
+                return _esc(f"{len(value)} values, {format_quantity(key, min(value))} .. "
+                            f"{format_quantity(key, max(value))}")
+            return _esc(format_quantity(key, value))
+        if all(isinstance(v, dict) for v in value) and value:
+            return _records(value)
+        return _esc(", ".join(scrub_paths(str(v)) for v in value) or "–")
+    if isinstance(value, dict):
+        return _fields(value)
+    return _esc(format_quantity(key, value))
+
+
+def _fields(data: dict) -> str:
+    rows = "".join(f"<tr><th>{_esc(k.replace('_', ' '))}</th><td>{_value(k, v)}</td></tr>"
+                   for k, v in data.items())
+    return f"<table>{rows}</table>"
+
+
+def _records(rows: list[dict]) -> str:
+    keys = list(dict.fromkeys(k for row in rows for k in row))
+    head = "".join(f"<th>{_esc(k.replace('_', ' '))}</th>" for k in keys)
+    body = "".join("<tr>" + "".join(f"<td>{_value(k, row.get(k))}</td>" for k in keys)
+                   + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
 
 
 def _read_table(path: Path) -> tuple[list[str], np.ndarray, list[str]]:
@@ -94,50 +145,110 @@ def _table_summary(path: Path) -> str:
         return f"<p class='meta'>{_esc(path.name)}: no rows.</p>"
     meta = "; ".join(h for h in header if "=" in h or "unit" in h.lower())[:600]
     rows = "".join(
-        f"<tr><td>{_esc(name)}</td><td class='num'>{np.nanmin(col):.5g}</td>"
-        f"<td class='num'>{np.nanmax(col):.5g}</td><td class='num'>{np.nanmean(col):.5g}</td></tr>"
-        for name, col in zip(names, data.T, strict=False))
-    return (f"<h3>{_esc(path.name)}</h3><p class='meta'>{data.shape[0]} rows. {_esc(meta)}</p>"
-            "<table><tr><th>column</th><th>min</th><th>max</th><th>mean</th></tr>"
-            f"{rows}</table>")
+        f"<tr><td>{_esc(name)}</td><td class='num'>{np.nanmin(col):.4g}</td>"
+        f"<td class='num'>{np.nanmax(col):.4g}</td><td class='num'>{np.nanmean(col):.4g}</td>"
+        "</tr>" for name, col in zip(names, data.T, strict=False))
+    return (f"<h4>{_esc(path.name)}</h4><p class='meta'>{data.shape[0]} rows. "
+            f"{_esc(scrub_paths(meta))}</p><table><tr><th>column</th><th>min</th>"
+            f"<th>max</th><th>mean</th></tr>{rows}</table>")
 
 
-def _figure(path: Path) -> str:
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
-    caption = path.stem.replace("_", " ")
-    return (f"<figure><img alt='{_esc(caption)}' src='data:image/png;base64,{data}'>"
-            f"<figcaption>{_esc(path.name)}</figcaption></figure>")
+def _caption(path: Path) -> str:
+    stem = path.stem
+    if path.suffix == ".gif":
+        return "Stick figure over the trial, sagittal plane (animation; measured in grey)"
+    for key, text in CAPTIONS.items():
+        if stem == key or (key.endswith("_") and stem.startswith(key)):
+            extra = stem[len(key):].replace("_", " ") if key.endswith("_") else ""
+            return f"{text}{': ' + extra if extra else ''}"
+    return stem.replace("_", " ")
 
 
-def _section(folder: Path, title: str, level: int) -> str:
-    parts = [f"<h{level}>{_esc(title)}</h{level}>"]
-    for path in sorted(folder.glob("*.json")):
+def _figures(folder: Path) -> str:
+    def rank(path: Path) -> tuple:
+        stem = path.stem
+        first = next((i for i, key in enumerate(_ORDER) if stem.startswith(key)), len(_ORDER))
+        return (path.suffix == ".gif", first, stem)
+
+    parts = []
+    for path in sorted([*folder.glob("*.png"), *folder.glob("*.gif")], key=rank):
+        mime = "image/gif" if path.suffix == ".gif" else "image/png"
+        data = base64.b64encode(path.read_bytes()).decode("ascii")
+        caption = _caption(path)
+        parts.append(f"<figure><img alt='{_esc(caption)}' src='data:{mime};base64,{data}'>"
+                     f"<figcaption>{_esc(caption)} — {_esc(path.name)}</figcaption></figure>")
+    return f"<div class='figures'>{''.join(parts)}</div>" if parts else ""
+
+
+def _badge(head: Headline) -> str:
+    css = "ok" if head.status in GOOD else "finding" if head.ok else "bad"
+    text = {"event": "stopped by an event (fall)", "fell": "fell"}.get(head.status,
+                                                                       head.status)
+    return f"<span class='badge {css}'>{_esc(text)}</span>"
+
+
+def _headline_block(head: Headline) -> str:
+    numbers = "".join(f"<tr><td>{_esc(label)}</td><td class='num'>{_esc(value)}</td></tr>"
+                      for label, value in head.numbers)
+    return (f"<div class='headline'><p>Trial: <b>{_esc(head.trial)}</b> · status "
+            f"{_badge(head)}</p>" + (f"<table>{numbers}</table>" if numbers else "")
+            + (f"<p class='interpretation'>{_esc(head.sentence)}</p>" if head.sentence else "")
+            + (f"<p class='meta'>{_esc(head.note)}</p>" if head.note else "")
+            + "</div>")
+
+
+def _details(folder: Path) -> str:
+    parts = []
+    path = summary_file(folder)
+    if path is not None:
         try:
             data = json.loads(path.read_text())
+            parts.append(f"<h4>{_esc(path.name)}</h4>" + (_fields(data) if isinstance(
+                data, dict) else _value("", data)))
         except (json.JSONDecodeError, UnicodeDecodeError):
-            parts.append(f"<p class='status-bad'>{_esc(path.name)}: invalid JSON.</p>")
+            parts.append(f"<p class='bad'>{_esc(path.name)}: invalid JSON.</p>")
+    tables = sorted([*folder.glob("*.sto"), *folder.glob("*.mot")])
+    parts.extend(_table_summary(p) for p in tables)
+    if not parts:
+        return ""
+    return ("<details><summary>Details: all settings, provenance and the data files"
+            f"</summary>{''.join(parts)}</details>")
+
+
+def _result_folders(folder: Path) -> list[Path]:
+    """The folder and its sub-folders (name order) that hold a summary or plots."""
+    found = []
+    for path in [folder, *sorted(p for p in folder.rglob("*") if p.is_dir())]:
+        if any(part.startswith(".") for part in path.relative_to(folder).parts):
             continue
-        parts.append(f"<h3>{_esc(path.name)}</h3>")
-        parts.append(_json_table(data) if isinstance(data, dict) else _format_value(data))
-    for path in sorted(folder.glob("*.png")):
-        parts.append(_figure(path))
-    for path in sorted([*folder.glob("*.sto"), *folder.glob("*.mot")]):
-        parts.append(_table_summary(path))
-    gifs = sorted(folder.glob("*.gif"))
-    for path in gifs:
-        data = base64.b64encode(path.read_bytes()).decode("ascii")
-        parts.append(f"<figure><img alt='animation' src='data:image/gif;base64,{data}'>"
-                     f"<figcaption>{_esc(path.name)}</figcaption></figure>")
-    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
-        if not any(sub.rglob("*.json")) and not any(sub.rglob("*.png")):
-            continue  # e.g. the problem files used
-        parts.append(_section(sub, sub.name.replace("_", " "), min(level + 1, 3)))
-    return "\n".join(parts)
+        if summary_file(path) or any(path.glob("*.png")):
+            found.append(path)
+    return found
+
+
+def _section(folder: Path, root: Path, number: int | None) -> tuple[str, Headline]:
+    head = headline(folder) or Headline(folder.name.replace("_", " "), "-", "-")
+    title = f"{number}. {head.title}" if number is not None else head.title
+    anchor = f"r{number or 0}"
+    where = folder.relative_to(root).as_posix() if folder != root else "."
+    viewer = ""
+    if (folder / "viewer.json").is_file():
+        viewer = viewer_markup((folder / "viewer.json").read_text(), _esc(head.title))
+    return (f"<section id='{anchor}'><h2>{_esc(title)}</h2>"
+            f"<p class='meta'>folder {_esc(where)}</p>{_headline_block(head)}"
+            f"{_figures(folder)}{viewer}{_details(folder)}</section>"), head
 
 
 def build_report(result_dir: str | Path, *, title: str | None = None,
-                 source: str | None = None) -> str:
-    """The HTML text of the report of a result folder (``source``: name to show for it).
+                 source: str | None = None, intro: str | None = None) -> str:
+    """The HTML text of the report of a result folder.
+
+    Args:
+        result_dir: A predgait ``--out`` folder (its sub-folders with results become
+            numbered sections, e.g. the demo's stages).
+        title: Page title (default: "predgait report: <folder name>").
+        source: Name to show for the folder (default: its name; never a full path).
+        intro: A paragraph shown under the title.
 
     Raises:
         InputError: The folder does not exist or holds no result file.
@@ -146,13 +257,29 @@ def build_report(result_dir: str | Path, *, title: str | None = None,
     if not folder.is_dir():
         raise InputError(f"{folder}: result folder not found; give the --out folder of a "
                          "predgait command.")
-    if not any(folder.rglob("*.json")) and not any(folder.rglob("*.png")):
-        raise InputError(f"{folder}: no results (.json or .png) in this folder.")
+    results = _result_folders(folder)
+    if not results:
+        raise InputError(f"{folder}: no results (summary.json, solution.json or .png) in "
+                         "this folder.")
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-    title = title or f"predgait report: {folder.resolve().name}"
-    body = _section(folder, title, 1)
+    name = PurePath(source).name if source else folder.resolve().name
+    title = title or f"predgait report: {name}"
+    numbered = len(results) > 1
+    sections, heads = [], []
+    for number, result in enumerate(results, start=1):
+        text, head = _section(result, folder, number if numbered else None)
+        sections.append(text)
+        heads.append(head)
+    overview = ""
+    if numbered:  # the walk-through: each step's sentence, linked to its section
+        items = "".join(f"<li><a href='#r{i}'>{_esc(h.title)}</a>: {_esc(h.sentence)}</li>"
+                        for i, h in enumerate(heads, start=1))
+        overview = f"<h2>At a glance</h2><ol class='walk'>{items}</ol>"
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             f"<title>{_esc(title)}</title><style>{_STYLE}</style></head><body>"
-            f"<p class='meta'>predgait {__version__}, {stamp}, from "
-            f"{_esc(source or folder.resolve())}</p>"
-            f"{body}</body></html>\n")
+            f"<h1>{_esc(title)}</h1><p class='meta'>predgait {__version__}, {stamp}, "
+            f"result folder {_esc(name)}</p>"
+            + (f"<p>{_esc(intro)}</p>" if intro else "")
+            + overview + "".join(sections)
+            + (f"<script>{viewer_script()}</script>" if "pg-viewer" in "".join(sections)
+               else "") + "</body></html>\n")

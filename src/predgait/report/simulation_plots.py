@@ -11,11 +11,11 @@ import numpy as np
 
 
 def _axes(ax, n=1, figsize=(6, 4)):
-    import matplotlib.pyplot as plt
+    from predgait.report.figures import new_figure
 
     if ax is not None:
         return ax
-    _, axes = plt.subplots(n, 1, figsize=figsize, sharex=True, squeeze=False)
+    _, axes = new_figure(n, 1, figsize=figsize, sharex=True, squeeze=False, hspace=0.15)
     return axes[:, 0] if n > 1 else axes[0, 0]
 
 
@@ -82,3 +82,46 @@ def plot_contributions(t, parts: Mapping[str, np.ndarray], names, *, ax=None):
     axes[0].legend(fontsize=7, ncol=3)
     axes[-1].set_xlabel("time (s)")
     return axes
+
+
+def plot_deviation(t, q, reference, names, *, threshold_deg: float, time_to_threshold=None,
+                   time_to_fall=None, ax=None):
+    """Simulated minus measured angle per joint (deg), the threshold band shaded.
+
+    Args:
+        t: (n,) s of the simulation.
+        q: (n, k) simulated angles, rad, columns in ``names`` order.
+        reference: (t_ref (m,), q_ref (m, k)) measured angles, rad.
+        names: Joint names.
+        threshold_deg: Half-width of the band, deg.
+        time_to_threshold: s, when the deviation first leaves the band (dotted line).
+        time_to_fall: s, the fall (red dashed line).
+        ax: One axes or None.
+    """
+    if ax is None:
+        from predgait.report.figures import new_figure
+
+        _, ax = new_figure(figsize=(7, 3.8), title=True)
+    t, q = np.asarray(t), np.asarray(q)
+    ref_t, ref_q = (np.asarray(a) for a in reference)
+    for j, name in enumerate(names):
+        error = np.degrees(q[:, j] - np.interp(t, ref_t, ref_q[:, j]))
+        ax.plot(t, error, lw=1.5, label=name)
+    if time_to_fall is not None:
+        ax.axvline(time_to_fall, color="#b00020", ls="--", lw=1.2, label="fall")
+    ax.axhspan(-threshold_deg, threshold_deg, color="#2a6f97", alpha=0.12,
+               label=f"±{threshold_deg:g} deg")
+    if time_to_threshold is not None:
+        ax.axvline(time_to_threshold, color="0.3", ls=":", lw=1)
+        ax.text(time_to_threshold, threshold_deg, f" leaves ±{threshold_deg:g} deg at "
+                f"{time_to_threshold:.3f} s", fontsize=8, va="bottom")
+    limit = max(5 * threshold_deg, 1.0)
+    low, high = ax.get_ylim()
+    ax.set_ylim(max(low, -limit), min(high, limit))
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("simulated - measured (deg)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower left")
+    fall = "" if time_to_fall is None else f"; fall at {time_to_fall:.3f} s"
+    ax.figure.suptitle(f"Deviation from the measured motion{fall}", fontsize=10)
+    return ax

@@ -4,18 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from predgait.report.figures import new_figure, save_figure
 
 JOINTS = (("ankle dorsiflexion", 3, 1.0), ("knee flexion", 4, -1.0))
 
 
 def save_solve_plots(folder: Path, inverse, fit, sim, drivers) -> None:
     """angles.png (measured, optimised, Pinocchio re-simulation) and moments.png."""
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True)
+    fig, axes = new_figure(1, 2, figsize=(10, 3.6), wspace=0.25, title=True)
     window = (inverse.time >= fit.t[0]) & (inverse.time <= fit.t[-1])
     for ax, (name, i, sign) in zip(axes, JOINTS, strict=True):
         ax.plot(inverse.time[window], np.degrees(sign * inverse.q[window, i]), "k", lw=3,
@@ -28,12 +26,11 @@ def save_solve_plots(folder: Path, inverse, fit, sim, drivers) -> None:
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.suptitle(f"{fit.kind.replace('_', ' ')}")
-    fig.savefig(folder / "angles.png", dpi=110)
-    plt.close(fig)
+    save_figure(fig, folder / "angles.png")
     if fit.torque_change is None:
         return
     original = np.array([drivers.joint_torque(t) for t in fit.t])
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True)
+    fig, axes = new_figure(1, 2, figsize=(10, 3.6), wspace=0.25, title=True)
     for ax, (name, i, sign) in zip(axes, JOINTS, strict=True):
         ax.plot(fit.t, sign * original[:, i - 3], label="inverse dynamics")
         ax.plot(fit.t, sign * (original[:, i - 3] + fit.torque_change[:, i - 3]), "--",
@@ -43,5 +40,4 @@ def save_solve_plots(folder: Path, inverse, fit, sim, drivers) -> None:
         ax.set_ylabel("N m")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    fig.savefig(folder / "moments.png", dpi=110)
-    plt.close(fig)
+    save_figure(fig, folder / "moments.png")

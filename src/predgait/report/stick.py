@@ -1,4 +1,4 @@
-"""Stick figures of the leg, rod or gait7 (thesis Figs. 4.2.2, 4.2.5, 4.2.8-4.2.10), GIF."""
+"""Stick figures of the leg, rod, gait7 or full body (thesis Figs. 4.2.2, 4.2.5, 4.2.8), GIF."""
 
 from __future__ import annotations
 
@@ -13,22 +13,37 @@ LINES = {"leg": (("heel", "toe", "ankle_center", "heel"), ("ankle_center", "knee
          "rod": (("bottom", "top"),),
          "gait7": tuple(line for s in ("r", "l") for line in (
              ("hip_center", f"knee_center_{s}", f"ankle_center_{s}"),
-             (f"heel_{s}", f"toe_{s}", f"ankle_center_{s}", f"heel_{s}")))}
+             (f"heel_{s}", f"toe_{s}", f"ankle_center_{s}", f"heel_{s}"))),
+         "fullbody": (("hip_center_r", "lumbar_center", "hip_center_l", "hip_center_r"),
+                      ("lumbar_center", "c7", "head_top"),
+                      ("shoulder_center_r", "shoulder_center_l"),
+                      *(line for s in ("r", "l") for line in (
+                          (f"hip_center_{s}", f"knee_center_{s}", f"ankle_center_{s}"),
+                          (f"heel_contact_{s}", f"toe_contact_{s}", f"ankle_center_{s}",
+                           f"heel_contact_{s}"),
+                          (f"shoulder_center_{s}", f"elbow_center_{s}", f"hand_{s}"))))}
 
 
-def stick_points(model, q: np.ndarray) -> list[np.ndarray]:
-    """Per polyline, (n, k, 2) lab X, Z of its points for each row of q (n, nq)."""
+def stick_points(model, q: np.ndarray, *, plane: bool = True) -> list[np.ndarray]:
+    """Per polyline, the lab positions of its points for each row of q (n, nq).
+
+    Args:
+        model: A model whose ``kind`` is a key of :data:`LINES`.
+        q: (n, nq) configurations.
+        plane: X, Z only (sagittal plane, (n, k, 2)); else X, Y, Z ((n, k, 3)).
+    """
     pm = model.pin_model
     data = pm.createData()
     q = np.atleast_2d(q)
     lines = LINES[model.kind]
     names = sorted({n for line in lines for n in line})
     ids = {n: model.frame_id(n) for n in names}
-    pos = {n: np.zeros((len(q), 2)) for n in names}
+    axes = [0, 2] if plane else [0, 1, 2]
+    pos = {n: np.zeros((len(q), len(axes))) for n in names}
     for k, qk in enumerate(q):
         pin.framesForwardKinematics(pm, data, qk)
         for n in names:
-            pos[n][k] = data.oMf[ids[n]].translation[[0, 2]]
+            pos[n][k] = data.oMf[ids[n]].translation[axes]
     return [np.stack([pos[n] for n in line], axis=1) for line in lines]
 
 
@@ -52,10 +67,10 @@ def plot_stick(model, t, q, *, interval: float = 0.05, ax=None, color=None, labe
         label: Legend label of the last figure.
         offset: Horizontal shift of the drawing, m (to put runs side by side).
     """
-    import matplotlib.pyplot as plt
-
     if ax is None:
-        _, ax = plt.subplots(figsize=(4, 5))
+        from predgait.report.figures import new_figure
+
+        _, ax = new_figure(figsize=(4, 5))
     rows = sample_times(np.asarray(t), interval)
     lines = stick_points(model, np.asarray(q)[rows])
     for j in range(len(rows)):
@@ -72,36 +87,76 @@ def plot_stick(model, t, q, *, interval: float = 0.05, ax=None, color=None, labe
 
 def write_gif(path: str | Path, model, t, q, *, reference_q=None, fps: int = 20,
               max_frames: int = 80) -> Path:
-    """Animated stick figure (Pillow writer); the reference motion in grey if given."""
-    import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
+    """Animated stick figure (Pillow GIF); the reference motion in grey if given.
 
+    Args:
+        path: Output .gif.
+        model: Leg, rod or gait7 (planar figures; see :data:`LINES`).
+        t: (n,) s.
+        q: (n, nq) coordinates.
+        reference_q: Optional (n, nq) measured motion drawn behind.
+        fps: Frames per second of the animation.
+        max_frames: At most this many frames (the trial is subsampled).
+    """
     t, q = np.asarray(t), np.asarray(q)
     rows = sample_times(t, max(1.0 / fps, (t[-1] - t[0]) / max_frames))
     sim = stick_points(model, q[rows])
-    ref = stick_points(model, np.asarray(reference_q)[rows]) if reference_q is not None else None
-    allpts = np.concatenate([p.reshape(-1, 2) for p in sim + (ref or [])])
+    ref = stick_points(model, np.asarray(reference_q)[rows]) if reference_q is not None else []
+    return write_polyline_gif(path, t[rows], sim, ref, fps=fps)
+
+
+def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
+                       fps: int = 20, size: tuple[float, float] | None = None) -> Path:
+    """GIF of polylines in the X-Z plane, one frame per time.
+
+    Args:
+        path: Output .gif.
+        times: (k,) s, shown in the title.
+        lines: Per polyline, (k, points, 2) X, Z in m (drawn blue).
+        reference_lines: Same layout, drawn grey behind (the measured motion).
+        fps: Frames per second.
+        size: Figure size, inches (None: from the extent of the motion).
+    """
+    from PIL import Image
+
+    from predgait.report.figures import new_figure
+
+    allpts = np.concatenate([p.reshape(-1, 2) for p in [*lines, *reference_lines]])
     allpts = allpts[np.all(np.isfinite(allpts), axis=1)]
-    fig, ax = plt.subplots(figsize=(4, 4.5))
     lo, hi = allpts.min(axis=0) - 0.1, allpts.max(axis=0) + 0.1
+    if size is None:  # about 4.5 inches high, as wide as the motion needs
+        aspect = np.clip((hi[0] - lo[0]) / max(hi[1] - min(lo[1], -0.05), 1e-3), 0.5, 2.5)
+        size = (1.2 + 3.6 * aspect, 4.5)
+    fig, ax = new_figure(figsize=size)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(min(lo[1], -0.05), hi[1])
     ax.set_aspect("equal")
     ax.axhline(0.0, color="k", lw=0.5)
-    ref_lines = [ax.plot([], [], "-", color="0.7", lw=2)[0] for _ in (ref or [])]
-    sim_lines = [ax.plot([], [], "-o", color="C0", ms=3)[0] for _ in sim]
-    title = ax.set_title("")
-
-    def draw(j):
-        for line, pts in zip(sim_lines, sim, strict=True):
-            line.set_data(pts[j, :, 0], pts[j, :, 1])
-        for line, pts in zip(ref_lines, ref or [], strict=True):
-            line.set_data(pts[j, :, 0], pts[j, :, 1])
-        title.set_text(f"t = {t[rows[j]]:.2f} s")
-        return [*sim_lines, *ref_lines, title]
-
-    anim = FuncAnimation(fig, draw, frames=len(rows), blit=False)
+    ax.set_xlabel("X (m)")
+    ax.set_ylabel("Z (m)")
+    ref_artists = [ax.plot([], [], "-", color="0.7", lw=2, animated=True)[0]
+                   for _ in reference_lines]
+    sim_artists = [ax.plot([], [], "-o", color="C0", ms=3, animated=True)[0] for _ in lines]
+    title = ax.set_title("", animated=True)
+    canvas = fig.canvas
+    canvas.draw()  # the static parts once; each frame draws only the moving artists
+    background = canvas.copy_from_bbox(fig.bbox)
+    frames = []
+    for j, time in enumerate(times):
+        canvas.restore_region(background)
+        for artist, pts in zip([*ref_artists, *sim_artists], [*reference_lines, *lines],
+                               strict=True):
+            artist.set_data(pts[j, :, 0], pts[j, :, 1])
+            ax.draw_artist(artist)
+        title.set_text(f"t = {time:.2f} s")
+        fig.draw_artist(title)
+        rgb = np.asarray(canvas.buffer_rgba())[:, :, :3]
+        image = Image.fromarray(rgb)
+        palette = frames[0] if frames else image.quantize(colors=64,
+                                                          method=Image.Quantize.FASTOCTREE)
+        frames.append(image.quantize(palette=palette, dither=Image.Dither.NONE))
+    fig.clear()
     path = Path(path)
-    anim.save(path, writer=PillowWriter(fps=fps))
-    plt.close(fig)
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(1000 / fps),
+                   loop=0, optimize=False)
     return path

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import enum
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 from predgait.models.anthropometry import FootGeometry, LegParameters, Segment, foot_geometry
 from predgait.problemfile import Table
@@ -201,3 +201,22 @@ def parse_edit(table: Table) -> SegmentEdit | JointEdit:
     return PassiveEdit(joint, table.number("k", low=0.0, high=1e5, unit="N m/rad"),
                        table.number("c", 0.0, low=0.0, high=1e4, unit="N m s/rad"),
                        math.radians(table.number("theta0_deg", 0.0, low=-90, high=150)))
+
+
+_KIND_OF = {ScaleMass: EditKind.SCALE_MASS, ScaleLength: EditKind.SCALE_LENGTH,
+            MoveCom: EditKind.MOVE_COM, AddMass: EditKind.ADD_MASS,
+            LockJoint: EditKind.LOCK_JOINT, RangeOfMotion: EditKind.RANGE_OF_MOTION,
+            PassiveEdit: EditKind.PASSIVE}
+
+
+def edit_record(edit: SegmentEdit | JointEdit) -> dict:
+    """The ``[[edit]]`` table of ``edit``, as in a scenario file (angles in deg).
+
+    ``parse_edit`` of this table gives ``edit`` back; summaries write edits this way.
+    """
+    kind = _KIND_OF[type(edit)]
+    values = [getattr(edit, f.name) for f in fields(edit)]
+    record = {"kind": kind.value}
+    for key, value in zip(_KEYS[kind], values, strict=True):
+        record[key] = math.degrees(value) if key.endswith("_deg") else value
+    return record

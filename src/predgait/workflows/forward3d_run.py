@@ -5,12 +5,12 @@ Whole-body IK + ID of the trial, then one forward simulation per variant.
 Files: ``states_<variant>.sto`` per variant (``..._partial.sto`` if it diverged; pelvis
 position m, pelvis Cardan X-Y-Z and joint angles deg, like ``kinematics3d.sto``),
 ``summary.json`` (per variant: status, time to fall and what fell, deviations from the
-measured motion, fastest linear growth at the start) and ``fullbody.png``.
+measured motion, fastest linear growth at the start), ``fullbody.png`` and ``stick.gif``
+(sagittal stick figure of the longest run, measured motion in grey).
 """
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
@@ -21,6 +21,7 @@ from predgait.data import read_trc, write_storage
 from predgait.data.bundled import bundled_path, subject_info
 from predgait.errors import InputError
 from predgait.kinematics.ik3d import pelvis_cardan
+from predgait.report.tidy import write_summary
 from predgait.simulations.forward3d import Forward3DRun, FullbodyDrive, simulate_fullbody
 from predgait.workflows.forward3d_spec import FullbodySpec, TrialSpec
 
@@ -75,17 +76,11 @@ def _row(run: Forward3DRun, t0: float) -> dict:
             "deviation": run.deviation}
 
 
-def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) -> dict:
-    """Run every variant of ``spec`` into ``folder``; returns the summary."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from predgait.report.fullbody_plots import plot_fullbody_runs
-
+def _run_variants(spec: FullbodySpec, bar):
+    """IK + ID of the trial, then every variant; (drive, inverse, runs, t0, t1)."""
     inverse = inverse_for(spec.trial)
     drive = FullbodyDrive.from_inverse(inverse)
+    bar.update()
     t0 = spec.start if spec.start is not None else next(iter(drive.heel_strikes),
                                                          float(drive.time[0]))
     t1 = t0 + spec.duration
@@ -98,20 +93,41 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
         raise InputError(f"{spec.source}: contact.frames: the model has no frame "
                          f"{missing[0]!r}; use sole points such as "
                          "\"heel_contact_r\", \"toe_contact_r\" or marker frames.")
+    runs = []
+    for mode in spec.variants:
+        bar.set_description(mode.name)
+        runs.append(simulate_fullbody(drive, mode, (t0, t1), options=spec.integrator,
+                                      fall=spec.fall, contact=spec.contact,
+                                      band_deg=spec.band_deg, band_m=spec.band_m))
+        bar.update()
+    return drive, inverse, runs, t0, t1
+
+
+def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) -> dict:
+    """Run every variant of ``spec`` into ``folder``; returns the summary."""
+    from tqdm import tqdm
+
+    from predgait.report.figures import plots_wanted, save_figure
+    from predgait.report.fullbody_plots import plot_fullbody_runs
+    from predgait.report.viewer import write_motion
+
+    # One bar for the whole command (IK + ID, then each variant); hidden when stderr is
+    # not a terminal.
+    with tqdm(total=1 + len(spec.variants), desc="whole-body IK + ID", unit="step",
+              disable=None if progress else True, leave=False) as bar:
+        drive, inverse, runs, t0, t1 = _run_variants(spec, bar)
     names = drive.model.joint_names
     prov = {"problem": spec.source, "trial": drive.source, "predgait": __version__,
             "model": inverse.provenance.get("model", "")}
-    runs = [simulate_fullbody(drive, mode, (t0, t1), options=spec.integrator, fall=spec.fall,
-                              contact=spec.contact, band_deg=spec.band_deg,
-                              band_m=spec.band_m, progress=progress)
-            for mode in spec.variants]
     header = {"provenance": "; ".join(f"{k}={v}" for k, v in prov.items()),
               "start_s": f"{t0:.6g}"}
     for run in runs:
         write_states(folder, run, names, header)
-    fig = plot_fullbody_runs(runs, names, t0=t0)
-    fig.savefig(folder / "fullbody.png", dpi=110)
-    plt.close(fig)
+    if plots_wanted():
+        save_figure(plot_fullbody_runs(runs, names, t0=t0), folder / "fullbody.png")
+        longest = max(runs, key=lambda run: run.t[-1])  # the first of the longest runs
+        write_motion(folder, drive.model, longest.t, longest.q, reference_q=longest.measured,
+                     label=f"simulated: {longest.mode.name}")
     rows = [_row(run, t0) for run in runs]
     options = spec.integrator
     summary = {
@@ -123,5 +139,4 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
                        "iterations": options.iterations, "rtol": options.rtol,
                        "atol": options.atol},
         "fall_limits": vars(spec.fall), "runs": rows, "provenance": prov}
-    (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    return summary
+    return write_summary(folder / "summary.json", summary)

@@ -7,12 +7,12 @@ and per contact point, measured per foot, N), ``summary.json`` (per run: GRF RMS
 difference, correlation and stance peaks, mean total vertical force vs body weight,
 HAT height offset and deviation, knee-driven status and time to fall), ``grf.png``
 (simulated vs measured vertical GRF per foot and the HAT height), ``knee.png`` (knee
-angles of the knee-driven runs) and ``stick.png``.
+angles of the knee-driven runs), ``stick.png`` and ``stick.gif`` (kinematic run, measured
+in grey).
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +21,8 @@ from predgait import __version__
 from predgait.data.storage import write_csv, write_storage
 from predgait.errors import InputError
 from predgait.models.gait7 import CONTACT_FRAMES
+from predgait.report.figures import plots_wanted
+from predgait.report.tidy import write_summary
 from predgait.simulations.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
 from predgait.simulations.gait7_sim import Gait7Result, grf_comparison, kinematic_run, knee_run
 from predgait.workflows.gait7_spec import Gait7Spec, Gait7Variant
@@ -86,14 +88,14 @@ def _run_variant(spec: Gait7Spec, v: Gait7Variant, model, motion, t, cache: dict
 
 def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | None,
           interval: float) -> None:
-    import matplotlib.pyplot as plt
-
+    from predgait.report.figures import new_figure, save_figure
     from predgait.report.stick import plot_stick
+    from predgait.report.viewer import write_motion
 
     t = kin.run.t
     rows = np.searchsorted(motion.plate_time, t)
     z = model.coordinate_index("base_z")
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    fig, axes = new_figure(3, 1, figsize=(7, 8), sharex=True, hspace=0.12)
     for ax, side in zip(axes, SIDES, strict=False):
         ax.plot(t, motion.plate_fz[side][rows], "k", lw=1.5, label="force plate")
         ax.plot(t, kin.foot_fz(side), "C0", lw=1, label="simulated (kinematic)")
@@ -109,20 +111,18 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
     axes[2].set_ylabel("HAT height (m)")
     axes[2].set_xlabel("trial time (s)")
     axes[2].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(folder / "grf.png", dpi=110)
-    plt.close(fig)
+    save_figure(fig, folder / "grf.png")
     ax = plot_stick(model, t, kin.run.q, interval=interval)
-    ax.figure.tight_layout()
-    ax.figure.savefig(folder / "stick.png", dpi=110)
-    plt.close(ax.figure)
+    save_figure(ax.figure, folder / "stick.png")
+    measured = motion.q[np.clip(np.searchsorted(motion.time, t), 0, len(motion.time) - 1)]
+    write_motion(folder, model, t, kin.run.q, reference_q=measured)
 
 
 def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
     """knee.png: knee angles of the knee-driven runs (x = fall) vs the kinematic run."""
-    import matplotlib.pyplot as plt
+    from predgait.report.figures import new_figure, save_figure
 
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = new_figure(figsize=(7, 4))
     for side, style in zip(SIDES, ("k-", "k--"), strict=True):
         col = model.coordinate_index(f"knee_{side[0]}")
         ax.plot(kin.run.t, np.degrees(kin.run.q[:, col]), style, lw=2, alpha=0.4,
@@ -140,9 +140,7 @@ def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
     ax.set_xlabel("trial time (s)")
     ax.set_ylabel("knee flexion (deg)")
     ax.legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(folder / "knee.png", dpi=110)
-    plt.close(fig)
+    save_figure(fig, folder / "knee.png")
 
 
 def _write_states(folder: Path, name: str, model, result: Gait7Result, header: dict) -> None:
@@ -156,9 +154,6 @@ def _write_states(folder: Path, name: str, model, result: Gait7Result, header: d
 
 def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
     """Run the main settings and the variants into ``folder``; returns the summary."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     model = gait7_model(spec.mass, spec.height)
     motion = bundled_gait7_motion(model)
     t = _window(spec, motion)
@@ -179,8 +174,9 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
     write_storage(folder / "grf.sto", main_kin.run.t, columns, header={"units": "N"} | header)
     write_csv(folder / "grf.csv", main_kin.run.t, columns, units=dict.fromkeys(columns, "N"),
               provenance=f"{header['trial']}; {model.source}; {spec.source}")
-    _plot(folder, model, motion, main_kin, main_knee, spec.stick_interval)
-    _plot_knees(folder, model, main_kin, results)
+    if plots_wanted():
+        _plot(folder, model, motion, main_kin, main_knee, spec.stick_interval)
+        _plot_knees(folder, model, main_kin, results)
     main = rows[0]
     summary = {"kind": "gait7", "status": "diverged" if main_kin.status == "diverged"
                else "completed",
@@ -192,6 +188,5 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
                "time_to_fall_s": main["time_to_fall_s"], "grf": main["grf"], "runs": rows,
                "provenance": {"problem": spec.source, "predgait": __version__,
                               "model": model.source, **motion.provenance}}
-    (folder / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
-    return summary
+    return write_summary(folder / "summary.json", summary)
 

@@ -23,7 +23,6 @@ Marker map (TOML, read with :func:`predgait.problemfile.load_problem`)::
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,6 +63,8 @@ from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling, scal
 from predgait.models.fullbody import CONTACTS, JOINT_CENTRES, MARKERS
 from predgait.models.loading3d import Model3D, fullbody_for_subject
 from predgait.problemfile import load_problem
+from predgait.report.figures import plots_wanted
+from predgait.report.tidy import write_summary
 
 BODIES = ("pelvis", "torso", "thigh_r", "thigh_l", "shank_r", "shank_l", "foot_r", "foot_l",
           "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l")
@@ -428,8 +429,14 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     write_csv(folder / "ik_residuals.csv", time, res, units=dict.fromkeys(res, "m") |
               {"flagged": "1"}, provenance=prov)
     info = summary(result)
-    (folder / "summary.json").write_text(json.dumps(info, indent=1, default=str) + "\n")
-    return info
+    if plots_wanted():
+        from predgait.report.clinical_plots import save_clinical_plots
+        from predgait.report.viewer import write_motion
+
+        save_clinical_plots(folder, time, angles, moments, info["stances"],
+                            body_mass=result.model.total_mass())
+        write_motion(folder, result.model, time, result.q, label="measured (IK)")
+    return write_summary(folder / "summary.json", info)
 
 
 def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Path, *,

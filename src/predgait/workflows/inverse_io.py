@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +22,10 @@ from predgait.dynamics.inverse_trial import (
 )
 from predgait.errors import InputError
 from predgait.problemfile import Table
+from predgait.report.figures import plots_wanted
 from predgait.report.gait_plots import cycle_axis, save_gait_plots
+from predgait.report.tidy import write_summary
+from predgait.report.viewer import write_motion
 from predgait.workflows.output import staged_output
 
 TRIAL_KEYS = ("markers", "grf", "static", "mass", "height", "side", "model")
@@ -183,6 +185,9 @@ def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool
                   units={k: units_of(k) for k in kin}, provenance=provenance)
         write_csv(stage / "inverse_dynamics.csv", result.time, kinetics,
                   units={k: units_of(k) for k in kinetics}, provenance=provenance)
-        (stage / "summary.json").write_text(json.dumps(summary(result), indent=2) + "\n")
-        save_gait_plots(result, stage)
+        write_summary(stage / "summary.json", summary(result))
+        if plots_wanted():
+            save_gait_plots(result, stage)
+            write_motion(stage, result.model, result.time, result.q, label="measured (IK)",
+                         grf=(result.grf, result.cop))
     return Path(out)

@@ -25,6 +25,8 @@ from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forward import LegSystem, SimulationResult, simulate_leg, simulate_rod
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import load_model
+from predgait.report.figures import plots_wanted
+from predgait.report.tidy import write_summary
 from predgait.workflows.simulate import CollapseSpec, ResynthesisSpec, RodSpec, Variant
 
 
@@ -54,27 +56,20 @@ def write_states(folder: Path, sim: SimulationResult, *, name: str = "states",
 
 
 def _save(fig_or_axes, path: Path) -> None:
-    import matplotlib.pyplot as plt
+    from predgait.report.figures import save_figure
 
-    fig = np.atleast_1d(fig_or_axes)[0].figure
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(np.atleast_1d(fig_or_axes)[0].figure, path)
 
 
 def _summary(folder: Path, spec, data: dict) -> dict:
     data = {"kind": type(spec).__name__.replace("Spec", "").lower(), **data,
             "provenance": {"problem": spec.source, "predgait": __version__}
             | data.get("provenance", {})}
-    (folder / "summary.json").write_text(json.dumps(data, indent=2, default=float) + "\n")
-    return data
+    return write_summary(folder / "summary.json", data)
 
 
 def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
     """Run a spec into ``folder``; returns the summary (``status`` may be "diverged")."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     if isinstance(spec, RodSpec):
         return _run_rod(spec, folder, progress)
     if isinstance(spec, CollapseSpec):
@@ -98,8 +93,6 @@ def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
 
 # ---------------------------------------------------------------------------- rod
 def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
-    from predgait.report.simulation_plots import plot_coordinates
-    from predgait.report.stick import plot_stick, write_gif
     from predgait.simulations.rod import synthetic_rod_trial
 
     model = load_model("rod")
@@ -131,13 +124,31 @@ def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
                                 frame=frame, options=opts, t_eval=trial.time)
                 study.append({"frame": frame.value, "step_s": step, "iterations": iterations,
                               "status": sim.status, "rms": rms(sim)})
+    if plots_wanted():
+        _plot_rod(folder, spec, model, trial, runs, main, study)
+    diverged = [k for k, m in messages.items() if m]
+    return _summary(folder, spec, {
+        "status": "diverged" if diverged else "completed",
+        "message": "; ".join(messages[k] for k in diverged) or "completed",
+        "integrator": _options_dict(spec.integrator), "time_to_fall_s": None,
+        "rms": {r["frame"]: r["rms"] for r in table}, "runs": table, "step_study": study,
+        "provenance": {"trial": f"synthetic rod, {spec.rate:g} Hz, noise {spec.noise:g}",
+                       "model": model.source}})
+
+
+def _plot_rod(folder: Path, spec: RodSpec, model, trial, runs: dict, main, study) -> None:
+    from predgait.report.figures import new_figure
+    from predgait.report.simulation_plots import plot_coordinates
+    from predgait.report.stick import plot_stick
+    from predgait.report.viewer import write_motion
+
     names = model.coordinate_names
     _save(plot_coordinates({k: (s.t, s.q) for k, s in runs.items()}, names,
                            reference=(trial.time, trial.q)), folder / "rod_trajectories.png")
     if study:
-        import matplotlib.pyplot as plt
+        from predgait.report.figures import new_figure
 
-        fig, ax = plt.subplots(figsize=(5, 4))
+        fig, ax = new_figure(figsize=(5, 4))
         for frame in spec.frames:
             for it in sorted({r["iterations"] for r in study}):
                 rows = [r for r in study if r["frame"] == frame.value and r["iterations"] == it]
@@ -149,15 +160,7 @@ def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
         ax.legend(fontsize=7)
         _save(ax, folder / "step_study.png")
     _save(plot_stick(model, main.t, main.q, interval=0.1), folder / "stick.png")
-    write_gif(folder / "stick.gif", model, main.t, main.q, reference_q=trial.q[:len(main.t)])
-    diverged = [k for k, m in messages.items() if m]
-    return _summary(folder, spec, {
-        "status": "diverged" if diverged else "completed",
-        "message": "; ".join(messages[k] for k in diverged) or "completed",
-        "integrator": _options_dict(spec.integrator), "time_to_fall_s": None,
-        "rms": {r["frame"]: r["rms"] for r in table}, "runs": table, "step_study": study,
-        "provenance": {"trial": f"synthetic rod, {spec.rate:g} Hz, noise {spec.noise:g}",
-                       "model": model.source}})
+    write_motion(folder, model, main.t, main.q, reference_q=trial.q[:len(main.t)])
 
 
 # ----------------------------------------------------------------------- collapse
@@ -171,10 +174,10 @@ def _variant_options(base, variant: Variant):
 
 
 def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
-    import matplotlib.pyplot as plt
-
+    from predgait.report.figures import new_figure
     from predgait.report.simulation_plots import plot_coordinates
-    from predgait.report.stick import plot_stick, write_gif
+    from predgait.report.stick import plot_stick
+    from predgait.report.viewer import write_motion
 
     model = load_model("leg")
     foot, shank, thigh = np.radians([spec.foot_deg, spec.shank_deg, spec.thigh_deg])
@@ -196,14 +199,15 @@ def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
     main = runs["main"]
     write_states(folder, main)
     lin = linearize(LegSystem(model, drivers, passive=spec.passive), 0.0, x0)
-    _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee")),
-          folder / "angles.png")
-    fig, axes = plt.subplots(1, len(runs), figsize=(3 * len(runs), 4), squeeze=False)
-    for ax, (name, sim) in zip(axes[0], runs.items(), strict=True):
-        plot_stick(model, sim.t, sim.q, interval=spec.stick_interval, ax=ax)
-        ax.set_title(name, fontsize=8)
-    _save(axes[0], folder / "stick.png")
-    write_gif(folder / "stick.gif", model, main.t, main.q)
+    if plots_wanted():
+        _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee")),
+              folder / "angles.png")
+        fig, axes = new_figure(1, len(runs), figsize=(3 * len(runs), 4), squeeze=False)
+        for ax, (name, sim) in zip(axes[0], runs.items(), strict=True):
+            plot_stick(model, sim.t, sim.q, interval=spec.stick_interval, ax=ax)
+            ax.set_title(name, fontsize=8)
+        _save(axes[0], folder / "stick.png")
+        write_motion(folder, model, main.t, main.q)
     return _summary(folder, spec, {
         "status": "diverged" if main.partial else main.status, "message": rows[0]["message"],
         "integrator": _options_dict(spec.integrator),
@@ -237,8 +241,14 @@ def _inverse(spec: ResynthesisSpec):
 
 
 def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dict:
-    from predgait.report.simulation_plots import plot_contributions, plot_coordinates, plot_grf
-    from predgait.report.stick import plot_stick, write_gif
+    from predgait.report.simulation_plots import (
+        plot_contributions,
+        plot_coordinates,
+        plot_deviation,
+        plot_grf,
+    )
+    from predgait.report.stick import plot_stick
+    from predgait.report.viewer import write_motion
 
     inv = _inverse(spec)
     model = inv.model
@@ -292,20 +302,28 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
             stability.append({"time_s": tt, **_eig(linearize(system, tt, x))})
     parts = contribution_history(system, main)
     ref_q = np.column_stack([np.interp(main.t, inv.time, inv.q[:, i]) for i in range(5)])
-    _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee"),
-                           reference=(inv.time[inv.time <= t1], inv.q[inv.time <= t1, 3:])),
-          folder / "angles.png")
-    _save(plot_grf(main.t, main.grf, main.cop, measured=measured_grf), folder / "grf.png")
-    _save(plot_contributions(main.t, parts, ("ankle", "knee")), folder / "contributions.png")
-    import matplotlib.pyplot as plt
+    if plots_wanted():
+        _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee"),
+                               reference=(inv.time[inv.time <= t1], inv.q[inv.time <= t1, 3:])),
+              folder / "angles.png")
+        _save(plot_deviation(main.t, main.q[:, 3:], (inv.time, inv.q[:, 3:]), ("ankle", "knee"),
+                             threshold_deg=spec.threshold_deg,
+                             time_to_threshold=rows[0]["time_to_threshold_s"],
+                             time_to_fall=main.time_to_fall), folder / "deviation.png")
+        _save(plot_grf(main.t, main.grf, main.cop, measured=measured_grf), folder / "grf.png")
+        _save(plot_contributions(main.t, parts, ("ankle", "knee")), folder / "contributions.png")
+        from predgait.report.figures import new_figure
 
-    fig, axes = plt.subplots(1, 2, figsize=(8, 4.5))
-    plot_stick(model, main.t, ref_q, interval=spec.stick_interval, ax=axes[0])
-    axes[0].set_title("measured", fontsize=8)
-    plot_stick(model, main.t, main.q, interval=spec.stick_interval, ax=axes[1])
-    axes[1].set_title("synthesized", fontsize=8)
-    _save(axes, folder / "stick.png")
-    write_gif(folder / "stick.gif", model, main.t, main.q, reference_q=ref_q)
+        fig, axes = new_figure(1, 2, figsize=(8, 4.5))
+        plot_stick(model, main.t, ref_q, interval=spec.stick_interval, ax=axes[0])
+        axes[0].set_title("measured", fontsize=8)
+        plot_stick(model, main.t, main.q, interval=spec.stick_interval, ax=axes[1])
+        axes[1].set_title("synthesized", fontsize=8)
+        _save(axes, folder / "stick.png")
+        measured = [np.column_stack([np.interp(main.t, inv.time, a[:, i]) for i in range(3)])
+                    for a in (inv.grf, inv.cop)]
+        write_motion(folder, model, main.t, main.q, reference_q=ref_q,
+                     grf=(main.grf, main.cop), measured_grf=measured)
     return _summary(folder, spec, {
         "status": "diverged" if main.partial else main.status,
         "message": main_msg or main.message, "integrator": _options_dict(spec.integrator),

@@ -12,7 +12,6 @@ deviates by more than ``threshold_deg`` is the figure of merit.
 from __future__ import annotations
 
 import enum
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +29,8 @@ from predgait.problemfile import Table, load_problem
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
+from predgait.report.figures import plots_wanted
+from predgait.report.tidy import write_summary
 from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
 
@@ -226,7 +227,7 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         "parameters": fit.parameters, "confidence95": _meaningful_intervals(spec, fit),
         "ipopt_history": s.history,
         "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
-        "window_s": list(spec.window), "nodes": spec.nodes,
+        "window_s": list(spec.window), "threshold_deg": spec.threshold_deg, "nodes": spec.nodes,
         "transcription": spec.transcription.value, "diagnostics": fit.diagnostics,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
@@ -234,7 +235,7 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
     if spec.kind is Kind.KNEE_FIT:
         solution["what"] = KNEE_FIT_MEANING
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
-        (stage / "solution.json").write_text(json.dumps(solution, indent=2, default=str) + "\n")
+        solution = write_summary(stage / "solution.json", solution)
         names = ("ankle", "knee", "ankle_speed", "knee_speed")
         write_storage(stage / "states.sto", fit.t, dict(zip(names, fit.x.T, strict=True)),
                       header={"units": "rad, rad/s (model coordinates)",
@@ -251,12 +252,13 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
                         "knee_flexion_moment_corrected": -corrected[:, 1]}
             write_storage(stage / "corrected_moments.sto", fit.t, clinical,
                           header={"units": "N m (clinical sign)"})
-        from predgait.report.solve_plots import save_solve_plots
+        if plots_wanted():
+            from predgait.report.solve_plots import save_solve_plots
 
-        save_solve_plots(stage, inverse, fit, sim, drivers)
-        labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
-                  "with_fit": "re-simulated, fitted (after)",
-                  "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}
-        save_diagnostics(stage, inverse.time, inverse.q, fit,
-                         {labels[k]: v for k, v in sims.items()})
+            save_solve_plots(stage, inverse, fit, sim, drivers)
+            labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
+                      "with_fit": "re-simulated, fitted (after)",
+                      "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}
+            save_diagnostics(stage, inverse.time, inverse.q, fit,
+                             {labels[k]: v for k, v in sims.items()})
     return solution

@@ -1,0 +1,81 @@
+"""Speed of the passive decomposition fit (problems/passive_decomposition.toml).
+
+Run: python benchmarks/bench_identification.py [--repeat N]
+
+In process, on the bundled subject01 trial (inverse dynamics done once, outside the
+timing): the first fit (builds the CasADi/Ipopt solver), later fits (solver cached), and
+one bootstrap replicate; then the cold CLI process of the whole problem file with the
+bootstrap and the cut-off refits switched off, and with the file as shipped. Size: the
+knee and ankle of the planar leg, 7 fitted parameters, every sample of the trial (the
+samples enter through Gram statistics, so the NLP has 7 unknowns whatever the length).
+
+Peer: no like-for-like OpenSim Moco problem (a MocoParameter fit of passive elements on
+the same leg with prescribed kinematics) is set up here, so no ratio is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from timing import NOT_AVAILABLE, REPO, time_call, time_process  # noqa: E402
+
+PROBLEM = REPO / "problems" / "passive_decomposition.toml"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=7)
+    args = parser.parse_args()
+    import tempfile
+
+    from predgait.dynamics.inverse_trial import bundled_inverse
+    from predgait.problemfile import load_problem
+    from predgait.problems import decomposition
+    from predgait.problems.decomposition import GaitSamples, bootstrap, fit_decomposition
+    from predgait.workflows.decomposition import parse_decomposition
+
+    spec = parse_decomposition(load_problem(PROBLEM))
+    samples = GaitSamples.from_inverse(bundled_inverse(spec.side))
+    n_fit = len(spec.model.fitted)
+    start = time.perf_counter()
+    fit = fit_decomposition(samples, spec.model, spec.settings)
+    first = time.perf_counter() - start
+    later = time_call(lambda: fit_decomposition(samples, spec.model, spec.settings),
+                      args.repeat)
+    replicate = time_call(lambda: bootstrap(samples, spec.model, fit, spec.settings,
+                                            repeats=1), args.repeat)
+    print(f"passive decomposition, bundled subject01 right leg: {len(samples.time)} samples, "
+          f"{int(fit.quiet.sum())} quiet, {n_fit} fitted parameters (knee + ankle), "
+          f"{fit.iterations} Ipopt iterations (second pass)")
+    print(f"  in process, first fit (builds the solver): {first * 1e3:.1f} ms")
+    print(f"  in process, fit (2 passes, solver cached), min / median of {args.repeat}: "
+          f"{later.describe('ms')}")
+    print(f"  in process, one bootstrap replicate: {replicate.describe('ms')}")
+    cached = decomposition._problem.cache_info()
+    print(f"  solver cache: {cached.currsize} model(s) built")
+    with tempfile.TemporaryDirectory() as folder:
+        def cli(*sets):
+            argv = [sys.executable, "-m", "predgait", "solve", str(PROBLEM), "--out",
+                    f"{folder}/out", "--force"]
+            for s in sets:
+                argv += ["--set", s]
+            return argv
+
+        repeat = max(1, args.repeat // 2)
+        bare = time_process(cli("uncertainty.bootstrap=0", "filter.sensitivity_hz=[]",
+                                "filter.marker_cutoff=6.0"), repeat)
+        full = time_process(cli(), repeat)
+    print(f"  cold CLI, fit only (6 Hz, no bootstrap, no cut-off refits), {repeat} runs: "
+          f"{bare.describe('s')}")
+    print(f"  cold CLI as shipped (residual analysis, 200 bootstrap refits, 5 cut-off refits "
+          f"each with its inverse dynamics), {repeat} runs: {full.describe('s')}")
+    print(f"  OpenSim Moco MocoParameter on the same leg: {NOT_AVAILABLE}")
+
+
+if __name__ == "__main__":
+    main()

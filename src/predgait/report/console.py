@@ -1,0 +1,76 @@
+"""Short aligned text summaries of result folders, for the terminal.
+
+Numbers carry their unit and the precision it deserves (:mod:`predgait.report.tidy`):
+angles 0.1 deg, times 1 ms, forces 1 N.
+"""
+
+from __future__ import annotations
+
+from predgait.report.tidy import aligned, format_number
+
+RAD_TO_DEG = 57.29577951308232
+
+
+def table(rows: list[dict[str, str]], *, indent: str = "  ") -> str:
+    """Rows of cells as aligned columns under a header (the keys of the first row)."""
+    if not rows:
+        return ""
+    header = list(dict.fromkeys(k for row in rows for k in row))
+    cells = [header] + [[row.get(k, "") for k in header] for row in rows]
+    widths = [max(len(line[i]) for line in cells) for i in range(len(header))]
+    return "\n".join(indent + "  ".join(c.ljust(w) for c, w in zip(line, widths, strict=True))
+                     .rstrip() for line in cells)
+
+
+def _time(value) -> str:
+    return "-" if value is None else f"{value:.3f} s"
+
+
+def _run_cells(row: dict, summary: dict) -> dict[str, str]:
+    cells = {"run": str(row.get("name") or row.get("frame")), "status": str(row["status"])}
+    if "time_to_fall_s" in row or summary["kind"] != "rod":
+        cells["fall"] = _time(row.get("time_to_fall_s"))
+    if row.get("fall_criterion"):
+        cells["what fell"] = row["fall_criterion"]
+    for name, value in (row.get("rms_deg") or {}).items():
+        cells[f"RMS {name}"] = f"{format_number(value, 1)} deg"
+    if "time_to_threshold_s" in row:
+        cells[f"> {summary.get('threshold_deg', 5):g} deg at"] = _time(row["time_to_threshold_s"])
+    if isinstance(row.get("rms"), dict):  # rod: pitch and position error
+        cells["RMS theta"] = f"{row['rms']['base_pitch'] * RAD_TO_DEG:.4f} deg"
+        cells["RMS x"] = f"{row['rms']['base_x'] * 1000:.3f} mm"
+    grf = row.get("grf") or {}  # gait7: vertical GRF vs the plates, per side
+    if grf:
+        sides = "/".join(side[0].upper() for side in grf)
+        cells[f"GRF r {sides}"] = "/".join(f"{g['correlation']:.2f}" for g in grf.values())
+        cells[f"GRF RMS {sides}"] = "/".join(f"{g['rms_n']:.0f}" for g in grf.values()) + " N"
+    knee = row.get("knee_run")
+    if knee:
+        cells["knee-driven"] = f"{knee['status']} ({knee['moment']} moment)"
+    return cells
+
+
+def simulate_text(summary: dict, out) -> str:
+    """What ``predgait simulate`` prints: the status line and one aligned row per run."""
+    lines = [f"wrote {out} ({summary['kind']}): status {summary['status']}",
+             f"  time to fall: {_time(summary.get('time_to_fall_s')).replace('-', 'none')}"]
+    rows = [_run_cells(row, summary) for row in summary.get("runs", [])]
+    if rows:
+        lines.append(table(rows))
+    return "\n".join(lines)
+
+
+def inverse3d_text(summary: dict, out) -> str:
+    """What ``predgait inverse --model fullbody`` prints: IK fit and pelvis residuals."""
+    ik = summary.get("ik_rms_m") or {}
+    force = summary.get("pelvis_residual_force_N") or {}
+    moment = summary.get("pelvis_residual_moment_Nm") or {}
+    rows = [("frames", str(summary.get("frames"))),
+            ("IK marker error (RMS)", f"mean {1000 * ik.get('mean', float('nan')):.1f} mm, "
+                                      f"max {1000 * ik.get('max', float('nan')):.1f} mm"),
+            ("frames flagged by IK", str(len(summary.get("ik_flagged_frames") or []))),
+            ("pelvis residual force", f"RMS {force.get('rms', float('nan')):.1f} N, "
+                                      f"max {force.get('max', float('nan')):.1f} N"),
+            ("pelvis residual moment", f"RMS {moment.get('rms', float('nan')):.1f} N m, "
+                                       f"max {moment.get('max', float('nan')):.1f} N m")]
+    return f"3D inverse dynamics of the full body; wrote {out}/\n" + aligned(rows)
