@@ -262,3 +262,24 @@ def test_known_passive_walk_through_the_real_pipeline(tmp_path):
             assert abs(report.value / true - 1) < 0.05, (key, report.value)
         if report.status is Status.IDENTIFIED:
             assert report.interval95[0] <= true <= report.interval95[1], (key, report)
+
+
+def test_the_synthetic_walk_is_what_inverse_dynamics_inverts():
+    """The generator's applied torques equal the inverse dynamics of its exact motion."""
+    import passive_walk
+    from predgait.dynamics.external import Load
+    from predgait.dynamics.inverse import leg_inverse_dynamics
+
+    t, q, states, ref, system = passive_walk.simulate(cycles=1, seed=2)
+    t, q, states = t[::10], q[::10], states[::10]
+    qdd = np.array([system.rhs(ti, x)[5:] for ti, x in zip(t, states, strict=True)])
+    feet = passive_walk.frame_positions(ref.model, q)
+    loads = []
+    for ti, heel, toe in zip(t, feet["heel"], feet["toe"], strict=True):
+        force, cop, free = ref.ground_reaction(ti, heel, toe)
+        loads.append([Load("foot", force, point=cop, moment=free)])
+    exact = leg_inverse_dynamics(ref.model, q, states[:, 5:], qdd, loads)
+    applied = np.array([sum(system.torques(ti, x[:5], x[5:], system.reference_loads(ti)))
+                        for ti, x in zip(t, states, strict=True)])
+    np.testing.assert_allclose(exact.tau[:, 3:], applied, atol=1e-8)
+    assert np.abs(applied).max() > 20.0
