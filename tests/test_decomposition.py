@@ -154,12 +154,12 @@ def _solve(problem, out, *sets):
     return subprocess.run(args, capture_output=True, text=True, cwd=REPO, timeout=600)
 
 
-def test_cli_on_the_bundled_trial(tmp_path):
+def test_cli_on_the_bundled_trial(tmp_path, assert_tidy_result):
     out = tmp_path / "decomposition"
     run = _solve(REPO / "problems" / "passive_decomposition.toml", out,
                  "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0, 20.0]")
     assert run.returncode == 0, run.stderr
-    solution = json.loads((out / "solution.json").read_text())
+    solution = assert_tidy_result(out / "solution.json")
     assert 4.0 < solution["marker_cutoff_hz"] < 12.0        # residual analysis, 60 Hz TRC
     assert set(solution["cutoff_sensitivity"]) == {"6", "20"}
     for key, report in solution["parameters"].items():

@@ -48,6 +48,7 @@ from predgait.kinematics.planar_ik import IKResult, solve_ik
 from predgait.models.anthropometry import LegParameters, leg_from_subject
 from predgait.models.loading import Model, load_model, model_from_urdf
 from predgait.models.urdf import leg_urdf
+from predgait.textfile import source_name
 
 log = logging.getLogger(__name__)
 POINT_NAMES = ("hip", "knee", "ankle", "heel", "toe")
@@ -498,8 +499,8 @@ def run_inverse(options: InverseOptions) -> InverseResult:
         events = _kinematic_events(time, points, options.side)
     t0 = float(events.heel_strikes[0]) if len(events.heel_strikes) else 0.0
     provenance = {
-        "trial": str(options.markers), "grf": str(options.grf) if options.grf else "",
-        "static": str(options.static) if options.static else "", "side": str(options.side),
+        "trial": source_name(options.markers), "grf": source_name(options.grf),
+        "static": source_name(options.static), "side": str(options.side),
         "mass_kg": options.mass, "height_m": options.height, "model": model.source,
         "marker_cutoff_hz": cutoff, "marker_cutoff": cutoff_note, "grf_cutoff_hz": grf_cutoff,
         "contact_threshold_n": options.threshold,

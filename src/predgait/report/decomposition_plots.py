@@ -25,13 +25,10 @@ def plot_active_passive(samples, fit, joints, quiet_phases, path: Path) -> Path:
     Returns:
         ``path``.
     """
-    import matplotlib
+    from predgait.report.figures import new_figure, save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, len(joints), figsize=(5.2 * len(joints), 3.6),
-                             constrained_layout=True, squeeze=False)
+    fig, axes = new_figure(1, len(joints), figsize=(5.2 * len(joints), 3.6), squeeze=False,
+                           wspace=0.3)
     cycles = np.unique(samples.cycle[samples.cycle >= 0])
     for ax, joint in zip(axes[0], joints, strict=True):
         for start, end in quiet_phases:
@@ -52,6 +49,4 @@ def plot_active_passive(samples, fit, joints, quiet_phases, path: Path) -> Path:
         ax.set_ylabel("N m")
         ax.grid(alpha=0.3)
     axes[0][0].legend(fontsize=7)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

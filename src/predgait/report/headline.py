@@ -26,6 +26,7 @@ class Headline:
     status: str
     numbers: list[tuple[str, str]] = field(default_factory=list)
     sentence: str = ""
+    note: str = ""
 
     @property
     def ok(self) -> bool:
@@ -221,16 +222,47 @@ def _solve(s: dict) -> Headline:
     if held is not None and after["status"] in ("event", "fell"):
         sentence += f", and then falls at {_t(after['end_s'])}"
     sentence += "."
-    return Headline(title, trial_name(s["provenance"]), s["status"], numbers, sentence)
+    note = f"These are a {s['what']}." if s.get("what") else ""
+    return Headline(title, trial_name(s["provenance"]), s["status"], numbers, sentence, note)
+
+
+def _decomposition(s: dict) -> Headline:
+    fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
+    numbers = []
+    for key, r in list(fitted.items())[:4]:
+        value = f"{r['value']:.4g} {r['unit']}"
+        if r["status"] == "not identifiable":
+            value += ", not identifiable"
+        elif r.get("interval95"):
+            value += f" [{r['interval95'][0]:.3g}, {r['interval95'][1]:.3g}]"
+        numbers.append((key, value))
+    numbers += [("gait cycles", str(s["gait_cycles"])),
+                ("quiet-phase residual SD", format_quantity("_n_m",
+                                                            s["quiet_phase_residual_sd_n_m"]))]
+    identified = [k for k, r in fitted.items() if r["status"] != "not identifiable"]
+    sentence = (f"Splitting the inverse-dynamics moments of {s['gait_cycles']} gait cycle(s) "
+                f"into passive and active parts (active ~ 0 in the quiet phases), "
+                f"{len(identified)} of {len(fitted)} fitted parameters are identifiable"
+                + (f" ({', '.join(identified)})." if identified else "."))
+    return Headline("Passive moment decomposition", trial_name(s["provenance"]),
+                    s["status"], numbers, sentence)
+
+
+#: How a scenario edit kind reads in a sentence.
+EDIT_WORDS = {"passive": "a passive spring-damper", "scale_mass": "a scaled mass",
+              "scale_length": "a scaled length", "move_com": "a moved centre of mass",
+              "add_mass": "an added mass", "lock_joint": "a locked joint",
+              "range_of_motion": "a restricted range of motion"}
 
 
 def describe_edit(edit: dict) -> str:
-    """An edit table in words: passive at the knee (k 100, c 2, theta0 10.0 deg)."""
+    """An edit in words: a passive spring-damper at the knee (k 100, theta0 10.0 deg)."""
     where = edit.get("joint") or edit.get("segment") or ""
+    what = EDIT_WORDS.get(edit["kind"], edit["kind"].replace("_", " "))
     values = ", ".join(f"{k.removesuffix('_deg').removesuffix('_kg').removesuffix('_m')} "
                        f"{format_quantity(k, v)}" for k, v in edit.items()
                        if k not in ("kind", "joint", "segment"))
-    return f"{edit['kind'].replace('_', ' ')} at the {where} ({values})"
+    return f"{what} at the {where} ({values})"
 
 
 def _scenario(s: dict) -> Headline:
@@ -288,7 +320,8 @@ def _kind(s: dict) -> str | None:
 
 BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynthesis,
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
-            "solve": _solve, "scenario": _scenario, "sweep": _sweep}
+            "solve": _solve, "scenario": _scenario, "sweep": _sweep,
+            "passive_decomposition": _decomposition}
 
 
 def summary_file(folder: Path) -> Path | None:

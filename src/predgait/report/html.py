@@ -58,6 +58,8 @@ CAPTIONS = {
     "rod_trajectories": "Rod coordinates, simulated and synthetic trial",
     "step_study": "Error against integrator step",
     "clinical_angles": "Clinical joint angles, left and right",
+    "deviation": "Deviation from the measured motion: threshold band and fall",
+    "active_passive": "Inverse-dynamics moment split into passive and active parts",
     "clinical_moments": "Clinical joint moments, left and right",
     "heatmap_": "Sweep outcome", "outcome_vs_": "Sweep outcome",
 }
@@ -191,6 +193,7 @@ def _headline_block(head: Headline) -> str:
     return (f"<div class='headline'><p>Trial: <b>{_esc(head.trial)}</b> · status "
             f"{_badge(head)}</p>" + (f"<table>{numbers}</table>" if numbers else "")
             + (f"<p class='interpretation'>{_esc(head.sentence)}</p>" if head.sentence else "")
+            + (f"<p class='meta'>{_esc(head.note)}</p>" if head.note else "")
             + "</div>")
 
 

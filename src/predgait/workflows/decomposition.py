@@ -11,7 +11,6 @@ Writes solution.json, passive_moments.sto and active_passive.png.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -30,6 +29,8 @@ from predgait.problems.decomposition import (
 )
 from predgait.problems.identifiability import Status, assess
 from predgait.problems.passive_model import JOINTS, PassiveModel, build_model
+from predgait.report.figures import plots_wanted
+from predgait.report.tidy import write_summary
 from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
 
@@ -221,16 +222,17 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         columns[f"{joint}_moment_active"] = fit.active[joint]
     columns["quiet_phase"] = quiet.astype(float)
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
-        (stage / "solution.json").write_text(json.dumps(solution, indent=2, default=str) + "\n")
+        solution = write_summary(stage / "solution.json", solution)
         write_storage(stage / "passive_moments.sto", samples.time, columns,
                       header={"units": "N m (clinical sign: positive toward knee flexion / "
                                        "ankle dorsiflexion), % gait cycle",
                               "what": "inverse-dynamics moment split into passive + active",
                               "marker_cutoff_hz": f"{chosen:.3g}"})
-        from predgait.report.decomposition_plots import plot_active_passive
+        if plots_wanted():
+            from predgait.report.decomposition_plots import plot_active_passive
 
-        plot_active_passive(samples, fit, spec.model.joints, spec.settings.quiet_phases,
-                            stage / "active_passive.png")
+            plot_active_passive(samples, fit, spec.model.joints, spec.settings.quiet_phases,
+                                stage / "active_passive.png")
     return solution
 
 

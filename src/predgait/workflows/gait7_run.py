@@ -25,6 +25,7 @@ from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.simulations.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
 from predgait.simulations.gait7_sim import Gait7Result, grf_comparison, kinematic_run, knee_run
+from predgait.textfile import source_name
 from predgait.workflows.gait7_spec import Gait7Spec, Gait7Variant
 
 
@@ -186,7 +187,7 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
                               "atol": spec.integrator.atol},
                "time_span_s": [float(t[0]), float(t[-1])], "ground_z_m": spec.ground_z,
                "time_to_fall_s": main["time_to_fall_s"], "grf": main["grf"], "runs": rows,
-               "provenance": {"problem": spec.source, "predgait": __version__,
+               "provenance": {"problem": source_name(spec.source), "predgait": __version__,
                               "model": model.source, **motion.provenance}}
     return write_summary(folder / "summary.json", summary)
 
