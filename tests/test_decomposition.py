@@ -213,6 +213,9 @@ def test_cli_failures_write_nothing(tmp_path):
     assert "quiet_phases" in run.stderr and "Traceback" not in run.stderr
     run = _solve(problem, out, "passive.knee.fixed={ c = 0.0 }")
     assert run.returncode == 2 and "passive.knee.fixed: c is both fixed" in run.stderr
+    run = _solve(problem, out, "passive.knee.priors={ k = [300.0, 5.0] }")
+    assert run.returncode == 2 and not out.exists()
+    assert "passive.knee.priors.k: the prior mean 300 N m/rad lies outside" in run.stderr
 
 
 def test_knee_fit_says_what_it_is_and_prints_no_meaningless_interval(tmp_path):
