@@ -306,8 +306,6 @@ def build_cases() -> list[Case]:
                 for a in DATA_COMMANDS["s01/subject01_walk1.trc"]]
         cases.append(Case(f"inverse --model:{how}", "leg.urdf", content,
                           (*argv, "--model", "leg.urdf")))
-    cases.append(Case("inverse problem file with --model", "leg.urdf", None,
-                      ("inverse", "inverse_subject01.toml", "--model", "leg.urdf")))
     for how, problem, extra in set_cases():
         argv = PROBLEMS.get(problem, ["simulate", "{}"])
         cases.append(Case(f"--set:{how}", problem, None,

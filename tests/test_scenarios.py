@@ -117,7 +117,8 @@ def test_cli_scenario_and_sweep(tmp_path, assert_tidy_result):
                      f'"edit.0.c" = [0.0, -5.0]\n')
     result = subprocess.run([*run, "sweep", str(sweep), "--out", str(tmp_path / "w")],
                             capture_output=True, text=True, timeout=300)
-    assert result.returncode == 0, result.stderr
+    assert result.returncode == 1, result.stderr  # failed points: written, and said so
+    assert "predgait: error: 2 of 4 sweep points failed" in result.stderr
     rows = (tmp_path / "w" / "results.csv").read_text().splitlines()
     assert len(rows) == 5
     # A negative damping is refused by the scenario file check: recorded, sweep goes on.

@@ -58,3 +58,84 @@ def test_unreachable_scheduler():
     with pytest.raises(InputError, match="cannot reach the Dask scheduler"):
         run_sweep(pendulum_period, grid_points({"length": [1.0], "g": [9.81]}),
                   scheduler="tcp://127.0.0.1:9", progress=False, connect_timeout=1)
+
+
+def crash_once_at_index_1(point: SweepPoint, marker) -> dict:
+    """Kills its worker process (as SIGKILL or the OOM killer would) the first time point 1
+    runs; point 3 kills it every time."""
+    import os
+    import signal
+
+    if point.index == 3 or (point.index == 1 and not marker.exists()):
+        marker.touch()
+        os.kill(os.getpid(), signal.SIGKILL)
+    return pendulum_period(point)
+
+
+def test_killed_local_worker_is_recorded_and_the_sweep_completes(tmp_path):
+    import functools
+
+    points = grid_points({"length": [1.0, 2.0, 0.5, 4.0, 0.25], "g": [9.81]})
+    task = functools.partial(crash_once_at_index_1, marker=tmp_path / "crashed")
+    outcomes = run_sweep(task, points, workers=2, progress=False)
+    assert [o.point.index for o in outcomes] == [0, 1, 2, 3, 4]
+    assert [o.ok for o in outcomes] == [True, True, True, False, True]
+    assert "worker process died" in outcomes[3].reason
+    assert outcomes[1].metrics["period"] == pytest.approx(2.00607 * math.sqrt(2), abs=1e-4)
+
+
+def diverges_for_long_pendulums(point: SweepPoint) -> dict:
+    from predgait.errors import SimulationDiverged
+
+    if point.values["length"] > 2:
+        raise SimulationDiverged("diverged at t = 0.120 s (edited leg)")
+    return pendulum_period(point)
+
+
+def test_diverged_point_has_status_and_no_metrics():
+    points = grid_points({"length": [1.0, 3.0], "g": [9.81]})
+    outcomes = run_sweep(diverges_for_long_pendulums, points, workers=1, progress=False)
+    assert outcomes[1].status == "diverged" and not outcomes[1].metrics
+    header, rows = outcomes_table(outcomes)
+    assert rows[1][header.index("status")] == "diverged"
+    assert math.isnan(rows[1][header.index("period")])
+
+
+def test_scheduler_that_is_not_an_address():
+    with pytest.raises(InputError, match="not a Dask scheduler address"):
+        run_sweep(pendulum_period, grid_points({"length": [1.0], "g": [9.81]}),
+                  scheduler="not an address", progress=False, connect_timeout=1)
+
+
+def fake_scenario_metrics(path, point) -> dict:
+    """Stands in for a scenario run: diverges for the stiffest knee."""
+    from pathlib import Path
+
+    from predgait.errors import SimulationDiverged
+
+    assert Path(path).is_absolute()  # a worker started in any folder finds the scenario
+    if point.values["edit.0.k"] >= 200:
+        raise SimulationDiverged("diverged at t = 0.010 s (edited leg)")
+    return {"knee_rms_change_deg": point.values["edit.0.k"] / 100}
+
+
+@pytest.mark.parametrize("allow", [False, True])
+def test_sweep_command_reports_failed_points(allow, tmp_path, monkeypatch, capsys):
+    import csv
+    import json
+    from pathlib import Path
+
+    from predgait.cli import main
+
+    monkeypatch.setattr("predgait.scenarios.run.scenario_metrics", fake_scenario_metrics)
+    problem = Path(__file__).resolve().parents[1] / "problems" / "sweep_knee_stiffness.toml"
+    monkeypatch.chdir(tmp_path)
+    status = main(["sweep", str(problem), "--workers", "1", "--out", "res",
+                   *(["--allow-failures"] if allow else [])])
+    err = capsys.readouterr().err
+    assert status == (0 if allow else 1), err
+    summary = json.loads((tmp_path / "res" / "summary.json").read_text())
+    assert summary["status"].startswith("completed with failures: 3 of 12 points (3 diverged)")
+    rows = list(csv.DictReader((tmp_path / "res" / "results.csv").open()))
+    assert [r["status"] for r in rows].count("diverged") == 3
+    assert all(r["knee_rms_change_deg"] == "nan" for r in rows if r["status"] == "diverged")

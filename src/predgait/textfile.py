@@ -1,15 +1,51 @@
-"""Read a user's text file as UTF-8, with one clear error for anything else.
+"""A user's input files: read them as UTF-8 text, remember them, never write over them.
 
 Every reader of a user's text file (TOML problems, TRC, MOT, CSV, URDF, JSON) goes
 through :func:`read_text`, so a missing, binary, empty or non-UTF-8 file gives one
 :class:`~predgait.errors.InputError` naming the file and the line, never a traceback.
+Every file read is remembered, and :func:`check_not_input` refuses an output path that
+is, holds or lies inside an input (``--out`` over the problem file's folder, ``-o`` on
+the segment table that was read).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 from predgait.errors import InputError
+
+_READ: set[Path] = set()
+_STAGES: dict[Path, Path] = {}  # staging folder -> the --out it becomes
+
+
+def note_input(path: str | Path) -> None:
+    """Remember ``path`` as an input of this process (outputs may never replace it)."""
+    _READ.add(Path(path).resolve())
+
+
+def check_not_input(out: str | Path, inputs: Iterable[str | Path] = (), *,
+                    option: str = "--out") -> None:
+    """Refuse an output that is, holds or lies inside an input (real paths compared).
+
+    Args:
+        out: The output file or folder.
+        inputs: The command's own inputs (files or folders), besides every file read.
+        option: The option that named ``out``, for the message.
+
+    Raises:
+        InputError: Naming the output and the input.
+    """
+    target = Path(out).resolve()
+    for path in [*(Path(p).resolve() for p in inputs if p is not None), *sorted(_READ)]:
+        if path == target:
+            raise InputError(f"{option} {out}: refusing to overwrite an input file ({path}); "
+                             "choose another path.")
+        if target in path.parents:
+            raise InputError(f"{option} {out} holds the input {path}; choose another path.")
+        if path in target.parents:
+            raise InputError(f"{option} {out} lies inside the input folder {path}; choose a "
+                             "path outside it.")
 
 
 def read_text(path: str | Path, *, what: str = "file", allow_empty: bool = False) -> str:
@@ -28,6 +64,7 @@ def read_text(path: str | Path, *, what: str = "file", allow_empty: bool = False
         raise InputError(f"{path}: is a folder; give a {what}.")
     if not path.is_file():
         raise InputError(f"{path}: {what} not found. Check the path (cwd is {Path.cwd()}).")
+    note_input(path)
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -45,3 +82,30 @@ def read_text(path: str | Path, *, what: str = "file", allow_empty: bool = False
     if not allow_empty and not text.strip():
         raise InputError(f"{path}: the file is empty; give a {what}.")
     return text
+
+
+def stage_alias(stage: Path, out: Path | None) -> None:
+    """Name files in ``stage`` after ``out`` in provenance (None forgets the stage)."""
+    if out is None:
+        _STAGES.pop(Path(stage).resolve(), None)
+    else:
+        _STAGES[Path(stage).resolve()] = Path(out)
+
+
+def source_name(path: str | Path | None) -> str:
+    """How provenance names an input (nothing of the installing machine).
+
+    ``bundled:<file>`` for data shipped with predgait, the final ``--out`` path for a file
+    written in a staging folder, else the path as the user gave it.
+    """
+    if path is None or str(path) == "":
+        return ""
+    path = Path(path)
+    real = path.resolve()
+    datasets = (Path(__file__).parent / "datasets").resolve()
+    if datasets in real.parents:
+        return "bundled:" + real.relative_to(datasets).as_posix()
+    for stage, out in _STAGES.items():
+        if stage == real or stage in real.parents:
+            return str(out / real.relative_to(stage))
+    return str(path)

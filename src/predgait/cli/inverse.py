@@ -178,7 +178,12 @@ def run(args: argparse.Namespace) -> int:
     """Run the pipeline and write the result folder."""
     from predgait.dynamics.inverse_trial import MOST_FRAMES, run_inverse
     from predgait.workflows.inverse_io import summary, write_inverse_outputs
+    from predgait.workflows.output import check_out
 
+    given = [args.input, args.grf, args.static, args.marker_map]
+    if args.model is not None and str(args.model) != "fullbody":
+        given.append(args.model)
+    check_out(args.out, force=args.force, inputs=given)  # before any computation
     if args.model is not None and str(args.model) == "fullbody":
         return run_fullbody(args)
     options = options_from_args(args)

@@ -23,6 +23,7 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Build and write the report."""
-    write_text_atomic(build_report(args.folder), args.output, force=args.force)
+    write_text_atomic(build_report(args.folder), args.output, force=args.force,
+                      inputs=[args.folder])
     print(f"wrote {args.output}")
     return 0

@@ -58,11 +58,19 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run and write a scenario."""
     from predgait.scenarios.run import load_scenario, run_scenario
+    from predgait.workflows.output import check_out
 
+    check_out(args.out, force=args.force, inputs=[args.scenario])  # before any computation
     result = run_scenario(load_scenario(args.scenario, args.set))
     write_scenario(result, args.out, force=args.force)
     m = result.metrics
     print(f"scenario '{result.spec.name}': {m['status']}; wrote {args.out}/")
+    if m["status"].startswith("diverged"):
+        import sys
+
+        print(f"predgait: error: the scenario {m['status']}, so it has no metrics: "
+              f"{m['message']} Partial states in {args.out}/.", file=sys.stderr)
+        return 1
     print(f"  knee angle change RMS {m['knee_rms_change_deg']:.1f} deg (max "
           f"{m['knee_max_change_deg']:.1f}); ankle {m['ankle_rms_change_deg']:.1f} deg")
     print(f"  extra feedback torque RMS: knee {m['knee_extra_feedback_rms_n_m']:.1f} N m, "

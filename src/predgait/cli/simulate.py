@@ -47,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
     from predgait.workflows.simulate_run import run_spec
 
     spec = parse_spec(args.problem, args.set)
-    with staged_output(args.out, force=args.force, inputs=[args.problem]) as stage:
+    inputs = [args.problem, getattr(spec, "inverse_problem", None)]
+    with staged_output(args.out, force=args.force, inputs=inputs) as stage:
         summary = run_spec(spec, stage, progress=True)
     print(simulate_text(summary, args.out))
     if summary["status"] == "diverged":

@@ -42,11 +42,13 @@ def run(args: argparse.Namespace) -> int:
 
     from predgait.errors import SolveFailed
     from predgait.problemfile import load_problem
+    from predgait.workflows.output import check_out
+    from predgait.workflows.solve import parse_solve, run_solve
 
+    check_out(args.out, force=args.force, inputs=[args.problem])  # before any computation
     table = load_problem(args.problem, args.set)
     if table.data.get("kind") == "passive_decomposition":   # no collocation, lighter imports
         return _run_decomposition(table, args)
-    from predgait.workflows.solve import parse_solve, run_solve
 
     spec = parse_solve(table)
     try:

@@ -13,9 +13,11 @@ from predgait.cli import add_output_options
 DESCRIPTION = """\
 Run a scenario file over a grid or a random sample of its parameters (any key that
 'predgait scenario --set' accepts, e.g. edit.0.k). Runs in local processes (--workers)
-or on a Dask cluster (--scheduler tcp://HOST:PORT). A failed run is recorded with its
-reason and the sweep goes on. Writes results.csv, summary.json and plots (outcome against
-parameter; a heat map for a 2-D grid) into --out. Example: problems/sweep_knee_stiffness.toml.
+or on a Dask cluster (--scheduler tcp://HOST:PORT; needs pip install ".[dask]"). A failed
+or diverged run is recorded with its reason and the sweep goes on; the exit status is 1
+when any point failed, unless --allow-failures. Writes results.csv, summary.json and
+plots (outcome against parameter; a heat map for a 2-D grid) into --out.
+Example: problems/sweep_knee_stiffness.toml.
 """
 
 METRICS_PLOTTED = ("knee_rms_change_deg", "knee_extra_feedback_rms_n_m", "knee_peak_angle_deg")
@@ -30,6 +32,8 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("--workers", type=int, default=2, metavar="N",
                      help="local worker processes (default 2)")
     cmd.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address")
+    cmd.add_argument("--allow-failures", action="store_true",
+                     help="exit 0 even when some points failed or diverged")
     add_output_options(cmd)
     cmd.set_defaults(run=run)
 
@@ -92,12 +96,16 @@ def run(args: argparse.Namespace) -> int:
     from predgait.report.tidy import write_summary
     from predgait.scenarios.run import load_scenario, scenario_metrics
     from predgait.scenarios.sweep import outcomes_table, run_sweep
-    from predgait.workflows.output import staged_output
+    from predgait.textfile import source_name
+    from predgait.workflows.output import check_out, staged_output
 
+    check_out(args.out, force=args.force, inputs=[args.sweep])  # before any computation
     scenario, points = sweep_points(args.sweep)
     load_scenario(scenario)  # a bad scenario file fails here, once, not in every run
+    check_out(args.out, force=args.force, inputs=[args.sweep, scenario])
     started = time.perf_counter()
-    outcomes = run_sweep(functools.partial(scenario_metrics, scenario), points,
+    task = functools.partial(scenario_metrics, scenario.resolve())  # any worker's folder
+    outcomes = run_sweep(task, points,
                          workers=args.workers, scheduler=args.scheduler)
     seconds = time.perf_counter() - started
     with staged_output(args.out, force=args.force, inputs=[args.sweep, scenario]) as stage:
@@ -107,8 +115,12 @@ def run(args: argparse.Namespace) -> int:
             writer.writerow(header)
             writer.writerows(rows)
         failed = [o for o in outcomes if not o.ok]
-        summary = {"status": "completed" if not failed else "completed with failures",
-                   "scenario": str(scenario), "runs": len(outcomes), "failed": len(failed),
+        diverged = [o for o in failed if o.status == "diverged"]
+        summary = {"status": "completed" if not failed else
+                   f"completed with failures: {len(failed)} of {len(outcomes)} points "
+                   f"({len(diverged)} diverged) have no result",
+                   "scenario": source_name(scenario), "runs": len(outcomes),
+                   "failed": len(failed), "diverged": len(diverged),
                    "failures": [{"point": o.point.values, "reason": o.reason} for o in failed],
                    "wall_time_s": seconds, "scenarios_per_second": len(outcomes) / seconds,
                    "workers": "dask" if args.scheduler else args.workers}
@@ -118,4 +130,12 @@ def run(args: argparse.Namespace) -> int:
                              baseline=_baseline(scenario, outcomes[0].point.values))
     print(f"sweep: {len(outcomes)} runs ({len(failed)} failed) in {seconds:.1f} s "
           f"({len(outcomes) / seconds:.2f} per s); wrote {args.out}/")
+    if failed and not args.allow_failures:
+        import sys
+
+        first = failed[0]
+        print(f"predgait: error: {len(failed)} of {len(outcomes)} sweep points failed (first: "
+              f"{dict(first.point.values)}: {first.reason}); see {args.out}/results.csv. "
+              "Add --allow-failures to accept them.", file=sys.stderr)
+        return 1
     return 0

@@ -7,9 +7,7 @@ import tempfile
 from pathlib import Path
 
 from predgait.errors import InputError
-from predgait.textfile import read_text
-
-_INPUTS: set[Path] = set()
+from predgait.textfile import check_not_input, note_input, read_text
 
 #: Length units accepted in headers, with their factor to metres.
 LENGTH_UNITS = {"mm": 1e-3, "millimeters": 1e-3, "cm": 1e-2, "centimeters": 1e-2,
@@ -32,7 +30,7 @@ def open_input(path) -> Path:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: file not found. Check the path (cwd is {Path.cwd()}).")
-    _INPUTS.add(path.resolve())
+    note_input(path)
     return path
 
 
@@ -55,10 +53,7 @@ def duplicate_labels(labels, *, source: str, what: str = "column") -> None:
 def check_output(path) -> Path:
     """Refuse to write over a file that was read as an input in this session."""
     path = Path(path)
-    if path.resolve() in _INPUTS:
-        raise InputError(
-            f"{path}: refusing to overwrite an input file; choose another output path."
-        )
+    check_not_input(path, option="output")
     if not path.parent.is_dir():
         raise InputError(f"{path}: output folder {path.parent} does not exist; create it first.")
     return path
@@ -79,6 +74,9 @@ def atomic_write_text(path, text: str, *, protect=()) -> Path:
     if path.resolve() in {Path(p).resolve() for p in protect}:
         raise InputError(f"{path}: refusing to overwrite an input file; choose another path.")
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    mask = os.umask(0)
+    os.umask(mask)
+    os.fchmod(fd, 0o666 & ~mask)  # mkstemp makes 0600; a result file honours the umask
     try:
         with os.fdopen(fd, "w", newline="\n") as handle:
             handle.write(text)

@@ -15,12 +15,14 @@ Frames (massless links on fixed joints, seen by both Pinocchio and ADAM):
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape
 
 from predgait.errors import InputError
 from predgait.models.anthropometry import LegParameters, Segment
+from predgait.textfile import check_not_input
 
 
 @dataclass(frozen=True)
@@ -152,9 +154,15 @@ def read_urdf_info(text: str, *, source: str = "URDF") -> UrdfInfo:
     return UrdfInfo(kind=match.group(1), base=match.group(2))
 
 
-def write_text_atomic(text: str, path: str | Path, *, force: bool = False) -> Path:
-    """Write ``text`` to ``path`` whole or not at all; refuse to overwrite unless ``force``."""
+def write_text_atomic(text: str, path: str | Path, *, force: bool = False,
+                      inputs: Iterable[str | Path] = ()) -> Path:
+    """Write ``text`` to ``path`` whole or not at all; refuse to overwrite unless ``force``.
+
+    Never over an input: a file read in this process or one of ``inputs`` (or inside
+    an input folder).
+    """
     path = Path(path)
+    check_not_input(path, inputs, option="-o")
     if path.exists() and not force:
         raise InputError(f"{path} exists; choose another output path or add --force.")
     if not path.parent.is_dir():

@@ -211,7 +211,21 @@ def _drive_and_gains(spec: ScenarioSpec, inverse: InverseResult, drivers: LegDri
     return drivers, gains
 
 
+def _diverged(base: SimulationResult, edit: SimulationResult) -> dict | None:
+    """Metrics of a scenario whose baseline or edited run diverged: status and time only."""
+    for run, which in ((edit, "edited leg"), (base, "baseline")):
+        if run.status == "diverged":
+            return {"status": f"diverged at t = {run.t[-1]:.3f} s ({which})",
+                    "simulated_s": float(run.t[-1] - run.t[0]),
+                    "time_to_fall_s": None, "baseline_time_to_fall_s": None,
+                    "message": run.message}
+    return None
+
+
 def _metrics(base: SimulationResult, edit: SimulationResult, fb_base, fb_edit, drivers) -> dict:
+    diverged = _diverged(base, edit)
+    if diverged is not None:  # a diverged run is no result: no metric values
+        return diverged
     n = min(len(base.t), len(edit.t))
     diff = np.degrees(edit.q[:n, 3:] - base.q[:n, 3:])
     tau = np.array([drivers.joint_torque(t) for t in edit.t])
@@ -278,5 +292,7 @@ def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) ->
 def scenario_metrics(path: str | Path, point) -> dict:
     """Sweep task: the metrics of a scenario file with a sweep point's overrides."""
     metrics = run_scenario(load_scenario(path, point.overrides)).metrics
+    if metrics["status"].startswith("diverged"):
+        raise SimulationDiverged(metrics["status"])
     return {k: (np.nan if v is None else v) for k, v in metrics.items()
             if isinstance(v, int | float) or v is None}

@@ -15,12 +15,13 @@ import time
 import traceback
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 
 import numpy as np
 from tqdm import tqdm
 
-from predgait.errors import InputError, PredgaitError
+from predgait.errors import InputError, PredgaitError, SimulationDiverged
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,11 @@ class SweepOutcome:
     metrics: Mapping[str, float] = field(default_factory=dict)
     reason: str = ""
     seconds: float = 0.0
+    status: str = ""
+
+    def __post_init__(self):
+        if not self.status:
+            object.__setattr__(self, "status", "ok" if self.ok else "failed")
 
 
 def grid_points(axes: Mapping[str, Sequence[float]]) -> list[SweepPoint]:
@@ -70,6 +76,9 @@ def run_point(task: Callable[[SweepPoint], Mapping[str, float]], point: SweepPoi
     start = time.perf_counter()
     try:
         metrics = dict(task(point))
+    except SimulationDiverged as exc:
+        return SweepOutcome(point, False, reason=str(exc), status="diverged",
+                            seconds=time.perf_counter() - start)
     except PredgaitError as exc:
         return SweepOutcome(point, False, reason=str(exc), seconds=time.perf_counter() - start)
     except Exception as exc:  # noqa: BLE001 - a sweep records every failure and goes on
@@ -88,6 +97,9 @@ def _dask_client(scheduler: str, timeout: float):
                          ) from None
     try:
         return Client(scheduler, timeout=timeout)
+    except ValueError as exc:
+        raise InputError(f"--scheduler {scheduler!r} is not a Dask scheduler address ({exc}); "
+                         "give tcp://HOST:PORT, e.g. tcp://127.0.0.1:8786.") from None
     except (OSError, TimeoutError) as exc:
         raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start one "
                          "with 'dask scheduler' or drop --scheduler.") from None
@@ -127,15 +139,41 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
                 outcomes[point.index] = run_point(task, point)
                 bar.update()
         else:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
-                futures = [pool.submit(run_point, task, point) for point in points]
-                for future in as_completed(futures):
-                    outcome = future.result()
-                    outcomes[outcome.point.index] = outcome
-                    bar.update()
+            _run_local(task, points, workers, outcomes, bar)
     finally:
         bar.close()
     return [outcomes[point.index] for point in points]
+
+
+def _run_local(task, points, workers: int, outcomes: dict, bar, *, retries: int = 2) -> None:
+    """Run the points in local processes, surviving a worker process that dies.
+
+    A dead worker (killed, out of memory, a crash in native code) breaks the pool: the
+    points that had not finished run again in a new pool, at most ``retries`` times, and
+    are then recorded as failed; every finished point is kept.
+    """
+    pending = list(points)
+    for _ in range(retries + 1):
+        broken = []
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = {pool.submit(run_point, task, point): point for point in pending}
+            for future in as_completed(futures):
+                try:
+                    outcome = future.result()
+                except BrokenProcessPool:
+                    broken.append(futures[future])
+                    continue
+                outcomes[outcome.point.index] = outcome
+                bar.update()
+        pending = sorted(broken, key=lambda p: p.index)
+        if not pending:
+            return
+    for point in pending:
+        outcomes[point.index] = SweepOutcome(
+            point, False, reason=f"a worker process died while this point ran or waited "
+                                 f"({retries + 1} attempts); see the system log "
+                                 "(killed, out of memory?)")
+        bar.update()
 
 
 def outcomes_table(outcomes: Sequence[SweepOutcome]) -> tuple[list[str], list[list]]:
@@ -146,6 +184,6 @@ def outcomes_table(outcomes: Sequence[SweepOutcome]) -> tuple[list[str], list[li
     rows = []
     for o in outcomes:
         rows.append([o.point.index, *(o.point.values.get(p, math.nan) for p in params),
-                     "ok" if o.ok else "failed", *(o.metrics.get(m, math.nan) for m in metrics),
+                     o.status, *(o.metrics.get(m, math.nan) for m in metrics),
                      round(o.seconds, 4), o.reason])
     return header, rows

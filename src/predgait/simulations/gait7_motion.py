@@ -36,6 +36,7 @@ from predgait.dynamics.inverse_trial import (
 from predgait.errors import InputError
 from predgait.models.gait7 import build_gait7_urdf
 from predgait.models.loading import Model, model_from_urdf
+from predgait.textfile import source_name
 
 SIDES = ("right", "left")
 SHOULDER_MARKERS = ("R.Acromium", "L.Acromium")
@@ -155,5 +156,6 @@ def bundled_gait7_motion(model: Model) -> Gait7Motion:
     plates = {p.name: (p.time, p.force[:, 2]) for p in trial.plates}
     return gait7_motion(model, bundled_inverse("right"), bundled_inverse("left"),
                         xyz.mean(axis=1), plates,
-                        provenance={"trial": str(options.markers), "grf": str(options.grf),
+                        provenance={"trial": source_name(options.markers),
+                                    "grf": source_name(options.grf),
                                     "marker_cutoff_hz": options.cutoff})

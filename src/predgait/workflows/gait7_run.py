@@ -26,6 +26,7 @@ from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.simulations.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
 from predgait.simulations.gait7_sim import Gait7Result, grf_comparison, kinematic_run, knee_run
+from predgait.textfile import source_name
 from predgait.workflows.gait7_spec import Gait7Spec, Gait7Variant
 
 
@@ -91,7 +92,7 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
           interval: float) -> None:
     from predgait.report.figures import new_figure, save_figure
     from predgait.report.stick import plot_stick
-    from predgait.report.viewer import write_motion
+    from predgait.report.viewer import contact_grf, write_motion
 
     t = kin.run.t
     rows = np.searchsorted(motion.plate_time, t)
@@ -116,7 +117,10 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
     ax = plot_stick(model, t, kin.run.q, interval=interval)
     save_figure(ax.figure, folder / "stick.png")
     measured = motion.q[np.clip(np.searchsorted(motion.time, t), 0, len(motion.time) - 1)]
-    write_motion(folder, model, t, kin.run.q, reference_q=measured)
+    feet = contact_grf(model, kin.run.q, kin.forces, CONTACT_FRAMES,
+                       [[f for f in CONTACT_FRAMES if f.endswith(f"_{s[0]}")] for s in SIDES])
+    write_motion(folder, model, t, kin.run.q, reference_q=measured,
+                 grf=dict(zip((f"{s} foot" for s in SIDES), feet, strict=True)))
 
 
 def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
@@ -187,7 +191,7 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
                               "atol": spec.integrator.atol},
                "time_span_s": [float(t[0]), float(t[-1])], "ground_z_m": spec.ground_z,
                "time_to_fall_s": main["time_to_fall_s"], "grf": main["grf"], "runs": rows,
-               "provenance": {"problem": spec.source, "predgait": __version__,
+               "provenance": {"problem": source_name(spec.source), "predgait": __version__,
                               "model": model.source, **motion.provenance}}
     return write_summary(folder / "summary.json", summary)
 

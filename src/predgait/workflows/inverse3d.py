@@ -65,6 +65,7 @@ from predgait.models.loading3d import Model3D, fullbody_for_subject
 from predgait.problemfile import load_problem
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
+from predgait.textfile import source_name
 
 BODIES = ("pelvis", "torso", "thigh_r", "thigh_l", "shank_r", "shank_l", "foot_r", "foot_l",
           "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l")
@@ -317,8 +318,8 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
     sides, stances = assign_plates(model, q, at_markers)
     dynamics = inverse_dynamics_3d(model, q, v, a, at_markers, sides)
     provenance = {
-        "trial": markers.source, "marker_calibration": calibration,
-        "marker_map": marker_map.source, "trimmed": trimmed,
+        "trial": source_name(markers.source), "marker_calibration": calibration,
+        "marker_map": source_name(marker_map.source), "trimmed": trimmed,
         "unobserved_joints_held_at_zero": list(unobserved),
         "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}"
                  + (", segment lengths scaled to the static trial" if scaling else ""),

@@ -27,6 +27,7 @@ from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import load_model
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
+from predgait.textfile import source_name
 from predgait.workflows.simulate import CollapseSpec, ResynthesisSpec, RodSpec, Variant
 
 
@@ -63,7 +64,7 @@ def _save(fig_or_axes, path: Path) -> None:
 
 def _summary(folder: Path, spec, data: dict) -> dict:
     data = {"kind": type(spec).__name__.replace("Spec", "").lower(), **data,
-            "provenance": {"problem": spec.source, "predgait": __version__}
+            "provenance": {"problem": source_name(spec.source), "predgait": __version__}
             | data.get("provenance", {})}
     return write_summary(folder / "summary.json", data)
 

@@ -32,6 +32,7 @@ from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
+from predgait.textfile import source_name
 from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
 
@@ -232,12 +233,13 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         "optimiser_tracking_rms_deg": fit.rms_deg, "resimulation_check": check,
         "window_s": list(spec.window), "threshold_deg": spec.threshold_deg, "nodes": spec.nodes,
         "transcription": spec.transcription.value, "diagnostics": fit.diagnostics,
-        "provenance": {"problem": str(spec.source), "model": inverse.model.source,
+        "provenance": {"problem": source_name(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
     if spec.kind is Kind.KNEE_FIT:
         solution["what"] = KNEE_FIT_MEANING
-    with staged_output(out, force=force, inputs=[spec.source]) as stage:
+    with staged_output(out, force=force,
+                       inputs=[spec.source, spec.inverse_problem]) as stage:
         solution = write_summary(stage / "solution.json", solution)
         names = ("ankle", "knee", "ankle_speed", "knee_speed")
         write_storage(stage / "states.sto", fit.t, dict(zip(names, fit.x.T, strict=True)),
