@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+from predgait.data.events import runs_of
 from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.forces import (
     GroundContact,
@@ -214,13 +215,6 @@ def knee_run(model: Model, motion: Gait7Motion, kinematic: Gait7Result, contact,
                      events=events, t_eval=t_eval, progress=progress)
 
 
-def stances(fz: np.ndarray, threshold: float = 20.0) -> list[slice]:
-    """Runs of samples with fz > threshold (N)."""
-    on = np.concatenate([[0], (fz > threshold).astype(int), [0]])
-    edges = np.flatnonzero(np.diff(on))
-    return [slice(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
 def grf_comparison(t: np.ndarray, simulated: np.ndarray, measured: np.ndarray) -> dict:
     """RMS difference (N), correlation and per-stance peaks of two vertical GRF series.
 
@@ -228,7 +222,7 @@ def grf_comparison(t: np.ndarray, simulated: np.ndarray, measured: np.ndarray) -
     window (force above 40 N at its first or last sample) has ``complete = False``.
     """
     rows = []
-    for s in stances(measured):
+    for s in runs_of(measured > 20.0):
         edges = max(measured[s.start], measured[s.stop - 1])
         rows.append({"start_s": float(t[s.start]), "end_s": float(t[s.stop - 1]),
                      "complete": bool(edges < 40.0),

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.integrators import IntegratorOptions
+from predgait.dynamics.inverse_trial import BUNDLED
 from predgait.models.fullbody import CONTACTS
 from predgait.problemfile import Table
 from predgait.simulations.forward3d import (
@@ -27,8 +28,6 @@ from predgait.simulations.forward3d import (
     Mode,
     PelvisMode,
 )
-
-BUNDLED = "bundled:subject01"
 
 
 @dataclass(frozen=True)

@@ -18,12 +18,11 @@ from dataclasses import dataclass, field
 from predgait.dynamics.contact import ImpactContact, MeglanContact
 from predgait.dynamics.contact_fit import ImpactFit, fit_impact_to_meglan
 from predgait.dynamics.integrators import IntegratorOptions
+from predgait.dynamics.inverse_trial import BUNDLED, bundled_source
 from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.problemfile import Table
 from predgait.simulations.gait7_motion import SIDES
 from predgait.simulations.gait7_sim import FallLimits, KneeMoment
-
-TRIALS = ("bundled:subject01",)
 
 
 class ContactKind(enum.Enum):
@@ -76,7 +75,7 @@ class Gait7Spec:
 
     integrator: IntegratorOptions
     contact: ContactSpec
-    trial: str = "bundled:subject01"
+    trial: str = BUNDLED
     start: float = 0.62
     duration: float = 1.23
     mass: float = 72.6
@@ -154,10 +153,7 @@ def parse_gait7(table: Table, integrator: IntegratorOptions, source: str) -> Gai
                       "fall", "output", "variants"))
     trial = table.table("trial")
     trial.check_keys(("source", "start", "duration"))
-    name = trial.get("source", str, TRIALS[0])
-    if name not in TRIALS:
-        raise trial.error("source", f"{name!r}: only {', '.join(TRIALS)} is mapped onto "
-                                    "gait7 so far.")
+    name = bundled_source(trial)
     model = table.table("model")
     model.check_keys(("mass", "height", "ground_z"))
     fall = table.table("fall")
