@@ -131,7 +131,10 @@ def _passive_model(passive: Table, joints) -> PassiveModel:
         if sub.has("stops_deg"):
             lower, upper = sub.numbers("stops_deg", length=2, increasing=True, unit="deg")
             choices["stops"][joint] = (np.radians(lower), np.radians(upper))
-    return build_model(joints, where=f"{passive.path}: passive", **choices)
+    try:
+        return build_model(joints, where="passive", **choices)
+    except InputError as exc:
+        raise InputError(f"{passive.path}: {exc}") from None
 
 
 def _options(spec: DecompositionSpec) -> InverseOptions:
