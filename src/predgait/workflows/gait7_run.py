@@ -91,7 +91,7 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
           interval: float) -> None:
     from predgait.report.figures import new_figure, save_figure
     from predgait.report.stick import plot_stick
-    from predgait.report.viewer import write_motion
+    from predgait.report.viewer import contact_grf, write_motion
 
     t = kin.run.t
     rows = np.searchsorted(motion.plate_time, t)
@@ -116,7 +116,10 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
     ax = plot_stick(model, t, kin.run.q, interval=interval)
     save_figure(ax.figure, folder / "stick.png")
     measured = motion.q[np.clip(np.searchsorted(motion.time, t), 0, len(motion.time) - 1)]
-    write_motion(folder, model, t, kin.run.q, reference_q=measured)
+    feet = contact_grf(model, kin.run.q, kin.forces, CONTACT_FRAMES,
+                       [[f for f in CONTACT_FRAMES if f.endswith(f"_{s[0]}")] for s in SIDES])
+    write_motion(folder, model, t, kin.run.q, reference_q=measured,
+                 grf=dict(zip((f"{s} foot" for s in SIDES), feet, strict=True)))
 
 
 def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
