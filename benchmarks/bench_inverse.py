@@ -137,9 +137,10 @@ def casadi_rows(model, q, qd, qdd, force, cop, loads, repeat) -> list[Row]:
 def whole_process_rows(repeat: int) -> list[Row]:
     """`predgait inverse` against OpenSim's tools, each as whole processes."""
     problem = REPO / "problems" / "inverse_subject01.toml"
+    command = [sys.executable, "-m", "predgait", "inverse", str(problem), "--force"]
     with tempfile.TemporaryDirectory() as tmp:
-        ours = time_process([sys.executable, "-m", "predgait", "inverse", str(problem),
-                             "--out", f"{tmp}/out", "--force"], repeat)
+        ours = time_process([*command, "--out", f"{tmp}/out"], repeat)
+        bare = time_process([*command, "--out", f"{tmp}/bare", "--no-plots"], repeat)
     does = ("read TRC+MOT+static, joint centres, planar IK, filters, ID of one leg "
             "(5 DOF, 151 frames), STO/CSV/JSON and PNG plots")
     folder, python = gait2354_folder(), opensim_python()
@@ -155,6 +156,11 @@ def whole_process_rows(repeat: int) -> list[Row]:
         rows.append(Row(f"predgait inverse subject01 vs OpenSim {name}, whole processes",
                         ours, does, peer,
                         f"Python + import opensim + {label}, writes .sto", unit="s"))
+        if tools == "id":
+            rows.append(Row("predgait inverse subject01 --no-plots vs OpenSim the ID tool, "
+                            "whole processes (goal: <= 1x)", bare,
+                            does.replace(" and PNG plots", ", no plots"), peer,
+                            f"Python + import opensim + {label}, writes .sto", unit="s"))
     return rows
 
 

@@ -44,6 +44,7 @@ from predgait.dynamics.external import assign_contacts
 from predgait.dynamics.inverse import LegInverse, LoadHistory, leg_inverse_dynamics
 from predgait.errors import InputError
 from predgait.kinematics import clinical
+from predgait.kinematics.bounded_ik import frames_near
 from predgait.kinematics.joint_centres import calibrate_centre, harrington_hip
 from predgait.kinematics.planar_ik import IKResult, solve_ik
 from predgait.models.anthropometry import LegParameters, leg_from_subject
@@ -441,11 +442,7 @@ def plate_cutoff(plates: tuple[ForcePlate, ...], grf_cutoff: Cutoff, markers_hz:
 
 def flagged_outputs(ik_flagged: np.ndarray, *, stencil: int = 2) -> np.ndarray:
     """Frames whose outputs depend on a flagged IK frame (the 5-point differences reach +-2)."""
-    out = ik_flagged.copy()
-    for shift in range(1, stencil + 1):
-        out[shift:] |= ik_flagged[:-shift]
-        out[:-shift] |= ik_flagged[shift:]
-    return out
+    return frames_near(ik_flagged, stencil)
 
 
 def static_knee_flexion(model: Model, static_points: Mapping[str, np.ndarray]) -> float:
@@ -456,9 +453,14 @@ def static_knee_flexion(model: Model, static_points: Mapping[str, np.ndarray]) -
     return float(np.mean(clinical.clinical_angles(ik.q)["knee_flexion"]))
 
 
-def run_inverse(options: InverseOptions) -> InverseResult:
-    """Run the pipeline (module docstring) on one trial and leg."""
-    trial, turn = read_trial(options)
+def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | None = None
+                ) -> InverseResult:
+    """Run the pipeline (module docstring) on one trial and leg.
+
+    ``loaded`` is the trial already read with its rotation (:func:`read_trial`), e.g. with
+    noise added for a noise bootstrap; None reads ``options.markers``.
+    """
+    trial, turn = read_trial(options) if loaded is None else loaded
     needed = _needed_markers(options.points)
     markers = fill_gaps(trial.markers, names=needed, max_gap_frames=options.max_gap_frames,
                         edges="trim")

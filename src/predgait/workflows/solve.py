@@ -248,7 +248,8 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         if plots_wanted():
             from predgait.report.solve_plots import save_solve_plots
 
-            save_solve_plots(stage, inverse, fit, sim, drivers)
+            save_solve_plots(stage, inverse, fit, sim, drivers, threshold_deg=spec.threshold_deg,
+                             time_to_threshold=check["with_fit"]["time_to_threshold_s"])
             labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
                       "with_fit": "re-simulated, fitted (after)",
                       "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}
