@@ -49,12 +49,15 @@ from predgait.dynamics.partitioned import (
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import Model
 
-__all__ = ["LEG_FREE", "ForceFrame", "LegSystem", "FallLimit", "SimulationResult", "simulate_leg",
-           "RodForces", "simulate_rod", "rod_system", "reduce_to_cop"]
+__all__ = ["LEG_FREE", "LEG_FALL", "ForceFrame", "LegSystem", "FallLimit", "SimulationResult",
+           "simulate_leg", "RodForces", "simulate_rod", "rod_system", "reduce_to_cop"]
 
 #: The leg's free coordinates (the foot is prescribed), for the engine and the CasADi
 #: problems alike.
 LEG_FREE = ("ankle", "knee")
+#: The leg's default fall: the shank or thigh 60 deg from upright (problem key
+#: segment_angle_deg).
+LEG_FALL = FallLimit(segment_angle_deg=60.0)
 #: Vertical ground force below which no COP is reported (set to 0), N.
 COP_THRESHOLD = 20.0
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from predgait.dynamics.forward import FallLimit, ForceFrame
+from predgait.dynamics.forward import LEG_FALL, FallLimit, ForceFrame
 from predgait.dynamics.integrators import IntegratorOptions
 from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.problemfile import Table, load_problem
@@ -65,7 +65,7 @@ class CollapseSpec:
     foot_deg: float = 0.0
     shank_deg: float = 5.0
     thigh_deg: float = -5.0
-    fall: FallLimit = FallLimit()
+    fall: FallLimit = LEG_FALL
     passive: dict[str, PassiveJoint] = field(default_factory=dict)
     compare: tuple[Variant, ...] = ()
     stick_interval: float = 0.05
@@ -82,7 +82,7 @@ class ResynthesisSpec:
     start: float = 0.0
     duration: float | None = None
     threshold_deg: float = 5.0
-    fall: FallLimit = FallLimit()
+    fall: FallLimit = LEG_FALL
     passive: dict[str, PassiveJoint] = field(default_factory=dict)
     variants: tuple[Variant, ...] = ()
     stability_times: tuple[float, ...] = (0.05, 0.2, 0.4)
