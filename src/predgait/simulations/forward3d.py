@@ -37,7 +37,8 @@ from predgait.dynamics.falls import FallLimit
 from predgait.dynamics.forces import GroundContact, JointFeedback, JointTorques, MeasuredLoads
 from predgait.dynamics.integrators import IntegratorOptions, Status
 from predgait.dynamics.inverse3d import FEET, sole_points
-from predgait.dynamics.partitioned import MotionHistory, PartitionedSystem, simulate_partitioned
+from predgait.dynamics.motion import MotionHistory
+from predgait.dynamics.partitioned import PartitionedSystem, simulate_partitioned
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.fullbody import CONTACTS
 from predgait.models.loading3d import Model3D

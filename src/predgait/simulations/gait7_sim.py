@@ -40,8 +40,8 @@ from predgait.dynamics.forces import (
     passive_generalized,
 )
 from predgait.dynamics.integrators import IntegratorOptions
+from predgait.dynamics.motion import MotionHistory
 from predgait.dynamics.partitioned import (
-    MotionHistory,
     PartitionedSystem,
     SimulationResult,
     Status,

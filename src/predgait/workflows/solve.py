@@ -28,8 +28,8 @@ from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import SimulationDiverged
 from predgait.problemfile import Table
 from predgait.problems.collocation import NodeData, Transcription
-from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
+from predgait.report.diagnostics import save_diagnostics
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.textfile import source_name
