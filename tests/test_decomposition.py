@@ -157,9 +157,14 @@ def _solve(problem, out, *sets):
 def test_cli_on_the_bundled_trial(tmp_path, assert_tidy_result):
     out = tmp_path / "decomposition"
     run = _solve(REPO / "problems" / "passive_decomposition.toml", out,
-                 "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0, 20.0]")
+                 "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0, 20.0]",
+                 "uncertainty.noise_repeats=3")
     assert run.returncode == 0, run.stderr
     solution = assert_tidy_result(out / "solution.json")
+    noise = solution["noise_sensitivity"]
+    assert noise["repeats"] == 3 and noise["force_noise_percent"] == 1.0
+    assert all(0.0 <= sd < 1e3 for sd in noise["sd"].values())
+    assert noise["sd"]["knee.k"] > 0.0 and "spread from re-added noise" in run.stdout
     assert 4.0 < solution["marker_cutoff_hz"] < 12.0        # residual analysis, 60 Hz TRC
     assert set(solution["cutoff_sensitivity"]) == {"6", "20"}
     for key, report in solution["parameters"].items():
@@ -194,7 +199,8 @@ def test_cli_on_walking5_through_an_inverse_problem(tmp_path):
         '# inverse_problem = "inverse_walking5.toml"',
         f'inverse_problem = "{REPO / "problems" / "inverse_walking5.toml"}"'))
     out = tmp_path / "out"
-    run = _solve(problem, out, "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0]")
+    run = _solve(problem, out, "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0]",
+                 "uncertainty.noise_repeats=0")
     assert run.returncode == 0, run.stderr
     solution = json.loads((out / "solution.json").read_text())
     assert "walking5.c3d" in solution["provenance"]["trial"]

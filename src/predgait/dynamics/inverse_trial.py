@@ -463,9 +463,14 @@ def static_knee_flexion(model: Model, static_points: Mapping[str, np.ndarray]) -
     return float(np.mean(clinical.clinical_angles(ik.q)["knee_flexion"]))
 
 
-def run_inverse(options: InverseOptions) -> InverseResult:
-    """Run the pipeline (module docstring) on one trial and leg."""
-    trial, turn = read_trial(options)
+def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | None = None
+                ) -> InverseResult:
+    """Run the pipeline (module docstring) on one trial and leg.
+
+    ``loaded`` is the trial already read with its rotation (:func:`read_trial`), e.g. with
+    noise added for a noise bootstrap; None reads ``options.markers``.
+    """
+    trial, turn = read_trial(options) if loaded is None else loaded
     needed = _needed_markers(options.points)
     markers = fill_gaps(trial.markers, names=needed, max_gap_frames=options.max_gap_frames,
                         edges="trim")
