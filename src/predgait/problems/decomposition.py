@@ -24,7 +24,7 @@ from __future__ import annotations
 import functools
 import time as clock
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -180,7 +180,6 @@ class Decomposition:
     status: str
     iterations: int
     seconds: float
-    extra: dict = field(default_factory=dict)
 
 
 def _columns(model: PassiveModel, joint: str) -> tuple[str, ...]:
