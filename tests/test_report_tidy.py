@@ -133,3 +133,11 @@ def test_sweep_plots_heat_map_for_a_full_grid_else_outcome_curves(tmp_path):
                              baseline={"edit.0.k": 100.0})
     assert names == ["outcome_vs_edit_0_k.png", "outcome_vs_edit_0_c.png"]
     assert all((tmp_path / n).stat().st_size > 5000 for n in names)
+
+
+def test_report_of_an_unknown_summary_says_so(tmp_path):
+    from predgait.report.html import build_report
+
+    (tmp_path / "summary.json").write_text('{"status": "completed", "kind": "future"}')
+    page = build_report(tmp_path)
+    assert "No headline: summary.json is not in a layout" in page
