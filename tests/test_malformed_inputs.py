@@ -382,3 +382,28 @@ def test_malformed_input_is_one_clear_error(case, pristine, tmp_path, capfd, mon
 
 def pristine_names(folder: Path) -> list[str]:
     return [p.name for p in folder.iterdir()]
+
+
+SUBPROCESS_CASES = ("leg.urdf:bad_joint_parent", "walking5.c3d:cut_100",
+                    "resynthesis.toml:latin1", "s01/subject01_walk1_grf.mot:huge_force")
+
+
+@pytest.mark.parametrize("name", SUBPROCESS_CASES)
+def test_malformed_input_in_a_real_process(name, pristine, tmp_path):
+    """The same promise from a real ``predgait`` process (C++ messages on file descriptor
+    2 included, exit status as the shell sees it)."""
+    import subprocess
+    import sys
+
+    case = next(c for c in CASES if c.name == name)
+    work = tmp_path / "work"
+    shutil.copytree(pristine, work)
+    (work / case.target).write_bytes(case.content)
+    before = _digest(work)
+    argv = [*case.argv, *([] if case.argv[0] == "model" else ["--out", "result"])]
+    result = subprocess.run([sys.executable, "-m", "predgait", *argv], cwd=work,
+                            capture_output=True, text=True, timeout=120)
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.returncode == 2, result.stderr
+    assert len(lines) == 1 and lines[0].startswith("predgait: error: "), result.stderr
+    assert _digest(work) == before
