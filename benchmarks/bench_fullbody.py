@@ -1,27 +1,37 @@
-"""Whole-body (35 DOF) speed: 3D inverse dynamics of 1000 frames, IK per frame, 1 s of
-forward dynamics (also driven by subject01's inverse dynamics); ratio against OpenSim
-4.6's InverseDynamicsTool.
+"""Whole-body (35 DOF) speed: `predgait inverse --model fullbody` against OpenSim's IK and ID
+tools, 3D inverse dynamics of 1000 frames, IK per frame, forward dynamics.
 
-OpenSim runs when OPENSIM_PYTHON (a Python with `pip install opensim`; its wheel bundles
-a CasADi that clashes with ours, hence another process) and GAIT2354_DIR are set (see
-opensim_subject01.py); otherwise the ratio uses the quoted figure, about 140 ms for the 73
-frames of the example trial with its 23-DOF model (~1.9 ms a frame).
-Run: .venv/bin/python benchmarks/bench_fullbody.py
+OpenSim (the peer) runs in its own process when OPENSIM_PYTHON (a Python with
+`pip install opensim`; its wheel bundles a CasADi that clashes with ours) and GAIT2354_DIR
+(opensim-models' Pipelines/Gait2354_Simbody files, see opensim_subject01.py) are set;
+otherwise the OpenSim rows print "peer not available".
+
+Run: python benchmarks/bench_fullbody.py [--repeat N]
 """
 
-import json
-import os
-import subprocess
+import argparse
+import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from timing import (
+    REPO,
+    Row,
+    Timing,
+    gait2354_folder,
+    opensim_python,
+    print_rows,
+    run_peer,
+    time_call,
+    time_process,
+)
 
 from predgait.models.fullbody import MARKERS
 from predgait.models.loading3d import load_fullbody
 
-OPENSIM_ID_MS_PER_FRAME = 140.0 / 73
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"
 
 
@@ -49,11 +59,9 @@ def main():
             tau[k] = pin.rnea(pm, data, q[k], v[k], a[k])
 
     t_id = best(rnea_loop)
-    per = t_id / n * 1e3
     print(f"3D inverse dynamics, {n} frames of the 35-DOF body (pin.rnea loop): "
-          f"{t_id * 1e3:.2f} ms ({per * 1e3:.1f} us/frame; target < 20 ms)")
-    print(f"  vs OpenSim 4.6 InverseDynamicsTool (quoted ~{OPENSIM_ID_MS_PER_FRAME:.2f} ms/frame,"
-          f" not run here): {OPENSIM_ID_MS_PER_FRAME / per:.0f}x faster per frame")
+          f"{t_id * 1e3:.2f} ms ({t_id / n * 1e6:.1f} us/frame; target < 20 ms); OpenSim: "
+          "peer not available (no same-work peer for random frames)")
 
     from predgait.kinematics.ik3d import solve_ik
     ids = [model.frame_id(f) for f in MARKERS]
@@ -83,72 +91,67 @@ def main():
     print(f"Forward dynamics, 1 s at 1 kHz (ABA, 35 DOF): {t_fd * 1e3:.1f} ms "
           f"({1.0 / t_fd:.0f}x real time)")
 
-    if DATA.is_dir():
-        pipeline()
 
 
-def opensim_tools() -> dict | None:
-    """OpenSim's IK and ID tools on the same trial, in their own process (see
-    opensim_subject01.py); None with a note when OPENSIM_PYTHON / GAIT2354_DIR are not set."""
-    python, folder = os.environ.get("OPENSIM_PYTHON"), os.environ.get("GAIT2354_DIR")
-    if not (python and folder):
-        print("OpenSim tools: not run (set OPENSIM_PYTHON to a Python with `pip install "
-              "opensim` and GAIT2354_DIR to opensim-models' Pipelines/Gait2354_Simbody files "
-              "with OutputReference/subject01_simbody.osim beside them)")
-        return None
-    child = subprocess.run([python, str(Path(__file__).with_name("opensim_subject01.py")),
-                            folder], capture_output=True, text=True)
-    if child.returncode != 0:
-        print(f"OpenSim tools: failed ({(child.stderr.strip().splitlines() or ['?'])[-1]})")
-        return None
-    return json.loads(child.stdout.strip().splitlines()[-1])
+FULLBODY_ARGS = ("--mass", "72.6", "--height", "1.8034", "--model", "fullbody",
+                 "--marker-map", str(REPO / "problems" / "markers_fullbody_subject01.toml"))
 
 
-def pipeline():
-    """Whole `predgait inverse --model fullbody` work in-process (read, static calibration,
-    IK, filter, ID, files), on all 151 frames and on OpenSim's window 0.4-1.6 s (73 frames)."""
-    import tempfile
+def rows(repeat: int) -> list[Row]:
+    """`predgait inverse --model fullbody` and OpenSim's tools: whole processes and in
+    process (for run_all.py)."""
+    if not DATA.is_dir():
+        print(f"full body: {DATA} not found; rows not run")
+        return []
+    files = [str(DATA / "subject01_walk1.trc"), "--grf", str(DATA / "subject01_walk1_grf.mot"),
+             "--static", str(DATA / "subject01_static.trc")]
+    with tempfile.TemporaryDirectory() as tmp:
+        ours = time_process([sys.executable, "-m", "predgait", "inverse", *files,
+                             *FULLBODY_ARGS, "--out", f"{tmp}/out", "--force"], repeat)
+    does = ("read TRC+MOT+static, scaling and calibration, 3D IK and ID of the 35-DOF body on "
+            "all 151 frames, tables and plots")
+    folder, python = gait2354_folder(), opensim_python()
+    script = str(Path(__file__).with_name("opensim_subject01.py"))
+    whole = {}
+    for tools in ("id", "ik,id"):
+        whole[tools] = (time_process([python, script, folder, "--tools", tools, "--repeat",
+                                      "1"], repeat) if folder and python else None)
+    out = [Row("predgait inverse --model fullbody vs OpenSim ID tool alone, whole processes "
+               "(goal: >= 10x)", ours, does, whole["id"],
+               "Python + import opensim + ID tool on the shipped IK motion (23 DOF, 73 frames)",
+               unit="s"),
+           Row("predgait inverse --model fullbody vs OpenSim IK + ID tools, whole processes",
+               ours, does, whole["ik,id"],
+               "Python + import opensim + IK tool + ID tool (23 DOF, 76 frames)", unit="s")]
+    ours_in, peer_in = in_process(repeat, folder)
+    out.append(Row("full body IK + ID in process, subject01 0.4-1.6 s", ours_in,
+                   "run_inverse_fullbody: read, calibrate, IK, filter, ID, files (73 frames, "
+                   "35 DOF)", peer_in, "IK tool + ID tool runs after import, model loading "
+                   "included (76 frames, 23 DOF)", unit="s"))
+    return out
 
-    from predgait.dynamics.inverse3d import inverse_dynamics_3d
-    from predgait.workflows.inverse3d import (
-        inverse_fullbody,
-        read_marker_map,
-        read_trial,
-        run_inverse_fullbody,
-    )
 
-    repo = Path(__file__).resolve().parents[1]
+def in_process(repeat: int, folder: str | None) -> tuple[Timing, Timing | None]:
+    """predgait's whole full-body run in this process, and OpenSim's IK + ID tool runs."""
+    from predgait.workflows.inverse3d import run_inverse_fullbody
+
     files = [DATA / "subject01_walk1.trc", DATA / "subject01_walk1_grf.mot"]
-    mmap = repo / "problems" / "markers_fullbody_subject01.toml"
-    static = DATA / "subject01_static.trc"
-    rows = {}
-    for label, window in (("all 151 frames", None), ("0.4-1.6 s, 73 frames", (0.4, 1.6))):
-        with tempfile.TemporaryDirectory() as tmp:
-            run = lambda w=window, t=tmp: run_inverse_fullbody(  # noqa: E731
-                files, mmap, mass=72.6, height=1.8034, out_dir=Path(t) / "o", static=static,
-                window=w, force=True)
-            whole = best(run, 3)
-        markers, plates = read_trial(files)
-        from predgait.data import read_trc
-        result = inverse_fullbody(markers, plates, read_marker_map(mmap), mass=72.6,
-                                  height=1.8034, static=read_trc(static), window=window)
-        id_only = best(lambda r=result: inverse_dynamics_3d(r.model, r.q, r.v, r.a, r.plates,
-                                                            r.sides), 5)
-        rows[label] = (whole, id_only, result.q.shape[0])
-        print(f"predgait whole run, {label}: {whole * 1e3:.0f} ms "
-              f"({whole / result.q.shape[0] * 1e3:.2f} ms/frame); ID alone {id_only * 1e3:.1f} ms")
-    whole, id_only, n = rows["0.4-1.6 s, 73 frames"]
-    tools = opensim_tools()
-    if tools is None:
-        print(f"  vs OpenSim ID (quoted ~140 ms for these 73 frames): whole run "
-              f"{0.140 / whole:.2f}x, ID alone {0.140 / id_only:.0f}x (target: whole run >= 10x)")
-        return
-    print(f"OpenSim {tools['version']} tools on the same window, Gait2354 (23 DOF): "
-          f"IK {tools['ik_s'] * 1e3:.0f} ms, ID {tools['id_s'] * 1e3:.0f} ms")
-    both = tools["ik_s"] + tools["id_s"]
-    print(f"  ratios: predgait whole run vs OpenSim IK+ID {both / whole:.1f}x;"
-          f" vs OpenSim ID alone {tools['id_s'] / whole:.2f}x (target >= 10x);"
-          f" ID alone vs ID tool {tools['id_s'] / id_only:.0f}x")
+    marker_map = REPO / "problems" / "markers_fullbody_subject01.toml"
+    with tempfile.TemporaryDirectory() as tmp:
+        ours = time_call(lambda: run_inverse_fullbody(
+            files, marker_map, mass=72.6, height=1.8034, out_dir=Path(tmp) / "o",
+            static=DATA / "subject01_static.trc", window=(0.4, 1.6), force=True), repeat)
+    peer = None
+    if folder:
+        result = run_peer("opensim_subject01.py", folder, "--repeat", str(repeat))
+        if "error" not in result:
+            peer = Timing(tuple(a + b for a, b in zip(result["ik"]["wall"],
+                                                       result["id"]["wall"], strict=True)),
+                          tuple(a + b for a, b in zip(result["ik"]["cpu"],
+                                                       result["id"]["cpu"], strict=True)))
+        else:
+            print(f"OpenSim tools in process: {result['error']}")
+    return ours, peer
 
 
 def driven_forward():
@@ -204,5 +207,8 @@ def driven_forward():
 
 
 if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    print_rows(rows(parser.parse_args().repeat))
     main()
     driven_forward()

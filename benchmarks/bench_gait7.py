@@ -35,13 +35,13 @@ def main():
         wall, kin = best(lambda o=options: kinematic_run(
             model, motion, contact, ground_z=-0.0075, t_span=SPAN, options=o, t_eval=t))
         print(f"gait7 kinematic (HAT height free), 1 s, {label}: {wall * 1e3:.0f} ms, "
-              f"{kin.run.integration.n_rhs_evaluations} right-hand sides")
+              f"{kin.run.n_rhs_evaluations} right-hand sides")
         wall, run = best(lambda o=options, k=kin: knee_run(
             model, motion, k, contact, ground_z=-0.0075, sides=("left",),
             source=KneeMoment.MODEL, passive=passive, fall=FallLimits(), options=o,
             t_eval=t))
         print(f"gait7 left knee moment-driven, 1 s, {label}: {wall * 1e3:.0f} ms, "
-              f"{run.run.integration.n_rhs_evaluations} right-hand sides ({run.status})")
+              f"{run.run.n_rhs_evaluations} right-hand sides ({run.status})")
 
 
 if __name__ == "__main__":

@@ -137,24 +137,54 @@ def casadi_rows(model, q, qd, qdd, force, cop, loads, repeat) -> list[Row]:
 def whole_process_rows(repeat: int) -> list[Row]:
     """`predgait inverse` against OpenSim's tools, each as whole processes."""
     problem = REPO / "problems" / "inverse_subject01.toml"
+    command = [sys.executable, "-m", "predgait", "inverse", str(problem), "--force"]
     with tempfile.TemporaryDirectory() as tmp:
-        ours = time_process([sys.executable, "-m", "predgait", "inverse", str(problem),
-                             "--out", f"{tmp}/out", "--force"], repeat)
+        ours = time_process([*command, "--out", f"{tmp}/out"], repeat)
+        bare = time_process([*command, "--out", f"{tmp}/bare", "--no-plots"], repeat)
     does = ("read TRC+MOT+static, joint centres, planar IK, filters, ID of one leg "
             "(5 DOF, 151 frames), STO/CSV/JSON and PNG plots")
     folder, python = gait2354_folder(), opensim_python()
     script = str(Path(__file__).with_name("opensim_subject01.py"))
     rows = []
-    for tools, label in (("id", "ID tool on the shipped IK motion (23 DOF, 73 frames)"),
-                         ("ik,id", "IK tool then ID tool (23 DOF, 76 frames)")):
+    for tools, name, label in (
+            ("id", "the ID tool", "ID tool on the shipped IK motion (23 DOF, 73 frames)"),
+            ("ik,id", "the IK + ID tools", "IK tool then ID tool (23 DOF, 76 frames)")):
         peer = None
         if folder and python:
             peer = time_process([python, script, folder, "--tools", tools, "--repeat", "1"],
                                 repeat)
-        rows.append(Row(f"predgait inverse subject01 vs OpenSim {tools.upper()} tool(s), "
-                        "whole processes", ours, does, peer,
+        rows.append(Row(f"predgait inverse subject01 vs OpenSim {name}, whole processes",
+                        ours, does, peer,
                         f"Python + import opensim + {label}, writes .sto", unit="s"))
+        if tools == "id":
+            rows.append(Row("predgait inverse subject01 --no-plots vs OpenSim the ID tool, "
+                            "whole processes (goal: <= 1x)", bare,
+                            does.replace(" and PNG plots", ", no plots"), peer,
+                            f"Python + import opensim + {label}, writes .sto", unit="s"))
     return rows
+
+
+def breakdown_rows(repeat: int) -> list[Row]:
+    """Where the whole `predgait inverse` process goes: imports, compute, files (no peer)."""
+    from predgait.dynamics.inverse_trial import bundled_options, run_inverse
+    from predgait.workflows.inverse_io import write_inverse_outputs
+
+    imports = time_process([sys.executable, "-c", "import predgait.cli.inverse, "
+                            "predgait.dynamics.inverse_trial, predgait.workflows.inverse_io"],
+                           repeat)
+    options = bundled_options("right")
+    compute = time_call(lambda: run_inverse(options), repeat)
+    result = run_inverse(options)
+    with tempfile.TemporaryDirectory() as tmp:
+        counter = iter(range(1000))
+        files = time_call(lambda: write_inverse_outputs(result, f"{tmp}/o{next(counter)}"),
+                          repeat)
+    return [Row("  of which: imports (a process importing the inverse command's modules)",
+                imports, "Python start + imports", unit="s"),
+            Row("  of which: run_inverse on subject01 (read, IK, filters, ID)", compute,
+                "in process, 151 frames", unit="s"),
+            Row("  of which: writing the result folder (tables, JSON, PNG plots)", files,
+                "in process", unit="s")]
 
 
 def stage_rows() -> None:
@@ -175,7 +205,7 @@ def stage_rows() -> None:
 
 def rows(repeat: int) -> list[Row]:
     """Every compared row of this benchmark (for run_all.py)."""
-    return leg_id_rows(repeat) + whole_process_rows(repeat)
+    return whole_process_rows(repeat) + breakdown_rows(repeat) + leg_id_rows(repeat)
 
 
 def main() -> None:

@@ -1,52 +1,114 @@
-"""Optimisation speed on 1 s of the bundled trial, 50 and 100 collocation intervals.
+"""Optimisation speed: knee fit and torque correction on 1 s of the bundled trial.
 
-Run: python benchmarks/bench_optimisation.py
+Run: python benchmarks/bench_optimisation.py [--repeat N] [--grid]
 
-Reference (issue 6, OpenSim 4.6 Moco on a machine like ours, quoted, not measured here:
-opensim is not in this project's dependencies): tracking 1 s of a 3-DOF leg with 50 mesh
-intervals ~2.8 s (34 Ipopt iterations); one knee stiffness as a MocoParameter ~0.85 s
-(13 iterations).
+Rows (min / median of N repeats, wall and CPU):
+  * cold, in process: the solver is generated (ADAM dynamics, collocation NLP, Ipopt with
+    the exact Hessian) and solved, as the first solve of a process does; imports excluded;
+  * cached, in process: the same problem on another 1 s window of the same grid (the
+    generated solver is reused; only Ipopt runs);
+  * whole CLI processes: `predgait solve problems/knee_fit.toml` and
+    `problems/torque_correction.toml` (imports, inverse dynamics, solve, re-simulation
+    checks, files and plots).
+The peer would be OpenSim Moco solving the same problems (MocoParameter on a passive knee;
+a tracking problem with torque controls), cold, in the peer's Python; there is no such Moco
+problem in benchmarks/ yet, so those rows print "peer not available".
+``--grid`` also prints both transcriptions at 50 and 100 intervals for all three problems.
 """
 
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
 import time
+
+from timing import REPO, Row, print_rows, time_call, time_process
 
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.inverse_trial import bundled_inverse
-from predgait.problems.collocation import NodeData, Transcription, free_dynamics
+from predgait.problems import collocation, fitting
+from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.fitting import correct_torques, fit_feedback, fit_knee
 
-MOCO_TRACKING = 2.8
-MOCO_PARAMETER = 0.85
+NO_PEER = "Moco: no same-work Moco problem in benchmarks/ yet"
+HS = Transcription.HERMITE_SIMPSON
 
 
-def timed(function, *args, **kwargs):
-    start = time.perf_counter()
-    result = function(*args, **kwargs)
-    return result, time.perf_counter() - start
+def clear_generated() -> None:
+    """Forget every generated function, so the next solve is cold."""
+    for cached in (collocation.free_dynamics, fitting._knee_problem,
+                   fitting._correction_problem, fitting._feedback_problem):
+        cached.cache_clear()
 
 
-def main():
+def rows(repeat: int) -> list[Row]:
+    """The compared rows (for run_all.py)."""
     inverse = bundled_inverse("right")
     drivers = LegDrivers.from_inverse(inverse)
-    free_dynamics(inverse.model)  # symbolic dynamics built once per model (cached)
-    print("Moco figures are QUOTED from the issue (opensim is not installable here); the\n"
-          "ratio is quoted Moco time / our time on the same kind of problem.")
+    grid = HS.grid_intervals(100)
+    first = NodeData.from_drivers(drivers, 0.0, 1.0, grid)
+    other = NodeData.from_drivers(drivers, -0.1, 0.9, grid)
+    out = []
+    for name, function, problem in (("knee_fit", fit_knee, "knee_fit.toml"),
+                                    ("torque_correction", correct_torques,
+                                     "torque_correction.toml")):
+        def cold(function=function):
+            clear_generated()
+            return function(inverse.model, first, transcription=HS)
+
+        cold_time = time_call(cold, repeat)
+        cached = time_call(lambda function=function: function(inverse.model, other,
+                                                              transcription=HS), repeat)
+        fit = function(inverse.model, other, transcription=HS)
+        solved = fit.solved
+        out.append(Row(f"{name} cold, in process (1 s, 100 Hermite-Simpson intervals)",
+                       cold_time, "generate the solver, then Ipopt; imports excluded",
+                       None, NO_PEER, unit="s"))
+        out.append(Row(f"{name} cached solver, in process (another 1 s window)", cached,
+                       f"Ipopt only: {solved.iterations} iterations, "
+                       f"{solved.seconds * 1e3:.0f} ms in the solver", None, NO_PEER))
+        with tempfile.TemporaryDirectory() as tmp:
+            whole = time_process([sys.executable, "-m", "predgait", "solve",
+                                  str(REPO / "problems" / problem), "--out", f"{tmp}/out",
+                                  "--force"], repeat)
+        out.append(Row(f"predgait solve problems/{problem}, whole CLI process", whole,
+                       "imports, inverse dynamics, cold solve, re-simulation checks, files, "
+                       "plots", None, NO_PEER, unit="s"))
+    return out
+
+
+def grid_table() -> None:
+    """Both transcriptions, 50 and 100 intervals, all three problems: cold and cached."""
+    inverse = bundled_inverse("right")
+    drivers = LegDrivers.from_inverse(inverse)
     for transcription in Transcription:
         for intervals in (50, 100):
             grid = transcription.grid_intervals(intervals)
             first = NodeData.from_drivers(drivers, 0.0, 1.0, grid)
-            other = NodeData.from_drivers(drivers, -0.1, 0.9, grid)  # same grid: cached solver
-            for name, function, moco in (("knee k, c fit", fit_knee, MOCO_PARAMETER),
-                                         ("torque correction", correct_torques, MOCO_TRACKING),
-                                         ("feedback gains", fit_feedback, MOCO_TRACKING)):
-                _, built = timed(function, inverse.model, first, transcription=transcription)
-                fit, total = timed(function, inverse.model, other, transcription=transcription)
-                s = fit.solved
-                print(f"{transcription.value:15s} {intervals:4d} intervals, {name:18s}: first "
-                      f"call (builds the NLP) {built * 1e3:7.1f} ms; next window "
-                      f"{total * 1e3:6.1f} ms ({s.iterations:3d} Ipopt iterations, "
-                      f"{s.seconds * 1e3:6.1f} ms in Ipopt) -> {moco / total:6.1f}x "
-                      f"(first call {moco / built:5.1f}x) vs quoted Moco {moco} s")
+            other = NodeData.from_drivers(drivers, -0.1, 0.9, grid)
+            for name, function in (("knee k, c fit", fit_knee),
+                                   ("torque correction", correct_torques),
+                                   ("feedback gains", fit_feedback)):
+                start = time.perf_counter()
+                function(inverse.model, first, transcription=transcription)
+                built = time.perf_counter() - start
+                start = time.perf_counter()
+                fit = function(inverse.model, other, transcription=transcription)
+                total = time.perf_counter() - start
+                print(f"{transcription.value:15s} {intervals:4d} intervals, {name:18s}: cold "
+                      f"{built * 1e3:7.1f} ms; cached {total * 1e3:6.1f} ms "
+                      f"({fit.solved.iterations:3d} Ipopt iterations)")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--grid", action="store_true")
+    args = parser.parse_args()
+    print_rows(rows(args.repeat))
+    if args.grid:
+        grid_table()
 
 
 if __name__ == "__main__":

@@ -120,8 +120,9 @@ def ratio(ours: Timing | None, peer: Timing | None) -> str:
     """``peer/ours`` on the minimum and the median (> 1: predgait faster)."""
     if ours is None or peer is None:
         return NOT_AVAILABLE
-    return (f"{peer.best / ours.best:.2f}x (min), {peer.median / ours.median:.2f}x (median); "
-            "> 1 = predgait faster")
+    cpu = min(peer.cpu) / min(ours.cpu)
+    return (f"{peer.best / ours.best:.2f}x (min wall), {peer.median / ours.median:.2f}x "
+            f"(median wall), {cpu:.2f}x (min CPU); > 1 = predgait faster")
 
 
 def gait2354_folder() -> str | None:
@@ -155,6 +156,27 @@ class Row:
 def print_rows(rows: Sequence[Row]) -> None:
     for row in rows:
         print("\n".join(row.lines()))
+
+
+def markdown_table(rows: Sequence[Row]) -> str:
+    """The rows as one Markdown table: min / median wall per side and the ratios."""
+    def cell(timing: Timing | None, unit: str) -> str:
+        if timing is None:
+            return NOT_AVAILABLE
+        scale = 1e3 if unit == "ms" else 1.0
+        return f"{timing.best * scale:.3g} / {timing.median * scale:.3g} {unit}"
+
+    lines = ["| work | predgait (min / median wall) | OpenSim 4.6 (min / median wall) | "
+             "OpenSim / predgait (min wall; min CPU) |", "|---|---|---|---|"]
+    for row in rows:
+        if row.ours is not None and row.peer is not None:
+            ratios = (f"{row.peer.best / row.ours.best:.2f}x; "
+                      f"{min(row.peer.cpu) / min(row.ours.cpu):.2f}x")
+        else:
+            ratios = NOT_AVAILABLE
+        lines.append(f"| {row.work} | {cell(row.ours, row.unit)} | "
+                     f"{cell(row.peer, row.unit)} | {ratios} |")
+    return "\n".join(lines)
 
 
 def run_peer_npz(script: str, **arrays) -> dict:

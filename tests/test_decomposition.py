@@ -1,11 +1,11 @@
 """Passive/active decomposition: known answers, identifiability, bad input, CLI runs.
 
-The synthetic trials are built here, independently of the fitting code: joint angles
-over many gait cycles with per-cycle variation, passive moments written out by hand
-(linear spring-damper, thesis eqs. 3.3.1-3.3.2, and the Anderson 1999 exponential stops
-as in Falisse et al. 2019), an active pattern that is exactly zero from 70 % of the
-cycle on, and correlated noise on the moments. They are moment-level trials (no
-forward simulation, markers or inverse dynamics in between).
+Moment-level synthetic trials are built here, independently of the fitting code: joint
+angles over many gait cycles with per-cycle variation, passive moments written out by
+hand (linear spring-damper, thesis eqs. 3.3.1-3.3.2, and the Anderson 1999 exponential
+stops as in Falisse et al. 2019), an active pattern that is exactly zero from 70 % of
+the cycle on, and correlated noise on the moments. One trial goes through the real
+pipeline (tests/passive_walk.py: forward simulation, markers, plates, inverse dynamics).
 """
 
 import json
@@ -157,9 +157,14 @@ def _solve(problem, out, *sets):
 def test_cli_on_the_bundled_trial(tmp_path, assert_tidy_result):
     out = tmp_path / "decomposition"
     run = _solve(REPO / "problems" / "passive_decomposition.toml", out,
-                 "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0, 20.0]")
+                 "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0, 20.0]",
+                 "uncertainty.noise_repeats=3")
     assert run.returncode == 0, run.stderr
     solution = assert_tidy_result(out / "solution.json")
+    noise = solution["noise_sensitivity"]
+    assert noise["repeats"] == 3 and noise["force_noise_percent"] == 1.0
+    assert all(0.0 <= sd < 1e3 for sd in noise["sd"].values())
+    assert noise["sd"]["knee.k"] > 0.0 and "spread from re-added noise" in run.stdout
     assert 4.0 < solution["marker_cutoff_hz"] < 12.0        # residual analysis, 60 Hz TRC
     assert set(solution["cutoff_sensitivity"]) == {"6", "20"}
     for key, report in solution["parameters"].items():
@@ -194,7 +199,8 @@ def test_cli_on_walking5_through_an_inverse_problem(tmp_path):
         '# inverse_problem = "inverse_walking5.toml"',
         f'inverse_problem = "{REPO / "problems" / "inverse_walking5.toml"}"'))
     out = tmp_path / "out"
-    run = _solve(problem, out, "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0]")
+    run = _solve(problem, out, "uncertainty.bootstrap=40", "filter.sensitivity_hz=[6.0]",
+                 "uncertainty.noise_repeats=0")
     assert run.returncode == 0, run.stderr
     solution = json.loads((out / "solution.json").read_text())
     assert "walking5.c3d" in solution["provenance"]["trial"]
@@ -213,6 +219,9 @@ def test_cli_failures_write_nothing(tmp_path):
     assert "quiet_phases" in run.stderr and "Traceback" not in run.stderr
     run = _solve(problem, out, "passive.knee.fixed={ c = 0.0 }")
     assert run.returncode == 2 and "passive.knee.fixed: c is both fixed" in run.stderr
+    run = _solve(problem, out, "passive.knee.priors={ k = [300.0, 5.0] }")
+    assert run.returncode == 2 and not out.exists()
+    assert "passive.knee.priors.k: the prior mean 300 N m/rad lies outside" in run.stderr
 
 
 def test_knee_fit_says_what_it_is_and_prints_no_meaningless_interval(tmp_path):
@@ -229,3 +238,57 @@ def test_knee_fit_says_what_it_is_and_prints_no_meaningless_interval(tmp_path):
             assert f"{name}: 95 % interval not meaningful" in run.stdout
         else:
             assert isinstance(half, float)
+
+
+def test_known_passive_walk_through_the_real_pipeline(tmp_path):
+    """Forward-simulated walk (tests/passive_walk.py) -> 1 mm markers, 1 % forces ->
+    inverse dynamics at the residual-analysis cut-off -> decomposition over mid swing.
+
+    The ankle is recovered within 5 %; the knee's moment in swing, a difference of large
+    inertial terms of double-differentiated markers, is noisier: its intervals must still
+    cover the truth (or the parameter be reported not identifiable).
+    """
+    from dataclasses import replace
+
+    import passive_walk
+    from predgait.dynamics.inverse_trial import run_inverse
+    from predgait.workflows.decomposition import residual_cutoff
+
+    options, _ = passive_walk.write_trial(tmp_path, cycles=6, seed=0)
+    cutoff = residual_cutoff(options)
+    assert 6.0 < cutoff < 20.0
+    inverse = run_inverse(replace(options, cutoff=cutoff, grf_cutoff=cutoff))
+    samples = GaitSamples.from_inverse(inverse)
+    settings = Settings(quiet_phases=((73.0, 88.0),))   # the truth's active is 0 in 70-97 %
+    model = build_model(["knee", "ankle"], fit=LINEAR_FIT)
+    fit = fit_decomposition(samples, model, settings)
+    reports = {r.key: r for r in assess(model, fit, bootstrap(samples, model, fit, settings,
+                                                               repeats=60))[0]}
+    for key, true in passive_walk.TRUTH.items():
+        report = reports[key]
+        if key.startswith("ankle"):
+            assert report.status is Status.IDENTIFIED
+            assert abs(report.value / true - 1) < 0.05, (key, report.value)
+        if report.status is Status.IDENTIFIED:
+            assert report.interval95[0] <= true <= report.interval95[1], (key, report)
+
+
+def test_the_synthetic_walk_is_what_inverse_dynamics_inverts():
+    """The generator's applied torques equal the inverse dynamics of its exact motion."""
+    import passive_walk
+    from predgait.dynamics.external import Load
+    from predgait.dynamics.inverse import leg_inverse_dynamics
+
+    t, q, states, ref, system = passive_walk.simulate(cycles=1, seed=2)
+    t, q, states = t[::10], q[::10], states[::10]
+    qdd = np.array([system.rhs(ti, x)[5:] for ti, x in zip(t, states, strict=True)])
+    feet = passive_walk.frame_positions(ref.model, q)
+    loads = []
+    for ti, heel, toe in zip(t, feet["heel"], feet["toe"], strict=True):
+        force, cop, free = ref.ground_reaction(ti, heel, toe)
+        loads.append([Load("foot", force, point=cop, moment=free)])
+    exact = leg_inverse_dynamics(ref.model, q, states[:, 5:], qdd, loads)
+    applied = np.array([sum(system.torques(ti, x[:5], x[5:], system.reference_loads(ti)))
+                        for ti, x in zip(t, states, strict=True)])
+    np.testing.assert_allclose(exact.tau[:, 3:], applied, atol=1e-8)
+    assert np.abs(applied).max() > 20.0

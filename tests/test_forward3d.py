@@ -20,9 +20,9 @@ import pytest
 from predgait.cli import main
 from predgait.data.storage import read_storage
 from predgait.dynamics.external import Load, joint_forces
+from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse3d import velocities
-from predgait.dynamics.partitioned import JointFeedback
 from predgait.errors import InputError
 from predgait.models.loading3d import load_fullbody
 from predgait.simulations.forward3d import (
@@ -149,7 +149,7 @@ def test_moment_driven_body_falls_where_linearisation_grows_fastest(subject01, p
     run = simulate_fullbody(subject01, Mode(pelvis=pelvis), (start, start + 0.3), options=RK4)
     rate, leading = run.growth
     assert rate > 100.0 and leading.startswith(f"ankle_{stance}_")
-    assert run.status == "fell" and 0.0 < run.time_to_fall < 0.1
+    assert run.status == "event" and 0.0 < run.time_to_fall < 0.1
     assert run.fall_criterion.startswith(f"joint angle ankle_{stance}_")
 
 
@@ -162,7 +162,7 @@ def test_prescribed_pelvis_keeps_joints_in_band_longer(subject01):
             for p in (PelvisMode.PRESCRIBED, PelvisMode.FREE)}
     held, free = runs[PelvisMode.PRESCRIBED], runs[PelvisMode.FREE]
     assert held.deviation["joint_leaves_band_s"] > 1.5 * free.deviation["joint_leaves_band_s"]
-    assert free.status == "fell" and 0.0 < free.time_to_fall < 0.4
+    assert free.status == "event" and 0.0 < free.time_to_fall < 0.4
     limits = FallLimits()  # the run stops at the first limit reached, none is passed
     assert free.deviation["pelvis_angle_max_deg"] <= limits.pelvis_angle_deg + 1e-6
     assert free.deviation["joint_max_deg"] <= limits.joint_deg + 1e-6
@@ -183,7 +183,7 @@ def test_joint_feedback_holds_the_body_only_with_the_pelvis_prescribed(subject01
     free = simulate_fullbody(subject01, Mode(pelvis=PelvisMode.FREE, feedback_kp=100.0),
                              span, options=RK4)
     assert held.status == "completed" and held.deviation["joint_max_deg"] < 2.0
-    assert free.status == "fell" and 0.1 < free.time_to_fall < 1.0
+    assert free.status == "event" and 0.1 < free.time_to_fall < 1.0
 
 
 def test_feedback_damping_follows_each_joint_inertia(subject01):
@@ -206,7 +206,7 @@ def test_thesis_kinematic_body_on_contacts(subject01):
                                  (start, start + 1.5), options=RK4)
             for p in (PelvisMode.TRANSLATION, PelvisMode.FREE)}
     free, held = runs[PelvisMode.FREE], runs[PelvisMode.TRANSLATION]
-    assert free.status == "fell" and 0.1 < free.time_to_fall < 1.5
+    assert free.status == "event" and 0.1 < free.time_to_fall < 1.5
     assert free.fall_criterion.startswith("pelvis")
     assert held.status == "completed" and held.t[-1] == pytest.approx(start + 1.5)
     assert held.belt_velocity == pytest.approx(-1.12, abs=0.1)  # treadmill-like trial
@@ -245,13 +245,13 @@ def test_cli_writes_states_summary_and_plot(tmp_path, capsys, assert_tidy_result
     summary = assert_tidy_result(out / "summary.json")
     assert summary["kind"] == "fullbody" and len(summary["runs"]) == 9
     first = summary["runs"][0]
-    assert first["status"] == "fell" and first["deviation"]["joint_leaves_band_s"] is not None
+    assert first["status"] == "event" and first["deviation"]["joint_leaves_band_s"] is not None
     assert (out / "fullbody.png").stat().st_size > 10_000
     assert (out / "stick.gif").read_bytes()[:6] == b"GIF89a"
     sto = read_storage(out / "states_pelvis_free_moments.sto")
     assert {"pelvis_tz", "pelvis_ry", "knee_r_y"} <= set(sto.columns)
     assert len(list(out.glob("states_*.sto"))) == 9
-    assert re.search(r"\n  pelvis free, moments +fell ", capsys.readouterr().out)
+    assert re.search(r"\n  pelvis free, moments +event ", capsys.readouterr().out)
 
 
 def test_cli_bad_value_writes_nothing(tmp_path, capsys):

@@ -30,7 +30,7 @@ def test_contributions_sum_to_total():
     rng = np.random.default_rng(1)
     passive = {"knee": PassiveJoint((LinearSpringDamper(10, 20), ExponentialLimits())),
                "ankle": PassiveJoint((LinearSpringDamper(100, 5),))}
-    system = LegSystem(LEG, moving_drivers(rng), passive=passive)
+    system = LegSystem(LEG, moving_drivers(rng).with_passive(passive))
     for _ in range(4):
         x = np.concatenate([rng.normal(0, 0.4, 2), rng.normal(0, 2, 2)])
         parts = contributions(system, 0.0, x)
@@ -53,7 +53,7 @@ def test_linearization_matches_finite_differences(with_passive):
     rng = np.random.default_rng(2)
     passive = ({"knee": PassiveJoint((LinearSpringDamper(100, 100), ExponentialLimits())),
                 "hip": PassiveJoint((LinearSpringDamper(50, 5),))} if with_passive else None)
-    system = LegSystem(LEG, moving_drivers(rng), passive=passive)
+    system = LegSystem(LEG, moving_drivers(rng).with_passive(passive))
     x = np.array([0.2, -0.3, 0.5, -1.0])
     lin = linearize(system, 0.0, x)
     eps = 1e-6
@@ -67,7 +67,7 @@ def test_upright_leg_is_unstable_and_springs_stabilise_it():
     free = linearize(LegSystem(LEG, LegDrivers.still()), 0.0, x)
     assert free.unstable.size >= 1 and free.e_folding_time < 0.2
     stiff = {n: PassiveJoint((LinearSpringDamper(2000, 50),)) for n in ("ankle", "knee")}
-    held = linearize(LegSystem(LEG, LegDrivers.still(), passive=stiff), 0.0, x)
+    held = linearize(LegSystem(LEG, LegDrivers.still(passive=stiff)), 0.0, x)
     assert held.unstable.size == 0
 
 

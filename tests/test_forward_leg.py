@@ -6,7 +6,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from predgait.dynamics.drivers import LegDrivers, PDFeedback, constant
+from predgait.dynamics.drivers import LegDrivers, constant
+from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, LegSystem, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
@@ -112,17 +113,16 @@ def test_collapse_falls_and_reports_time_to_fall():
                        fall=FallLimit(segment_angle_deg=None, hip_height=0.6))
     assert hip.time_to_fall is not None and hip.time_to_fall > 0.1
     # a stiff knee spring holds it up: no fall within 1 s
-    held = simulate_leg(LEG, LegDrivers.still(), (0.0, 1.0), x0, options=opts,
-                        fall=FallLimit(), passive={
-                            "knee": PassiveJoint((LinearSpringDamper(2000, 50),)),
-                            "ankle": PassiveJoint((LinearSpringDamper(2000, 50),))})
+    stiff = LegDrivers.still(passive={"knee": PassiveJoint((LinearSpringDamper(2000, 50),)),
+                                      "ankle": PassiveJoint((LinearSpringDamper(2000, 50),))})
+    held = simulate_leg(LEG, stiff, (0.0, 1.0), x0, options=opts, fall=FallLimit())
     assert held.status == "completed" and held.time_to_fall is None
 
 
 def test_pd_feedback_holds_the_reference():
     ref_q = np.array([0.0, 0.0, 0.0, 0.1, -0.2])
-    fb = PDFeedback(kp=np.array([800.0, 800.0]), kd=np.array([60.0, 60.0]),
-                    q_ref=constant(ref_q), qd_ref=constant(np.zeros(5)))
+    fb = JointFeedback(np.arange(3, 5), lambda t: (ref_q, np.zeros(5)),
+                       kp=np.array([800.0, 800.0]), kd=np.array([60.0, 60.0]))
     x0 = np.array([0.12, -0.25, 0.0, 0.0])
     sim = simulate_leg(LEG, LegDrivers.still(), (0.0, 1.5), x0, feedback=fb,
                        options=IntegratorOptions(method=Method.RK4, step=1e-3))
@@ -146,8 +146,8 @@ def test_bad_inputs():
     with pytest.raises(InputError, match="x0"):
         simulate_leg(LEG, LegDrivers.still(), (0, 0.1), np.zeros(3), options=opts)
     with pytest.raises(InputError, match="passive"):
-        simulate_leg(LEG, LegDrivers.still(), (0, 0.1), np.zeros(4), options=opts,
-                     passive={"elbow": PassiveJoint()})
+        simulate_leg(LEG, LegDrivers.still(passive={"elbow": PassiveJoint()}), (0, 0.1),
+                     np.zeros(4), options=opts)
     with pytest.raises(InputError, match="rod"):
         simulate_leg(load_model("rod"), LegDrivers.still(), (0, 0.1), np.zeros(4),
                      options=opts)

@@ -98,3 +98,26 @@ def test_bad_input(setup):
         solve_ik(model, time, xyz[:, :3], frames)
     with pytest.raises(InputError, match="no frame"):
         solve_ik(model, time, xyz[:, :1], ("nose",))
+
+
+def test_frames_beyond_a_joint_limit_are_flagged_not_clipped(setup):
+    """A right knee range narrowed below the motion: those frames end on the limit and are
+    flagged (never outside it); the other frames fit the markers exactly."""
+    model, time, qs, frames, xyz, _ = setup
+    pm = pin.Model(model.pin_model)
+    knee = pm.joints[pm.getJointId("knee_r_y")]   # flexion
+    column = knee.idx_q
+    values = qs[:, column]
+    cut = float(np.median(values))
+    upper = pm.upperPositionLimit.copy()
+    upper[column] = cut
+    pm.upperPositionLimit = upper
+    narrow = type(model)(urdf=model.urdf, kind=model.kind, pin_model=pm, gravity=model.gravity,
+                         source="narrowed knee")
+    result = solve_ik(narrow, time, xyz, frames)
+    beyond = values > cut + 1e-6
+    assert beyond.any() and (~beyond).any()
+    np.testing.assert_array_equal(~result.converged, beyond)
+    assert result.at_limit[beyond, knee.idx_v].all()
+    assert np.all(result.q[:, column] <= cut + 1e-12)
+    assert result.rms[~beyond].max() < 1e-6

@@ -9,7 +9,6 @@ must equal the applied ones (within 1 N m RMS in stance and in swing; measured 0
 or less).
 """
 
-import dataclasses
 import json
 import subprocess
 import sys
@@ -22,9 +21,7 @@ from predgait.data.frames import OPENSIM_TO_LAB
 from predgait.dynamics.external import Load, joint_forces
 from predgait.dynamics.inverse import LoadHistory, leg_inverse_dynamics
 from predgait.kinematics import clinical
-from predgait.models.anthropometry import leg_from_subject
-from predgait.models.loading import model_from_urdf
-from predgait.models.urdf import leg_urdf
+from predgait.models.loading import generate_urdf, model_from_urdf
 from test_inverse_synthetic import (
     STANCE,
     frame_positions,
@@ -57,9 +54,15 @@ def write_trc(path, time, positions):
 def aba_trial(tmp_path_factory):
     """Files of the ABA-generated trial; times (n,) and the applied clinical moments."""
     tmp_path = tmp_path_factory.mktemp("aba_trial")
-    leg = leg_from_subject(72.6, 1.80)
-    leg = dataclasses.replace(leg, foot=dataclasses.replace(leg.foot, com_x=0.0, com_z=0.0))
-    model = model_from_urdf(leg_urdf(leg), source="foot COM at the ankle")
+    table = tmp_path / "segments.csv"     # a lab's table: Dempster-like, foot COM at the ankle
+    table.write_text("segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2,"
+                     "gyration_fraction,foot_com,com_x_m,com_z_m\n"
+                     "foot,1.05,0.27,,0.0045,,offset,0,0\n"
+                     "shank,3.38,0.43,0.433,,0.302,,,\n"
+                     "thigh,7.26,0.44,0.433,,0.323,,,\n")
+    model = model_from_urdf(generate_urdf("leg", segments=table), source=str(table))
+    foot = model.pin_model.inertias[model.pin_model.frames[model.frame_id("foot")].parentJoint]
+    assert np.allclose(foot.lever, 0.0)
     (tmp_path / "leg.urdf").write_text(model.urdf)
     pm, data = model.pin_model, model.pin_model.createData()
 

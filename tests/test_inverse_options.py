@@ -233,3 +233,37 @@ def test_cli_reports_flagged_frames_and_fails_when_most_are(tmp_path):
     table = np.genfromtxt(out / "inverse_dynamics.csv", delimiter=",", names=True,
                           skip_header=2, comments=None)
     assert np.isnan(table["knee_flexion_moment"]).sum() >= summary["flagged_frames"]
+
+
+def test_fullbody_tables_are_nan_at_flagged_frames(tmp_path):
+    """3D pipeline: frames the IK flags (and 2 on each side) are NaN in every table."""
+    import dataclasses
+
+    from predgait.data import read_storage, read_trc
+    from predgait.workflows.inverse3d import (
+        clinical,
+        inverse_fullbody,
+        read_marker_map,
+        read_trial,
+        summary,
+        write_outputs,
+    )
+
+    data = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"
+    markers, plates = read_trial([data / "subject01_walk1.trc",
+                                  data / "subject01_walk1_grf.mot"])
+    marker_map = read_marker_map(REPO / "problems" / "markers_fullbody_subject01.toml")
+    result = inverse_fullbody(markers, plates, marker_map, mass=72.6, height=1.8034,
+                              static=read_trc(data / "subject01_static.trc"))
+    assert summary(result)["status"] == "completed"
+    converged = result.ik.converged.copy()
+    converged[40:50] = False
+    flagged = dataclasses.replace(result, ik=dataclasses.replace(result.ik, converged=converged))
+    angles, moments = clinical(flagged)
+    for values in (*angles.values(), *moments.values()):
+        assert np.isnan(values[38:52]).all() and np.isfinite(values[:38]).all()
+    write_outputs(flagged, tmp_path)
+    info = json.loads((tmp_path / "summary.json").read_text())
+    assert info["status"] == "completed with 10 flagged frames"
+    table = read_storage(tmp_path / "inverse_dynamics3d.sto")
+    assert np.isnan(table.column("knee_r_y_moment")[38:52]).all()

@@ -8,6 +8,7 @@ import pinocchio as pin
 import pytest
 
 from predgait.dynamics.external import Load, generalized_load, joint_forces
+from predgait.errors import InputError
 from predgait.models import anthropometry
 from predgait.models.loading import generate_urdf, load_model, model_from_urdf
 from predgait.models.symbolic import symbolic_model
@@ -257,3 +258,46 @@ def test_generalized_load_equals_rnea_difference():
     fext = joint_forces(model, data, loads)
     expected = pin.rnea(pm, data, q, qd, qdd) - pin.rnea(pm, data, q, qd, qdd, fext)
     np.testing.assert_allclose(generalized_load(model, data, loads), expected, atol=1e-9)
+
+
+FOOT_TABLE = ("segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2,gyration_fraction,"
+              "foot_com,com_x_m,com_z_m\n"
+              "shank,3.4,0.42,0.40,0.05,,,,\nthigh,8.0,0.45,0.43,,0.323,,,\n")
+
+
+@pytest.mark.parametrize(("foot_row", "expected"), [
+    # heel-toe line from the heel, at the sole: heel_x = -0.25 L, sole_z = -(0.039/0.152) L
+    ("foot,1.2,0.26,0.45,0.011,,heel_toe,,", (-0.065 + 0.45 * 0.26, -0.039 / 0.152 * 0.26)),
+    ("foot,1.2,0.26,0.0,0.011,,heel_toe,,", (-0.065, -0.039 / 0.152 * 0.26)),
+    # ankle-toe line from the ankle centre: toe at (0.75 L, sole_z)
+    ("foot,1.2,0.26,0.5,0.011,,ankle_toe,,", (0.5 * 0.75 * 0.26, -0.5 * 0.039 / 0.152 * 0.26)),
+    ("foot,1.2,0.26,0,0.011,,ankle_toe,,", (0.0, 0.0)),
+    ("foot,1.2,0.26,,0.011,,offset,0.05,-0.03", (0.05, -0.03)),
+    ("foot,1.2,0.26,,,0.475,offset,0,0", (0.0, 0.0)),
+])
+def test_segment_table_places_the_foot_com_as_labs_publish(tmp_path, foot_row, expected):
+    table = tmp_path / "segments.csv"
+    table.write_text(FOOT_TABLE + foot_row + "\n")
+    model = model_from_urdf(generate_urdf("leg", segments=table))
+    pm = model.pin_model
+    foot = pm.inertias[pm.frames[model.frame_id("foot")].parentJoint]
+    assert (foot.lever[0], foot.lever[2]) == pytest.approx(expected, abs=1e-9)  # URDF: 10 digits
+    thigh = pm.inertias[pm.frames[model.frame_id("thigh")].parentJoint]
+    assert thigh.inertia[1, 1] == pytest.approx(8.0 * (0.323 * 0.45) ** 2)   # gyration
+    if foot_row.split(",")[5]:
+        assert foot.inertia[1, 1] == pytest.approx(1.2 * (0.475 * 0.26) ** 2)
+
+
+@pytest.mark.parametrize(("rows", "message"), [
+    ("foot,1.2,0.26,0.45,0.011,,toe_heel,,\n", "column foot_com"),
+    ("foot,1.2,0.26,0.45,0.011,0.4,,,\n", "not both"),
+    ("foot,1.2,0.26,1.5,0.011,,,,\n", "column com_from_proximal"),
+    ("foot,1.2,0.26,,0.011,,offset,x,0\n", "column com_x_m"),
+    ("foot,1.2,0.26,0.45,0.011,,,,\nfoot,1.2,0.26,0.45,0.011,,,,\n", "segment 'foot' again"),
+    ("foot,1.2,0.26,0.45,0.011,,,,\npelvis,9,0.2,0.5,0.1,,,,\n", "'pelvis' is not one of"),
+])
+def test_segment_table_errors_name_line_and_column(tmp_path, rows, message):
+    table = tmp_path / "segments.csv"
+    table.write_text(FOOT_TABLE + rows)
+    with pytest.raises(InputError, match=message):
+        generate_urdf("leg", segments=table)

@@ -11,10 +11,10 @@ import pinocchio as pin
 import pytest
 
 from predgait.dynamics.contact import ImpactContact
+from predgait.dynamics.forces import GroundContact
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse3d import velocities
 from predgait.dynamics.partitioned import (
-    GroundContact,
     MotionHistory,
     PartitionedSystem,
     simulate_partitioned,
@@ -100,3 +100,23 @@ def test_standing_on_contact_carries_body_weight():
 def test_partial_free_flyer_is_refused(body, swinging):
     with pytest.raises(InputError, match="free-flyer"):
         PartitionedSystem(body, [0, 1, 6], swinging)
+
+
+@pytest.mark.parametrize("free", [range(6), range(6, 20), [0, 1, 2, 9, 10]])
+def test_engine_equals_the_partitioned_equations(body, swinging, free):
+    """Pinocchio's RNEA/CRBA path equals a_f = M_ff^-1 (tau_f - h_f - M_fp a_p) (the form
+    the CasADi problems use) for prescribed pelvis, joints or a mix."""
+    from predgait.dynamics.partitioned import free_accelerations
+
+    pm = body.pin_model
+    rng = np.random.default_rng(4)
+    tau = rng.normal(0.0, 20.0, pm.nv)
+    system = PartitionedSystem(body, free, swinging, [lambda t, q, v, data: tau])
+    q, v, a = swinging(0.3)
+    a_free, _ = system.solve(0.3, q, v, a)
+    data = pm.createData()
+    mass = pin.crba(pm, data, q)
+    mass = np.triu(mass) + np.triu(mass, 1).T
+    expected = free_accelerations(mass, pin.nonLinearEffects(pm, data, q, v), tau,
+                                  a[system.pres], list(system.free), list(system.pres))
+    np.testing.assert_allclose(a_free, expected, rtol=1e-9, atol=1e-9)

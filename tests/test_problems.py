@@ -9,7 +9,8 @@ import casadi as cs
 import numpy as np
 import pytest
 
-from predgait.dynamics.drivers import LegDrivers, PDFeedback
+from predgait.dynamics.drivers import LegDrivers
+from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import LegSystem, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse_trial import bundled_inverse
@@ -32,8 +33,9 @@ def synthetic_nodes(trial, n, t1, **simulate):
     """Nodes whose 'measured' motion is a fine Pinocchio simulation with known inputs."""
     inverse, drivers = trial
     t = np.linspace(0.0, t1, n + 1)
-    sim = simulate_leg(inverse.model, simulate.pop("drivers", drivers), (0.0, t1),
-                       options=FINE, t_eval=t, **simulate)
+    driving = simulate.pop("drivers", drivers).with_passive(simulate.pop("passive", None))
+    sim = simulate_leg(inverse.model, driving, (0.0, t1), options=FINE, t_eval=t,
+                       **simulate)
     assert sim.status == "completed"
     nodes = NodeData.from_drivers(drivers, 0.0, t1, n)
     return replace(nodes, x_ref=np.column_stack([sim.q[:, 3:], sim.qd[:, 3:]]))
@@ -86,9 +88,9 @@ def test_feedback_gains_reject_a_perturbation(trial):
     nodes = NodeData.from_drivers(drivers, 0.0, 0.6, 300)
     fit = fit_feedback(inverse.model, nodes, perturbation_deg=3.0, regularization=1e-9)
     p = fit.parameters
-    gains = PDFeedback(np.array([p["kp_ankle"], p["kp_knee"]]),
-                       np.array([p["kd_ankle"], p["kd_knee"]]), drivers.reference_q,
-                       drivers.reference_qd)
+    gains = JointFeedback(np.arange(3, 5), drivers.reference,
+                          np.array([p["kp_ankle"], p["kp_knee"]]),
+                          np.array([p["kd_ankle"], p["kd_knee"]]))
     x0 = np.concatenate([drivers.reference_q(0.0)[3:] + np.radians([3.0, -3.0]),
                          drivers.reference_qd(0.0)[3:]])
     t = np.linspace(0, 0.6, 61)

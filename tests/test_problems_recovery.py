@@ -11,7 +11,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from predgait.dynamics.drivers import LegDrivers, PDFeedback
+from predgait.dynamics.drivers import LegDrivers
+from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse_trial import bundled_inverse
@@ -35,8 +36,9 @@ def noisy_nodes(trial, intervals, t1, *, noise_deg, seed, **simulate):
     inverse, drivers = trial
     n = HS.grid_intervals(intervals)
     t = np.linspace(0.0, t1, n + 1)
-    sim = simulate_leg(inverse.model, simulate.pop("drivers", drivers), (0.0, t1),
-                       options=FINE, t_eval=t, **simulate)
+    driving = simulate.pop("drivers", drivers).with_passive(simulate.pop("passive", None))
+    sim = simulate_leg(inverse.model, driving, (0.0, t1), options=FINE, t_eval=t,
+                       **simulate)
     assert sim.status == "completed"
     x_ref = np.column_stack([sim.q[:, 3:], sim.qd[:, 3:]])
     x_ref[1:, :2] += np.radians(noise_deg) * np.random.default_rng(seed).normal(
@@ -67,8 +69,8 @@ def test_hermite_simpson_is_more_accurate_than_trapezoidal_on_a_coarse_grid(tria
     for transcription in Transcription:
         n = transcription.grid_intervals(30)
         t = np.linspace(0.0, 0.3, n + 1)
-        sim = simulate_leg(inverse.model, drivers, (0.0, 0.3), options=FINE, t_eval=t,
-                           passive=passive)
+        sim = simulate_leg(inverse.model, drivers.with_passive(passive), (0.0, 0.3),
+                           options=FINE, t_eval=t)
         nodes = replace(NodeData.from_drivers(drivers, 0.0, 0.3, n),
                         x_ref=np.column_stack([sim.q[:, 3:], sim.qd[:, 3:]]))
         fit = fit_knee(inverse.model, nodes, transcription=transcription)
@@ -98,7 +100,7 @@ def test_torque_correction_recovers_a_known_smooth_offset_from_noisy_data(trial)
 def test_feedback_fit_recovers_known_gains_from_a_noisy_perturbed_response(trial):
     inverse, drivers = trial
     kp, kd = np.array([150.0, 250.0]), np.array([5.0, 8.0])
-    gains = PDFeedback(kp, kd, drivers.reference_q, drivers.reference_qd)
+    gains = JointFeedback(np.arange(3, 5), drivers.reference, kp, kd)
     x0 = np.concatenate([drivers.reference_q(0.0)[3:] + np.radians([3.0, -3.0]),
                          drivers.reference_qd(0.0)[3:]])
     nodes = noisy_nodes(trial, 60, 0.4, noise_deg=0.02, seed=5, feedback=gains, x0=x0)

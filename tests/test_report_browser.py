@@ -71,3 +71,29 @@ def test_report_runs_in_headless_chromium(inverse_report):
     assert not console, console  # the page logs nothing: no error, no warning
     inked = re.findall(r'data-inked-pixels="(\d+)"', result.stdout)
     assert inked and int(inked[0]) > 2000, "the viewer's canvas stayed empty"
+
+
+def test_contact_grf_is_the_total_force_at_the_loaded_centre():
+    from predgait.models.gait7 import CONTACT_FRAMES
+    from predgait.report.viewer import contact_grf
+    from predgait.simulations.gait7_motion import gait7_model
+
+    model = gait7_model(72.6, 1.8034)
+    q = np.zeros((2, model.nq))  # standing upright
+    forces = np.zeros((2, 4, 3))
+    forces[0, 0] = [10.0, 0.0, 300.0]   # heel_r
+    forces[0, 1] = [0.0, 0.0, 100.0]    # toe_r
+    (force, point), (left, left_point) = contact_grf(
+        model, q, forces, CONTACT_FRAMES, [("heel_r", "toe_r"), ("heel_l", "toe_l")])
+    heel, toe = viewer_positions(model, q[0], ("heel_r", "toe_r"))
+    np.testing.assert_allclose(force[0], [10.0, 0.0, 400.0])
+    np.testing.assert_allclose(point[0], 0.75 * heel + 0.25 * toe, atol=1e-12)
+    assert np.isnan(point[1]).all() and np.isnan(left_point).all()  # unloaded: no arrow
+
+
+def viewer_positions(model, q, names):
+    import pinocchio as pin
+
+    data = model.pin_model.createData()
+    pin.framesForwardKinematics(model.pin_model, data, q)
+    return [data.oMf[model.frame_id(n)].translation.copy() for n in names]

@@ -113,3 +113,31 @@ def test_no_plots_writes_no_image_and_imports_no_matplotlib(tmp_path):
     names = {p.name for p in out.iterdir()}
     assert {"summary.json", "states.sto"} <= names
     assert not [n for n in names if n.endswith((".png", ".gif"))]
+
+
+def test_sweep_plots_heat_map_for_a_full_grid_else_outcome_curves(tmp_path):
+    from types import SimpleNamespace
+
+    from predgait.report.sweep_plots import save_sweep_plots
+
+    def outcome(k, c, ok=True):
+        return SimpleNamespace(ok=ok, point=SimpleNamespace(values={"edit.0.k": k,
+                                                                    "edit.0.c": c}),
+                               metrics={"knee_rms_change_deg": k / 10 + c})
+    grid = [outcome(k, c) for k in (0.0, 50.0, 100.0) for c in (0.0, 2.0)]
+    names = save_sweep_plots(grid, tmp_path, ["knee_rms_change_deg"],
+                             baseline={"edit.0.k": 100.0, "edit.0.c": 2.0})
+    assert names == ["heatmap_knee_rms_change_deg.png"]
+    partial = [*grid[:-1], outcome(100.0, 2.0, ok=False)]
+    names = save_sweep_plots(partial, tmp_path, ["knee_rms_change_deg"],
+                             baseline={"edit.0.k": 100.0})
+    assert names == ["outcome_vs_edit_0_k.png", "outcome_vs_edit_0_c.png"]
+    assert all((tmp_path / n).stat().st_size > 5000 for n in names)
+
+
+def test_report_of_an_unknown_summary_says_so(tmp_path):
+    from predgait.report.html import build_report
+
+    (tmp_path / "summary.json").write_text('{"status": "completed", "kind": "future"}')
+    page = build_report(tmp_path)
+    assert "No headline: summary.json is not in a layout" in page

@@ -28,14 +28,18 @@ def contributions(system, t: float, x: np.ndarray) -> dict[str, np.ndarray]:
         x: (2 n_free,) state [q_f, v_f].
     """
     q, v, a = system.full_state(t, x)
-    a_total, _, M, forces = system.solve(t, q, v, a)
+    a_total = system.accelerations(t, q, v, a)
+    forces = system.applied_parts(t, q, v)
+    zero = np.zeros(system.pm.nv)
+    M = system.mass_matrix(q)
     f, p = system.free, system.pres
     grav = pin.computeGeneralizedGravity(system.pm, system.data, q)
-    velocity = forces["bias"] - grav
+    velocity = pin.nonLinearEffects(system.pm, system.data, q, v) - grav
     Mff = M[np.ix_(f, f)]
-    rhs = {"gravity": -grav[f], "velocity": -velocity[f], "passive": forces["passive"][f],
-           "applied": forces["active"][f] + forces["feedback"][f], "hip": forces["hip"][f],
-           "base": -M[np.ix_(f, p)] @ a[p]}
+    rhs = {"gravity": -grav[f], "velocity": -velocity[f],
+           "passive": forces.get("passive", zero)[f],
+           "applied": forces.get("active", zero)[f] + forces.get("feedback", zero)[f],
+           "hip": forces.get("hip", zero)[f], "base": -M[np.ix_(f, p)] @ a[p]}
     parts = {name: np.linalg.solve(Mff, value) for name, value in rhs.items()}
     parts["total"] = a_total
     return parts

@@ -50,16 +50,12 @@ class Linearization:
         return float(1.0 / re) if re > 1e-9 else None
 
 
-def _applied(system, t, q, v):
-    forces = system.generalized_forces(t, q, v)
-    return forces["active"] + forces["passive"] + forces["feedback"] + forces["hip"]
-
-
 def linearize(system, t: float, x: np.ndarray, *, eps: float = 1e-6) -> Linearization:
     """Jacobian and eigenvalues of the leg's right-hand side at (t, x).
 
     Args:
-        system: A :class:`predgait.dynamics.forward.LegSystem`.
+        system: A :class:`predgait.dynamics.partitioned.PartitionedSystem` without a
+            free-flyer root (e.g. the leg's :class:`~predgait.dynamics.forward.LegSystem`).
         t: Time, s.
         x: (2 nf,) state [q_f, v_f].
         eps: Central-difference step for the applied forces' derivatives.
@@ -67,7 +63,8 @@ def linearize(system, t: float, x: np.ndarray, *, eps: float = 1e-6) -> Lineariz
     pm, f = system.pm, system.free
     nf = len(f)
     q, v, a = system.full_state(t, np.asarray(x, dtype=float))
-    a_free, _, M, _ = system.solve(t, q, v, a)
+    a_free = system.accelerations(t, q, v, a)
+    M = system.mass_matrix(q)
     a = a.copy()
     a[f] = a_free
     data = pm.createData()
@@ -76,8 +73,8 @@ def linearize(system, t: float, x: np.ndarray, *, eps: float = 1e-6) -> Lineariz
     for j, i in enumerate(f):
         e = np.zeros(pm.nv)
         e[i] = eps
-        dtau_q[:, j] = (_applied(system, t, q + e, v) - _applied(system, t, q - e, v)) / (2 * eps)
-        dtau_v[:, j] = (_applied(system, t, q, v + e) - _applied(system, t, q, v - e)) / (2 * eps)
+        dtau_q[:, j] = (system.applied(t, q + e, v) - system.applied(t, q - e, v)) / (2 * eps)
+        dtau_v[:, j] = (system.applied(t, q, v + e) - system.applied(t, q, v - e)) / (2 * eps)
     Mff = M[np.ix_(f, f)]
     da_dq = np.linalg.solve(Mff, dtau_q[f] - dq[np.ix_(f, f)])
     da_dv = np.linalg.solve(Mff, dtau_v[f] - dv[np.ix_(f, f)])

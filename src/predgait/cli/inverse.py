@@ -168,9 +168,17 @@ def run_fullbody(args: argparse.Namespace) -> int:
     summary = run_inverse_fullbody(files, args.marker_map, mass=args.mass, height=args.height,
                                    sex=args.sex, out_dir=args.out, static=args.static,
                                    cutoff=cutoff, grf_cutoff=grf_cutoff, force=args.force)
+    from predgait.dynamics.inverse_trial import MOST_FRAMES
     from predgait.report.console import inverse3d_text
 
     print(inverse3d_text(summary, args.out))
+    print(f"  status: {summary['status']}")
+    flagged = len(summary.get("ik_flagged_frames") or [])
+    if flagged > MOST_FRAMES * summary["frames"]:
+        print(f"predgait: error: inverse kinematics flagged {flagged} of {summary['frames']} "
+              f"frames (the model cannot follow the markers there); the results in "
+              f"{args.out}/ are NaN at those frames. Check the marker map.", file=sys.stderr)
+        return 3
     return 0
 
 

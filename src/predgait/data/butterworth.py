@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 #: Samples per block of the block recursion.
-BLOCK = 256
+BLOCK = 64
 
 
 def butter_lowpass(order: int, cutoff: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
@@ -65,16 +65,16 @@ def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, state: np.ndarray
     """Filter along axis 0 from the initial ``state`` (order, ...) ; returns y like x."""
     A, B, C, D = _state_space(b, a)
     size = min(BLOCK, len(x))
-    # Powers A^j (j = 0..size), observability rows C A^j, and the impulse response h.
-    powers = [np.eye(len(B))]
-    for _ in range(size):
-        powers.append(A @ powers[-1])
-    observe = np.array([C @ p for p in powers[:size]])                     # (size, order)
-    h = np.concatenate([[D], [C @ p @ B for p in powers[:size - 1]]])
-    toeplitz = np.zeros((size, size))
+    # Powers A^j (j = 0..size); C = e_0, so C A^j is row 0 of A^j.
+    powers = np.empty((size + 1, len(B), len(B)))
+    powers[0] = np.eye(len(B))
     for j in range(size):
-        toeplitz[j:, j] = h[:size - j]
-    drive = np.array([powers[size - 1 - j] @ B for j in range(size)]).T   # (order, size)
+        powers[j + 1] = A @ powers[j]
+    observe = powers[:size, 0, :]                                          # (size, order)
+    h = np.concatenate([[D], observe[:size - 1] @ B])                      # impulse response
+    lag = np.subtract.outer(np.arange(size), np.arange(size))
+    toeplitz = np.where(lag >= 0, h[np.maximum(lag, 0)], 0.0)
+    drive = (powers[size - 1::-1] @ B).T                                   # A^(size-1-j) B
     z = np.asarray(state, dtype=float).reshape(len(B), -1)
     flat = np.reshape(x, (len(x), -1))
     out = np.empty(flat.shape)

@@ -13,8 +13,8 @@ Outside the sampled time range the histories are held constant at the end values
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -84,10 +84,25 @@ def _columns(history: SampledHistory, columns: slice) -> TimeFunction:
     return lambda t: history(t)[columns]
 
 
-def constant(value) -> TimeFunction:
+class Constant:
+    """A time function returning a fixed (copied) array; ``value`` is that array."""
+
+    def __init__(self, value):
+        self.value = np.array(value, dtype=float)
+
+    def __call__(self, t: float) -> np.ndarray:
+        """The value (the same array at every t; callers must not modify it)."""
+        return self.value
+
+
+def constant(value) -> Constant:
     """A time function returning a fixed (copied) array."""
-    value = np.array(value, dtype=float)
-    return lambda t: value
+    return Constant(value)
+
+
+def is_zero(function) -> bool:
+    """True when ``function`` is a :class:`Constant` equal to zero (nothing to apply)."""
+    return isinstance(function, Constant) and not function.value.any()
 
 
 @dataclass(frozen=True)
@@ -111,6 +126,11 @@ class LegDrivers:
         reference_qdd: Optional t -> (5,) measured accelerations (needed when a joint
             coordinate is prescribed rather than free).
         time_range: (t0, t1) s where the histories are sampled, or None (any time).
+        passive: Joint name ("ankle", "knee", "hip") -> PassiveJoint: the passive
+            elements acting in the run (clinical angles; the one place they are given).
+        passive_offset: Optional t -> (5,) generalised passive force of ``passive`` at
+            the measured motion, subtracted in the run (set by :meth:`from_inverse`: the
+            inverse-dynamics moments already contain the elements).
     """
 
     prescribed_q: TimeFunction
@@ -123,18 +143,34 @@ class LegDrivers:
     reference_qd: TimeFunction | None = None
     reference_qdd: TimeFunction | None = None
     time_range: tuple[float, float] | None = None
+    passive: Mapping = field(default_factory=dict)
+    passive_offset: TimeFunction | None = None
 
     @classmethod
     def still(cls, base=(0.0, 0.0, 0.0), *, joint_torque=(0.0, 0.0),
-              hip_force=(0.0, 0.0, 0.0), hip_moment=(0.0, 0.0, 0.0)) -> LegDrivers:
+              hip_force=(0.0, 0.0, 0.0), hip_moment=(0.0, 0.0, 0.0),
+              passive: Mapping | None = None) -> LegDrivers:
         """Foot held still at ``base``; constant torques and hip load (default zero).
 
-        The thesis' collapse test (4.2): foot fixed, no moments, no forces.
+        The thesis' collapse test (4.2): foot fixed, no moments, no forces; ``passive``
+        elements act on the joints.
         """
         zero = constant(np.zeros(3))
         return cls(prescribed_q=constant(base), prescribed_qd=zero, prescribed_qdd=zero,
                    joint_torque=constant(joint_torque), hip_force=constant(hip_force),
-                   hip_moment=constant(hip_moment))
+                   hip_moment=constant(hip_moment), passive=dict(passive or {}))
+
+    def with_passive(self, passive: Mapping | None) -> LegDrivers:
+        """These drivers with passive elements ADDED to the drive (torques unchanged).
+
+        A what-if: the elements act on the whole motion, not only on its deviation from
+        the measured one (compare :meth:`from_inverse` with ``passive``).
+        """
+        return replace(self, passive=dict(passive or {}), passive_offset=None)
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(reference_q(t), reference_qd(t)): the feedback reference."""
+        return self.reference_q(t), self.reference_qd(t)
 
     @classmethod
     def from_samples(cls, time, q, qd, qdd, tau, hip_force, hip_moment) -> LegDrivers:
@@ -173,30 +209,28 @@ class LegDrivers:
         and knee torques (+ ``torque_offsets`` (n, 2) or (2,) N m, model sign); hip
         load = the solved hip force and moment; reference = IK coordinates.
 
-        With ``passive`` (joint name -> PassiveJoint, as given to the simulation), the
-        drivers are the ACTIVE moments: inverse-dynamics total minus the passive moment
-        at the measured state (thesis 3.3.3-3.3.4: the same passive elements in the
-        indirect and forward problems), so the measured motion still solves the forward
-        problem and the elements only act on deviations from it.
+        With ``passive`` (joint name -> PassiveJoint), the elements act in the run and
+        their generalised force at the measured state (the one sign table,
+        :func:`predgait.dynamics.forces.passive_generalized`) is subtracted (thesis
+        3.3.3-3.3.4: the same passive elements in the indirect and forward problems;
+        the moments of inverse dynamics are active plus passive), so the measured motion
+        still solves the forward problem and the elements only act on deviations from
+        it. The elements are given here once; the simulation reads them from the drivers.
         """
+        from predgait.dynamics.forces import passive_generalized
+
         tau = np.array(result.tau, dtype=float)
-        hip_moment = np.array(result.hip_moment, dtype=float)
         if torque_offsets is not None:
             tau[:, 3:5] += np.broadcast_to(np.asarray(torque_offsets, dtype=float),
                                            tau[:, 3:5].shape)
-        q, qd = np.asarray(result.q), np.asarray(result.qd)
-        for name, joint in (passive or {}).items():
-            if name == "ankle":
-                tau[:, 3] -= np.asarray(joint.moment(q[:, 3], qd[:, 3]))
-            elif name == "knee":
-                tau[:, 4] -= -np.asarray(joint.moment(-q[:, 4], -qd[:, 4]))
-            elif name == "hip":  # moment on the thigh about +Y = -(clinical hip moment)
-                pitch, rate = q[:, 2:5].sum(axis=1), qd[:, 2:5].sum(axis=1)
-                hip_moment[:, 1] -= -np.asarray(joint.moment(-pitch, -rate))
-            else:
-                raise InputError(f"passive elements on '{name}': the leg has ankle, knee, hip.")
-        return cls.from_samples(result.time, result.q, result.qd, result.qdd, tau,
-                                result.hip_force, hip_moment)
+        drivers = cls.from_samples(result.time, result.q, result.qd, result.qdd, tau,
+                                   result.hip_force, result.hip_moment)
+        if not passive:
+            return drivers
+        offset = SampledHistory(result.time, passive_generalized(
+            result.model, passive, np.asarray(result.q), np.asarray(result.qd)),
+            name="passive moments at the measured motion")
+        return replace(drivers, passive=dict(passive), passive_offset=offset)
 
     def with_torque_change(self, t: np.ndarray, change: np.ndarray) -> LegDrivers:
         """These drivers with a torque change added to the joint torques.
@@ -215,29 +249,3 @@ class LegDrivers:
                                           np.interp(time, t, change[:, 1])])
 
         return replace(self, joint_torque=joint_torque)
-
-
-@dataclass(frozen=True)
-class PDFeedback:
-    """Joint feedback on the free coordinates (thesis 4.2 future work).
-
-    tau_fb = kp (q_ref(t) - q) + kd (qd_ref(t) - qd), on the free joints in MODEL
-    coordinates (ankle, knee), added to the active torques.
-
-    Attributes:
-        kp: (2,) N m/rad.
-        kd: (2,) N m s/rad.
-        q_ref: t -> (5,) reference coordinates (e.g. ``LegDrivers.reference_q``).
-        qd_ref: t -> (5,) reference velocities.
-    """
-
-    kp: np.ndarray
-    kd: np.ndarray
-    q_ref: TimeFunction
-    qd_ref: TimeFunction
-
-    def torque(self, t: float, q_free: np.ndarray, v_free: np.ndarray,
-               free: np.ndarray) -> np.ndarray:
-        """Feedback torques (len(free),) N m at time t for the free coordinates ``free``."""
-        return (np.asarray(self.kp) * (self.q_ref(t)[free] - q_free)
-                + np.asarray(self.kd) * (self.qd_ref(t)[free] - v_free))

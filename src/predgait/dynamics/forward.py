@@ -1,22 +1,19 @@
-"""Forward dynamics with prescribed coordinates, and the leg and rod simulations.
+"""The leg and the rod: configurations of the one engine (:mod:`.partitioned`).
 
-With the generalised coordinates split into free (f) and prescribed (p) ones
-(the leg: the foot's base_x, base_z, base_pitch follow measured motion; ankle, knee
-free), Pinocchio's mass matrix M (``pin.crba``) and bias forces h (gravity, Coriolis,
-centrifugal; ``pin.nonLinearEffects``) give::
+Leg (thesis 3.3): the foot's base_x, base_z, base_pitch follow the measured motion
+(prescribed), ankle and knee are free (or one of them prescribed from the reference);
+applied forces: the active joint torques, the passive elements (one sign table,
+:class:`~predgait.dynamics.forces.PassiveTorques`), optional PD feedback and the hip
+force and moment on ``hip_center``. The multipliers of the prescribed base are the
+wrench the ground must apply to the foot for it to follow its prescribed motion: force
+(lambda_x, lambda_z) in the lab frame and moment lambda_pitch about +Y at the foot frame
+origin (the ankle centre). It is reduced to a force at a centre of pressure on the
+ground line (thesis eqs. 3.3.9-3.3.10): the moment about the heel H, M_H = lambda_pitch
++ ((A - H) x F)_y, and with no moment left at the COP on the line z = z_g: COP_x = H_x -
+(M_H + (H_z - z_g) F_x) / F_z (thesis: COP_x = M_G/H / F_GZ measured from the heel, the
+sign following the moment about +Y used here).
 
-    a_f      = M_ff^-1 (tau_f - h_f - M_fp a_p)                       (free accelerations)
-    lambda_p = M_pp a_p + M_pf a_f + h_p - tau_p                       (reaction on p)
-
-tau = S^T tau_joints + J^T w (applied joint torques, passive moments, feedback and the
-external loads w, e.g. the hip force and moment on ``hip_center``). For the leg,
-lambda_p is the wrench the ground must apply to the foot for it to follow its
-prescribed motion: force (lambda_x, lambda_z) in the lab frame and moment lambda_pitch
-about +Y at the foot frame origin (the ankle centre). It is reduced to a force at a
-centre of pressure on the ground line (thesis eqs. 3.3.9-3.3.10): the moment about the
-heel H, M_H = lambda_pitch + ((A - H) x F)_y, and with no moment left at the COP on the
-line z = z_g: COP_x = H_x - (M_H + (H_z - z_g) F_x) / F_z (thesis: COP_x = M_G/H / F_GZ
-measured from the heel, the sign following the moment about +Y used here).
+Rod (thesis 3.2.3-3.2.4): nothing prescribed, end loads in the lab or the rod frame.
 
 This replaces the thesis' 21-equation Newton-Euler system (Appendix A) solved by
 Gauss-Jordan at each step; tests/test_forward_thesis.py writes those equations out and
@@ -26,30 +23,37 @@ checks that both give the same accelerations and ground reaction.
 from __future__ import annotations
 
 import enum
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 
-from predgait.dynamics.drivers import LegDrivers, PDFeedback
-from predgait.dynamics.external import Load, joint_forces
-from predgait.dynamics.integrators import (
-    Event,
-    Integration,
-    IntegratorOptions,
-    integrate,
+from predgait.dynamics.drivers import LegDrivers, is_zero
+from predgait.dynamics.external import Load, generalized_load
+from predgait.dynamics.forces import (
+    Force,
+    FrameLoad,
+    JointFeedback,
+    JointTorques,
+    Kinematics,
+    PassiveTorques,
 )
-from predgait.dynamics.passive import PassiveJoint
+from predgait.dynamics.integrators import Event, IntegratorOptions
+from predgait.dynamics.partitioned import (
+    PartitionedSystem,
+    SimulationResult,
+    simulate_partitioned,
+)
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import Model
 
-__all__ = ["ForceFrame", "LegDrivers", "PDFeedback", "LegSystem", "FallLimit",
-           "SimulationResult", "simulate_leg", "RodForces", "simulate_rod",
-           "rod_accelerations", "reduce_to_cop"]
+__all__ = ["LEG_FREE", "ForceFrame", "LegSystem", "FallLimit", "SimulationResult", "simulate_leg",
+           "RodForces", "simulate_rod", "rod_system", "reduce_to_cop"]
 
-#: Clinical sign of each passive joint: model torque = sign * M_clin(sign * q, sign * qd).
-_PASSIVE_SIGN = {"ankle": 1.0, "knee": -1.0}
+#: The leg's free coordinates (the foot is prescribed), for the engine and the CasADi
+#: problems alike.
+LEG_FREE = ("ankle", "knee")
 #: Vertical ground force below which no COP is reported (set to 0), N.
 COP_THRESHOLD = 20.0
 
@@ -97,130 +101,62 @@ class FallLimit:
     hip_height: float | None = None
 
 
-def _solve_small(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Solve a small SPD system; 1x1 and 2x2 in closed form (np.linalg.solve costs ~9 us)."""
-    if rhs.size == 1:
-        return rhs / matrix[0, 0]
-    if rhs.size == 2:
-        (a, b), (c, d) = matrix
-        det = a * d - b * c
-        return np.array([d * rhs[0] - b * rhs[1], a * rhs[1] - c * rhs[0]]) / det
-    return np.linalg.solve(matrix, rhs)
-
-
-class LegSystem:
-    """The leg's right-hand side x' = f(t, x) with prescribed coordinates.
-
-    The state is x = [q_f, v_f] (free coordinates, then their velocities). One
-    ``pin.Data`` is reused across calls; each call returns a new array.
+class LegSystem(PartitionedSystem):
+    """The leg's right-hand side x' = f(t, x), x = [q_f, v_f], foot prescribed.
 
     Args:
         model: The leg.
-        drivers: Prescribed motion, torques, hip load.
+        drivers: Prescribed motion, torques, hip load and the passive elements that act
+            in the run (``drivers.passive``, with their inverse-dynamics offset when the
+            drivers came from :meth:`LegDrivers.from_inverse` with them).
         free: Names of the free coordinates (default ankle, knee); the others follow
             ``drivers`` (base coordinates: ``prescribed_*``; joints: ``reference_*``).
-        passive: Joint name ("ankle", "knee", "hip") -> passive elements on the
-            clinical angle. The hip's acts on the thigh as a moment (no pelvis).
-        feedback: Optional PD feedback on the free joints.
+        feedback: Optional PD feedback (:class:`~predgait.dynamics.forces.JointFeedback`)
+            on joint rows.
     """
 
-    def __init__(self, model: Model, drivers: LegDrivers, *, free=("ankle", "knee"),
-                 passive: Mapping[str, PassiveJoint] | None = None,
-                 feedback: PDFeedback | None = None):
+    def __init__(self, model: Model, drivers: LegDrivers, *, free=LEG_FREE,
+                 feedback: JointFeedback | None = None):
         if model.kind != "leg":
             raise InputError(f"simulate_leg needs the leg model, got '{model.kind}'.")
-        self.model, self.drivers, self.feedback = model, drivers, feedback
-        pm = model.pin_model
-        self.pm, self.data = pm, pm.createData()
-        self.free = np.array([model.coordinate_index(n) for n in free], dtype=int)
-        if len(set(self.free.tolist())) != len(self.free) or len(self.free) == 0:
+        rows = [model.coordinate_index(n) for n in free]
+        if len(set(rows)) != len(rows) or not rows:
             raise InputError(f"free coordinates {tuple(free)!r} must be distinct and not empty.")
-        self.pres = np.array([i for i in range(pm.nv) if i not in self.free], dtype=int)
-        self.passive = dict(passive or {})
-        for name in self.passive:
-            if name not in ("ankle", "knee", "hip"):
-                raise InputError(f"passive elements on '{name}': the leg has ankle, knee, hip.")
-        joints_prescribed = [i for i in self.pres if i >= 3]
+        joints_prescribed = [i for i in range(3, model.nq) if i not in rows]
         if joints_prescribed and drivers.reference_qdd is None:
             raise InputError("prescribing a joint needs drivers with reference_q/qd/qdd.")
-        self._joint_pres = joints_prescribed
+        self.drivers, self.feedback = drivers, feedback
+        forces = []  # only what acts: a zero constant load needs no Jacobian
+        if not is_zero(drivers.joint_torque):
+            forces.append(JointTorques(slice(3, 5), drivers.joint_torque))
+        if drivers.passive:
+            forces.append(PassiveTorques.on(model, drivers.passive,
+                                            offset=drivers.passive_offset))
+        if feedback is not None:
+            forces.append(feedback)
+        if not (is_zero(drivers.hip_force) and is_zero(drivers.hip_moment)):
+            forces.append(FrameLoad(model, "hip_center", drivers.hip_force,
+                                    drivers.hip_moment, name="hip"))
+        super().__init__(model, rows, self._motion_function(drivers, joints_prescribed),
+                         forces)
+        self.nf = self.nvf
         self.hip_frame = model.frame_id("hip_center")
         self.heel_frame = model.frame_id("heel")
-        self.thigh_joint = pm.getJointId("knee")
-        self.q = np.zeros(pm.nq)
-        self.v = np.zeros(pm.nv)
-        self.a = np.zeros(pm.nv)
-        self.nf = len(self.free)
-        self._lower = np.tril_indices(pm.nv, -1)
-        self._ff, self._fp = np.ix_(self.free, self.free), np.ix_(self.free, self.pres)
-        self._pp, self._pf = np.ix_(self.pres, self.pres), np.ix_(self.pres, self.free)
 
-    # -- inputs at time t -------------------------------------------------------------
-    def prescribed(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Full-length q, v, a of the prescribed coordinates at t (free entries 0)."""
-        d = self.drivers
-        q, v, a = np.zeros(self.pm.nq), np.zeros(self.pm.nv), np.zeros(self.pm.nv)
-        q[:3], v[:3], a[:3] = d.prescribed_q(t), d.prescribed_qd(t), d.prescribed_qdd(t)
-        if self._joint_pres:
-            j = self._joint_pres
-            q[j], v[j], a[j] = d.reference_q(t)[j], d.reference_qd(t)[j], d.reference_qdd(t)[j]
-        return q, v, a
+    @staticmethod
+    def _motion_function(drivers: LegDrivers, joints: list[int]):
+        def motion(t):
+            qva = np.zeros(15)  # one allocation: q, v, a are views of it
+            q, v, a = qva[:5], qva[5:10], qva[10:]
+            q[:3], v[:3] = drivers.prescribed_q(t), drivers.prescribed_qd(t)
+            a[:3] = drivers.prescribed_qdd(t)
+            if joints:
+                q[joints], v[joints] = drivers.reference_q(t)[joints], \
+                    drivers.reference_qd(t)[joints]
+                a[joints] = drivers.reference_qdd(t)[joints]
+            return q, v, a
 
-    def full_state(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(q, v, a_prescribed) full vectors for time t and state x."""
-        q, v, a = self.prescribed(t)
-        q[self.free] = x[: self.nf]
-        v[self.free] = x[self.nf:]
-        return q, v, a
-
-    def generalized_forces(self, t: float, q: np.ndarray, v: np.ndarray
-                           ) -> dict[str, np.ndarray]:
-        """Applied generalised forces (nv,) by source: active, passive, feedback, hip.
-
-        Needs the frame Jacobian of ``hip_center`` at q (computed here).
-        """
-        pm, data, d = self.pm, self.data, self.drivers
-        nv = pm.nv
-        active = np.zeros(nv)
-        active[3:5] = d.joint_torque(t)
-        passive = np.zeros(nv)
-        J = pin.computeFrameJacobian(pm, data, q, self.hip_frame,
-                                     pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        for name, joint in self.passive.items():
-            if name == "hip":  # hip flexion = -(thigh pitch); moment on thigh about +Y
-                pitch, rate = q[2] + q[3] + q[4], v[2] + v[3] + v[4]
-                passive += J[4] * -float(joint.moment(-pitch, -rate))
-            else:
-                i, s = (3, 1.0) if name == "ankle" else (4, -1.0)
-                passive[i] += s * float(joint.moment(s * q[i], s * v[i]))
-        feedback = np.zeros(nv)
-        if self.feedback is not None:
-            feedback[self.free] = self.feedback.torque(t, q[self.free], v[self.free], self.free)
-            feedback[:3] = 0.0
-        hip = J[:3].T @ d.hip_force(t) + J[3:].T @ d.hip_moment(t)
-        return {"active": active, "passive": passive, "feedback": feedback, "hip": hip}
-
-    def solve(self, t: float, q: np.ndarray, v: np.ndarray, a: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """(a_free, lambda_p, M, forces) at time t; ``a`` holds the prescribed accelerations."""
-        pm, data = self.pm, self.data
-        forces = self.generalized_forces(t, q, v)
-        tau = forces["active"] + forces["passive"] + forces["feedback"] + forces["hip"]
-        M = pin.crba(pm, data, q)  # upper triangle only: mirror it
-        M[self._lower] = M.T[self._lower]
-        h = pin.nonLinearEffects(pm, data, q, v)
-        f, p = self.free, self.pres
-        rhs = tau[f] - h[f] - M[self._fp] @ a[p]
-        a_free = _solve_small(M[self._ff], rhs)
-        lam = M[self._pp] @ a[p] + M[self._pf] @ a_free + h[p] - tau[p]
-        forces["bias"] = h
-        return a_free, lam, M, forces
-
-    def __call__(self, t: float, x: np.ndarray) -> np.ndarray:
-        """Return x' = [v_f, a_f] at time t."""
-        q, v, a = self.full_state(t, x)
-        a_free = self.solve(t, q, v, a)[0]
-        return np.concatenate([x[self.nf:], a_free])
+        return motion
 
     def ground_reaction(self, t: float, x: np.ndarray, *, ground_z: float = 0.0
                         ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -230,6 +166,9 @@ class LegSystem:
         """
         q, v, a = self.full_state(t, x)
         lam = self.solve(t, q, v, a)[1]
+        return self._grf(q, lam, ground_z)
+
+    def _grf(self, q, lam, ground_z):
         pin.framesForwardKinematics(self.pm, self.data, q)
         heel = self.data.oMf[self.heel_frame].translation
         fx, fz, m_ankle = lam[0], lam[1], lam[2]
@@ -264,96 +203,23 @@ class LegSystem:
         return events
 
 
-@dataclass(frozen=True, eq=False)
-class SimulationResult:
-    """A forward simulation (leg or rod).
-
-    Attributes:
-        t: (n,) s.
-        q: (n, nq) all coordinates (prescribed ones included), m and rad.
-        qd: (n, nq) velocities.
-        qdd: (n, nq) accelerations.
-        coordinate_names: (nq,) names.
-        free: Names of the integrated coordinates.
-        status: "completed", "event" or "diverged".
-        time_to_fall: Time of the fall event, s, or None.
-        grf: (n, 3) ground reaction on the foot, N, lab frame (leg; None for the rod).
-        cop: (n, 3) its COP on the ground line, m (0 when |F_z| < 20 N).
-        partial: True when the run diverged and this is what was computed until then.
-        message: One line saying how the run ended.
-        options: Integrator options used.
-        n_rhs_evaluations: Right-hand-side calls.
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
-    coordinate_names: tuple[str, ...]
-    free: tuple[str, ...]
-    status: str
-    time_to_fall: float | None
-    grf: np.ndarray | None
-    cop: np.ndarray | None
-    partial: bool
-    message: str
-    options: IntegratorOptions
-    n_rhs_evaluations: int
-    extra: dict = field(default_factory=dict)
-
-
-def _leg_result(system: LegSystem, run: Integration, partial: bool, ground_z: float,
-                options: IntegratorOptions) -> SimulationResult:
-    n, nq = len(run.t), system.pm.nq
-    q, qd, qdd = np.zeros((n, nq)), np.zeros((n, nq)), np.zeros((n, nq))
-    grf, cop = np.zeros((n, 3)), np.zeros((n, 3))
-    base_prescribed = all(i in system.pres for i in range(3))
-    for k, (t, x) in enumerate(zip(run.t, run.x, strict=True)):
-        qk, vk, ak = system.full_state(t, x)
-        if np.all(np.isfinite(x)):
-            a_free = system.solve(t, qk, vk, ak)[0]
-            ak[system.free] = a_free
-            if base_prescribed:
-                grf[k], cop[k], _ = system.ground_reaction(t, x, ground_z=ground_z)
-        q[k], qd[k], qdd[k] = qk, vk, ak
-    fall = run.event_time if (run.event_name or "").startswith("fall") else None
-    names = system.model.coordinate_names
-    return SimulationResult(
-        t=run.t, q=q, qd=qd, qdd=qdd, coordinate_names=names,
-        free=tuple(names[i] for i in system.free), status=run.status.value,
-        time_to_fall=fall, grf=grf if base_prescribed else None,
-        cop=cop if base_prescribed else None, partial=partial, message=run.message,
-        options=options, n_rhs_evaluations=run.n_rhs_evaluations)
-
-
-def _integrate(rhs, t_span, x0, options, events, progress, names, t_eval):
-    """(Integration, partial, error): a diverged run returns its partial Integration."""
-    try:
-        run = integrate(rhs, t_span, x0, options=options, events=events,
-                        progress=progress, state_names=names, t_eval=t_eval)
-    except SimulationDiverged as exc:
-        return exc.partial, True, exc
-    return run, False, None
-
-
 def simulate_leg(model: Model, drivers: LegDrivers, t_span: tuple[float, float], x0=None, *,
-                 passive: Mapping[str, PassiveJoint] | None = None,
-                 feedback: PDFeedback | None = None, options: IntegratorOptions,
+                 feedback: JointFeedback | None = None, options: IntegratorOptions,
                  events: Sequence[Event] = (), fall: FallLimit | None = None,
-                 free: Sequence[str] = ("ankle", "knee"), progress: bool = False,
+                 free: Sequence[str] = LEG_FREE, progress: bool = False,
                  t_eval=None, ground_z: float = 0.0) -> SimulationResult:
     """Simulate the leg with the foot (and any non-free coordinate) prescribed.
 
     Args:
         model: The leg.
-        drivers: Prescribed foot motion, joint torques, hip load (:class:`LegDrivers`).
+        drivers: Prescribed foot motion, joint torques, hip load and passive elements
+            (:class:`LegDrivers`; ``drivers.passive`` is the one place they are given).
         t_span: (t0, t1) s, inside ``drivers.time_range`` when it is set.
         x0: (2 n_free,) [q_free, v_free] rad, rad/s; None: the reference motion at t0.
-        passive: Joint name -> :class:`PassiveJoint` (clinical angle convention).
-        feedback: Optional :class:`PDFeedback` on the free joints.
+        feedback: Optional PD feedback on joint rows (:class:`JointFeedback`).
         options: Integrator options.
         events: Further terminal events g(t, x) on x = [q_free, v_free].
-        fall: Fall criterion; its event time is ``time_to_fall``.
+        fall: Fall criterion; its event gives ``time_to_fall`` (s after t0).
         free: Free coordinate names.
         progress: Show a progress bar.
         t_eval: Optional output times, s.
@@ -367,7 +233,7 @@ def simulate_leg(model: Model, drivers: LegDrivers, t_span: tuple[float, float],
             (``partial=True``) and the message names the time and coordinate.
         InputError: Bad time span, state or options.
     """
-    system = LegSystem(model, drivers, free=free, passive=passive, feedback=feedback)
+    system = LegSystem(model, drivers, free=free, feedback=feedback)
     t0, t1 = (float(v) for v in t_span)
     if drivers.time_range is not None:
         lo, hi = drivers.time_range
@@ -383,14 +249,30 @@ def simulate_leg(model: Model, drivers: LegDrivers, t_span: tuple[float, float],
     if x0.size != 2 * system.nf:
         raise InputError(f"x0 has {x0.size} values; the leg with free "
                          f"{', '.join(free)} needs {2 * system.nf} (angles, then rates).")
-    names = [*free, *(f"{n}_speed" for n in free)]
-    run, partial, error = _integrate(system, (t0, t1), x0, options,
-                                     [*system.fall_events(fall), *events], progress, names,
-                                     t_eval)
-    result = _leg_result(system, run, partial, ground_z, options)
+    try:
+        sim = simulate_partitioned(system, (t0, t1), x0, options=options,
+                                   events=[*system.fall_events(fall), *events],
+                                   progress=progress, t_eval=t_eval)
+        error = None
+    except SimulationDiverged as exc:
+        sim, error = exc.partial, exc
+    sim = _with_ground_reaction(system, sim, ground_z)
     if error is not None:
-        raise SimulationDiverged(str(error), partial=result)
-    return result
+        raise SimulationDiverged(str(error), partial=sim)
+    return sim
+
+
+def _with_ground_reaction(system: LegSystem, sim: SimulationResult, ground_z: float
+                          ) -> SimulationResult:
+    """The result with the foot's ground reaction and COP (when the foot is prescribed)."""
+    if not all(i in system.pres for i in range(3)):
+        return sim
+    n = len(sim.t)
+    grf, cop = np.zeros((n, 3)), np.zeros((n, 3))
+    for k in range(n):
+        if np.all(np.isfinite(sim.q[k])):
+            grf[k], cop[k], _ = system._grf(sim.q[k], sim.reaction[k], ground_z)
+    return replace(sim, grf=grf, cop=cop)
 
 
 # ----------------------------------------------------------------------------- rod
@@ -426,12 +308,32 @@ def rod_loads(forces: RodForces, t: float, pitch: float, frame: ForceFrame) -> l
             Load("bottom", _to_world(forces.bottom_force(t), pitch, frame))]
 
 
-def rod_accelerations(model: Model, data: pin.Data, q, v, loads: Sequence[Load]) -> np.ndarray:
-    """Rod accelerations (3,) by Pinocchio ABA with the end loads as external forces."""
-    pm = model.pin_model
-    pin.framesForwardKinematics(pm, data, q)
-    fext = joint_forces(model, data, loads)
-    return pin.aba(pm, data, q, v, np.zeros(pm.nv), fext).copy()
+@dataclass(frozen=True, eq=False)
+class RodEndLoads(Force):
+    """The rod's end loads as an applied force (frame components turn with the rod)."""
+
+    model: Model
+    forces: RodForces
+    frame: ForceFrame
+    name: str = "load"
+    needs = Kinematics.JACOBIANS
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add J^T w of both end loads at t."""
+        tau += generalized_load(self.model, data, rod_loads(self.forces, t, q[2], self.frame))
+
+
+def rod_system(model: Model, forces: RodForces, frame: ForceFrame) -> PartitionedSystem:
+    """The free rod (x, z, theta all free) driven by its end loads in ``frame``."""
+    if model.kind != "rod":
+        raise InputError(f"simulate_rod needs the rod model, got '{model.kind}'.")
+    nv = model.pin_model.nv
+
+    def motion(t):
+        return np.zeros(nv), np.zeros(nv), np.zeros(nv)
+
+    return PartitionedSystem(model, range(nv), motion,
+                             [RodEndLoads(model, forces, ForceFrame(frame))])
 
 
 def simulate_rod(model: Model, forces: RodForces, t_span, x0, *, frame: ForceFrame,
@@ -450,27 +352,13 @@ def simulate_rod(model: Model, forces: RodForces, t_span, x0, *, frame: ForceFra
         progress: Progress bar.
         t_eval: Optional output times, s.
     """
-    if model.kind != "rod":
-        raise InputError(f"simulate_rod needs the rod model, got '{model.kind}'.")
     frame = ForceFrame(frame)
-    data = model.pin_model.createData()
-
-    def rhs(t, x):
-        loads = rod_loads(forces, t, x[2], frame)
-        return np.concatenate([x[3:], rod_accelerations(model, data, x[:3], x[3:], loads)])
-
-    names = [*model.coordinate_names, *(f"{n}_speed" for n in model.coordinate_names)]
-    run, partial, error = _integrate(rhs, tuple(t_span), x0, options, events, progress, names,
-                                     t_eval)
-    qdd = np.array([rhs(t, x)[3:] if np.all(np.isfinite(x)) else np.full(3, np.nan)
-                    for t, x in zip(run.t, run.x, strict=True)]).reshape(-1, 3)
-    result = SimulationResult(
-        t=run.t, q=run.x[:, :3], qd=run.x[:, 3:], qdd=qdd,
-        coordinate_names=model.coordinate_names, free=model.coordinate_names,
-        status=run.status.value, time_to_fall=None, grf=None, cop=None, partial=partial,
-        message=run.message, options=options, n_rhs_evaluations=run.n_rhs_evaluations,
-        extra={"force_frame": frame.value})
-    if error is not None:
-        raise SimulationDiverged(str(error), partial=result)
-    return result
-
+    system = rod_system(model, forces, frame)
+    try:
+        sim = simulate_partitioned(system, tuple(t_span), np.asarray(x0, dtype=float),
+                                   options=options, events=events, progress=progress,
+                                   t_eval=t_eval)
+    except SimulationDiverged as exc:
+        partial = replace(exc.partial, extra={"force_frame": frame.value})
+        raise SimulationDiverged(str(exc), partial=partial) from None
+    return replace(sim, extra={"force_frame": frame.value})

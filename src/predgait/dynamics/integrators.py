@@ -66,8 +66,8 @@ class Method(enum.Enum):
         raise InputError(f"{field}: {text!r} is not an integration method; use one of: {valid}.")
 
 
-class Status(enum.Enum):
-    """How an integration ended."""
+class Status(enum.StrEnum):
+    """How an integration (and a simulation) ended; compares equal to its value."""
 
     COMPLETED = "completed"
     EVENT = "event"

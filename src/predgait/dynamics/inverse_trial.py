@@ -43,6 +43,7 @@ from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.dynamics.inverse import LegInverse, LoadHistory, leg_inverse_dynamics
 from predgait.errors import InputError
 from predgait.kinematics import clinical
+from predgait.kinematics.bounded_ik import frames_near
 from predgait.kinematics.joint_centres import calibrate_centre, harrington_hip
 from predgait.kinematics.planar_ik import IKResult, solve_ik
 from predgait.models.anthropometry import LegParameters, leg_from_subject
@@ -174,6 +175,7 @@ class InverseResult:
     provenance: dict = field(default_factory=dict)
     leg: LegParameters | None = None
     flagged: np.ndarray | None = None
+    knee_static: float = 0.0
 
     @property
     def valid(self) -> np.ndarray:
@@ -186,6 +188,20 @@ class InverseResult:
     def clinical_angles(self) -> dict[str, np.ndarray]:
         """Hip flexion, knee flexion, ankle dorsiflexion, rad (NaN at flagged frames)."""
         return self._masked(clinical.clinical_angles(self.q))
+
+    def anatomical_angles(self) -> dict[str, np.ndarray]:
+        """Clinical angles with the knee calibrated on the static trial, rad.
+
+        The knee flexion of the model's hinge (between the hip-knee and knee-ankle
+        joint-centre lines) minus its value standing in the static trial (``knee_static``),
+        so that the straight standing knee reads 0 (the calibrated anatomical frames of
+        Cappozzo et al. 1995, Clin Biomech 10:171-178). The ankle needs no offset: the foot
+        is already calibrated flat on the static trial and the shank's forward lean
+        standing is posture. Hip flexion is the thigh against the vertical.
+        """
+        angles = self.clinical_angles()
+        angles["knee_flexion"] = angles["knee_flexion"] - self.knee_static
+        return angles
 
     def clinical_rates(self) -> dict[str, np.ndarray]:
         """Their time derivatives, rad/s (NaN at flagged frames)."""
@@ -436,16 +452,25 @@ def plate_cutoff(plates: tuple[ForcePlate, ...], grf_cutoff: Cutoff, markers_hz:
 
 def flagged_outputs(ik_flagged: np.ndarray, *, stencil: int = 2) -> np.ndarray:
     """Frames whose outputs depend on a flagged IK frame (the 5-point differences reach +-2)."""
-    out = ik_flagged.copy()
-    for shift in range(1, stencil + 1):
-        out[shift:] |= ik_flagged[:-shift]
-        out[:-shift] |= ik_flagged[shift:]
-    return out
+    return frames_near(ik_flagged, stencil)
 
 
-def run_inverse(options: InverseOptions) -> InverseResult:
-    """Run the pipeline (module docstring) on one trial and leg."""
-    trial, turn = read_trial(options)
+def static_knee_flexion(model: Model, static_points: Mapping[str, np.ndarray]) -> float:
+    """Mean knee flexion (rad) of the leg fitted to the static trial's joint centres."""
+    pitch = foot_pitch(static_points)
+    ik = solve_ik(model, {f"{k}_center": static_points[k] for k in ("hip", "knee", "ankle")},
+                  pitch - np.mean(pitch), limit_margin=np.radians(30.0))
+    return float(np.mean(clinical.clinical_angles(ik.q)["knee_flexion"]))
+
+
+def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | None = None
+                ) -> InverseResult:
+    """Run the pipeline (module docstring) on one trial and leg.
+
+    ``loaded`` is the trial already read with its rotation (:func:`read_trial`), e.g. with
+    noise added for a noise bootstrap; None reads ``options.markers``.
+    """
+    trial, turn = read_trial(options) if loaded is None else loaded
     needed = _needed_markers(options.points)
     markers = fill_gaps(trial.markers, names=needed, max_gap_frames=options.max_gap_frames,
                         edges="trim")
@@ -470,6 +495,7 @@ def run_inverse(options: InverseOptions) -> InverseResult:
     if static_points is not None:
         pitch = pitch - float(np.mean(foot_pitch(static_points)))
     model, leg = _build_model(options, static_points if static_points is not None else points)
+    knee_static = 0.0 if static_points is None else static_knee_flexion(model, static_points)
     ik = solve_ik(model, {f"{k}_center": points[k] for k in ("hip", "knee", "ankle")}, pitch,
                   limit_margin=np.radians(options.limit_margin))
     if ik.flagged.any():
@@ -506,13 +532,14 @@ def run_inverse(options: InverseOptions) -> InverseResult:
         "contact_threshold_n": options.threshold,
         "contact_release_n": options.release * options.threshold,
         "joint_limit_margin_deg": options.limit_margin, "time_zero_s": t0,
+        "knee_flexion_standing_deg": float(np.degrees(knee_static)),
     }
     return InverseResult(
         time=time - t0, model=model, side=str(options.side), q=q, qd=qd, qdd=qdd, tau=inv.tau,
         hip_force=inv.hip_force, hip_moment=inv.hip_moment, joint_force=inv.joint_force,
         grf=force, cop=cop, free_moment=free, events=events.shifted(t0), ik=ik,
         body_mass=options.mass, has_grf=has_grf, provenance=provenance, leg=leg,
-        flagged=flagged_outputs(ik.flagged))
+        flagged=flagged_outputs(ik.flagged), knee_static=knee_static)
 
 
 def subject01_points(side: Side | str = Side.RIGHT) -> dict[str, PointSource]:

@@ -1,29 +1,34 @@
-"""Forward dynamics of any predgait model with some coordinates prescribed.
+"""THE forward-dynamics engine: any predgait model, some coordinates prescribed.
 
 The velocity coordinates split into free (f) and prescribed (p) ones. With Pinocchio's
-mass matrix M (``pin.crba``), bias forces h (``pin.nonLinearEffects``) and the applied
-generalised forces tau (joint torques, contact, measured loads, passive elements)::
+mass matrix M (``pin.crba``), the inverse dynamics b = RNEA(q, v, a_p) of the prescribed
+accelerations (free ones zero; b = M_:p a_p + h, h the bias forces) and the applied
+generalised forces tau (:mod:`predgait.dynamics.forces`)::
 
-    a_f      = M_ff^-1 (tau_f - h_f - M_fp a_p)          (free accelerations)
-    lambda_p = M_pp a_p + M_pf a_f + h_p - tau_p          (what the prescription supplies)
+    a_f      = M_ff^-1 (tau_f - b_f)                     (free accelerations)
+    lambda_p = RNEA(q, v, a)_p - tau_p                   (what the prescription supplies)
 
-as :mod:`predgait.dynamics.forward` does for the leg, but for any
-:class:`~predgait.models.loading.RigidBodyModel`: the planar gait7 (PX-PZ-RY root) and
-the 3D body (free-flyer pelvis). A free-flyer root is free or prescribed as a whole
-(its 6 velocity rows), or only its translation is free (rows 0..2: position free,
-orientation prescribed); when it is free its configuration is position (lab, m) and unit
-quaternion (x, y, z, w), and its velocity is Pinocchio's (linear and angular velocity
-in the pelvis frame), so ``d pos/dt = R v_lin`` and ``d quat/dt = 1/2 quat * (omega, 0)``.
-The quaternion is renormalised whenever the state is read.
+With nothing prescribed this is ``pin.aba``. The rod (nothing prescribed, end loads),
+the leg (foot prescribed; joint torques, passive elements, hip load, feedback; the
+ground reaction is lambda_p), gait7 (contacts) and the whole body (free-flyer pelvis)
+are configurations of it (:mod:`predgait.dynamics.forward`, :mod:`predgait.simulations`).
+The thesis' 21-equation Newton-Euler system (Appendix A) gives the same accelerations
+and ground reaction (tests/test_forward_thesis.py).
+
+Any model: planar root (PX-PZ-RY) or free flyer. A free-flyer root is free or prescribed
+as a whole (its 6 velocity rows), or only its translation is free (rows 0..2: position
+free, orientation prescribed); when it is free its configuration is position (lab, m)
+and unit quaternion (x, y, z, w), and its velocity is Pinocchio's (linear and angular
+velocity in the pelvis frame), so ``d pos/dt = R v_lin`` and ``d quat/dt = 1/2 quat *
+(omega, 0)``. The quaternion is renormalised whenever the state is read.
 
 State: x = [q_f, v_f], q_f the configuration entries of the free joints (7 for a free
-flyer), v_f their velocities. With nothing prescribed this is plain ABA.
+flyer), v_f their velocities.
 
-Applied forces are callables ``force(t, q, v, data) -> (nv,)`` evaluated after
-``pin.forwardKinematics(q, v)``, ``pin.computeJointJacobians`` and
-``pin.updateFramePlacements`` on ``data`` (so they may read ``data.oMf``, frame
-Jacobians and frame velocities): :class:`JointTorques`, :class:`MeasuredLoads` and
-:class:`GroundContact` below, or anything with that signature.
+Speed: the forces say what kinematics they read (:class:`~predgait.dynamics.forces.
+Kinematics`); forward kinematics and Jacobians are computed only when one needs them,
+the multipliers only when asked (:meth:`PartitionedSystem.reaction`), and one or two
+free coordinates are solved in closed form.
 """
 
 from __future__ import annotations
@@ -35,13 +40,18 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.dynamics.drivers import SampledHistory
-from predgait.dynamics.external import Load, generalized_load
-from predgait.dynamics.integrators import Event, Integration, IntegratorOptions, integrate
+from predgait.dynamics.forces import Force, Kinematics, as_force
+from predgait.dynamics.integrators import (
+    Event,
+    IntegratorOptions,
+    Status,
+    integrate,
+)
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import RigidBodyModel
 
-GeneralizedForce = Callable[[float, np.ndarray, np.ndarray, pin.Data], np.ndarray]
-LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+__all__ = ["MotionHistory", "PartitionedSystem", "SimulationResult", "Status",
+           "simulate_partitioned"]
 
 
 # ---------------------------------------------------------------- prescribed motion
@@ -90,159 +100,49 @@ class MotionHistory:
         return q, self._v(t).copy(), self._a(t).copy()
 
 
-# ------------------------------------------------------------------ applied forces
-@dataclass(frozen=True)
-class JointTorques:
-    """Sampled torques on chosen velocity rows: tau[rows] = history(t) (N m or N)."""
-
-    rows: np.ndarray
-    history: Callable[[float], np.ndarray]
-
-    def __call__(self, t, q, v, data) -> np.ndarray:
-        """Generalised force (nv,) at t."""
-        tau = np.zeros(v.size)
-        tau[self.rows] = self.history(t)
-        return tau
-
-
-@dataclass(frozen=True)
-class PassiveTorques:
-    """Passive joint elements on 1-DOF rows: tau[row] = joint.moment(q, v), N m.
-
-    ``joint`` is a :class:`~predgait.dynamics.passive.PassiveJoint` (clinical law); use it
-    on rows whose coordinate has the clinical sign (e.g. gait7's knee flexion). Rows index
-    q and v alike (models without a free-flyer root).
-    """
-
-    rows: tuple[int, ...]
-    joint: object
-
-    def __call__(self, t, q, v, data) -> np.ndarray:
-        """Generalised force (nv,), N m on the rows."""
-        tau = np.zeros(v.size)
-        for row in self.rows:
-            tau[row] = float(self.joint.moment(q[row], v[row]))
-        return tau
-
-
-@dataclass(frozen=True)
-class JointFeedback:
-    """PD feedback toward a reference motion on chosen (1-DOF joint) velocity rows.
-
-    tau[rows] = kp (q_ref - q) + kd (v_ref - v), the reference from ``reference(t)`` ->
-    (q, v, a) full vectors (e.g. a :class:`MotionHistory` of the measured motion): a simple
-    stand-in for the subject's control (thesis chapter 5, future work).
-
-    Attributes:
-        rows: velocity rows of 1-DOF joints. kp: N m/rad (scalar or per row).
-        kd: N m s/rad (scalar or per row; see :meth:`damped`).
-        q_offset: nq - nv (1 with a free-flyer root: joint rows shift by one in q).
-    """
-
-    rows: np.ndarray
-    reference: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
-    kp: float | np.ndarray
-    kd: float | np.ndarray
-    q_offset: int = 0
-
-    @classmethod
-    def damped(cls, model: RigidBodyModel, rows, reference, kp: float, ratio: float,
-               q: np.ndarray) -> JointFeedback:
-        """Stiffness ``kp`` on every row, damping 2 ratio sqrt(kp M_ii) at configuration q.
-
-        Each joint gets the damping ratio ``ratio`` for its own inertia M_ii (pin.crba):
-        one kd for all would overdamp a foot (M_ii ~ 1e-3 kg m^2) into a time constant
-        far below the integration step, and underdamp the trunk.
-        """
-        rows = np.asarray(rows, dtype=int)
-        inertia = np.diag(pin.crba(model.pin_model, model.pin_model.createData(), q))[rows]
-        return cls(rows, reference, kp, 2.0 * ratio * np.sqrt(kp * inertia),
-                   q_offset=model.pin_model.nq - model.pin_model.nv)
-
-    def __call__(self, t, q, v, data) -> np.ndarray:
-        """Generalised force (nv,) of the feedback at t."""
-        q_ref, v_ref, _ = self.reference(t)
-        tau = np.zeros(v.size)
-        rows_q = self.rows + self.q_offset
-        tau[self.rows] = (self.kp * (q_ref[rows_q] - q[rows_q])
-                          + self.kd * (v_ref[self.rows] - v[self.rows]))
-        return tau
-
-
-@dataclass(frozen=True)
-class MeasuredLoads:
-    """World-frame loads at time t (e.g. measured ground reactions at their COP).
-
-    ``loads(t, data)`` returns :class:`~predgait.dynamics.external.Load` objects; their
-    generalised force is sum J^T w (:func:`~predgait.dynamics.external.generalized_load`).
-    """
-
-    model: RigidBodyModel
-    loads: Callable[[float, pin.Data], Sequence[Load]]
-
-    def __call__(self, t, q, v, data) -> np.ndarray:
-        """Generalised force (nv,) of the loads at t."""
-        loads = self.loads(t, data)
-        return generalized_load(self.model, data, loads) if loads else np.zeros(v.size)
-
-
-@dataclass
-class GroundContact:
-    """Point contacts of model frames with the ground plane z = ``ground_z``.
-
-    Each frame gets the contact model's normal force along +Z from its penetration
-    d = ground_z - z and rate -z_dot, and (if the model has friction) tangential forces
-    along X and Y from its slip velocities (:mod:`predgait.dynamics.contact`), taken
-    relative to the ground surface (a treadmill belt moves at ``belt_velocity`` along X).
-    ``last_forces`` holds the (n_frames, 3) lab-frame forces of the latest call.
-
-    Attributes:
-        model: The model. frames: contact frame names. contact: a contact model with
-        ``force(penetration, rate, slip) -> (normal, tangential)``. ground_z: m.
-        planar: only X slip (planar models). belt_velocity: m/s along X of the ground
-        surface (0: fixed floor).
-    """
-
-    model: RigidBodyModel
-    frames: Sequence[str]
-    contact: object
-    ground_z: float = 0.0
-    planar: bool = False
-    belt_velocity: float = 0.0
-    last_forces: np.ndarray = field(init=False, repr=False)
-
-    def __post_init__(self):
-        self._ids = [self.model.frame_id(f) for f in self.frames]
-        self.last_forces = np.zeros((len(self._ids), 3))
-
-    def forces(self, data: pin.Data) -> np.ndarray:
-        """(n_frames, 3) lab-frame contact forces for the kinematics stored in ``data``."""
-        pm = self.model.pin_model
-        out = np.zeros((len(self._ids), 3))
-        for i, fid in enumerate(self._ids):
-            z = data.oMf[fid].translation[2]
-            if z > self.ground_z + 0.05:  # far above ground: no force (cheap exit)
-                continue
-            vel = pin.getFrameVelocity(pm, data, fid, LWA).linear
-            depth, rate = self.ground_z - z, -vel[2]
-            normal, tx = self.contact.force(depth, rate, vel[0] - self.belt_velocity)
-            out[i, 0], out[i, 2] = float(tx), float(normal)
-            if not self.planar:
-                out[i, 1] = float(self.contact.force(depth, rate, vel[1])[1])
-        return out
-
-    def __call__(self, t, q, v, data) -> np.ndarray:
-        """Generalised force (nv,) of the contact forces (stored in ``last_forces``)."""
-        pm = self.model.pin_model
-        self.last_forces = self.forces(data)
-        tau = np.zeros(v.size)
-        for fid, force in zip(self._ids, self.last_forces, strict=True):
-            if force.any():
-                tau += pin.getFrameJacobian(pm, data, fid, LWA)[:3].T @ force
-        return tau
-
-
 # ------------------------------------------------------------------------ system
+def _solve_small(m: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve a small SPD system; 1x1 and 2x2 in closed form (np.linalg.solve costs ~9 us).
+
+    Only the upper triangle of ``m`` is read (``pin.crba`` fills that).
+    """
+    if rhs.size == 1:
+        return rhs / m[0, 0]
+    if rhs.size == 2:
+        (a, b), (_, d) = m.tolist()
+        r0, r1 = rhs.tolist()
+        det = a * d - b * b
+        return np.array([(d * r0 - b * r1) / det, (a * r1 - b * r0) / det])
+    return np.linalg.solve(np.triu(m) + np.triu(m, 1).T, rhs)
+
+
+def free_accelerations(mass, bias, tau, a_prescribed, free, pres):
+    """a_f = M_ff^-1 (tau_f - h_f - M_fp a_p): the partitioned equations, numpy or CasADi.
+
+    The numeric engine evaluates them through Pinocchio (RNEA, CRBA or ABA); the CasADi
+    problems build them from ADAM's M and h with this function (:mod:`predgait.problems.
+    collocation`), on the same free and prescribed rows.
+
+    Args:
+        mass: (nv, nv) M.
+        bias: (nv,) h.
+        tau: (nv,) applied generalised forces.
+        a_prescribed: (len(pres),) prescribed accelerations.
+        free: Free rows.
+        pres: Prescribed rows.
+    """
+    from predgait.dynamics.backend import is_casadi
+
+    if is_casadi(mass, bias, tau, a_prescribed):
+        import casadi as cs
+
+        rhs = tau[free] - bias[free] - mass[free, pres] @ a_prescribed
+        return cs.solve(mass[free, free], rhs)
+    m = np.asarray(mass)
+    rhs = tau[free] - bias[free] - m[np.ix_(free, pres)] @ a_prescribed
+    return np.linalg.solve(m[np.ix_(free, free)], rhs)
+
+
 class PartitionedSystem:
     """x' = f(t, x) for a model with the coordinates outside ``free`` prescribed.
 
@@ -252,15 +152,17 @@ class PartitionedSystem:
             translation 0..2, or none).
         motion: t -> (q, v, a) full vectors; the prescribed entries are used (e.g.
             :class:`MotionHistory`). The free entries are ignored.
-        forces: Applied generalised forces (see module docstring).
+        forces: Applied forces (:mod:`predgait.dynamics.forces`; a plain function
+            ``(t, q, v, data) -> (nv,)`` is accepted too).
     """
 
     def __init__(self, model: RigidBodyModel, free: Sequence[int],
                  motion: Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]],
-                 forces: Sequence[GeneralizedForce] = ()):
+                 forces: Sequence[Force] = ()):
         pm = model.pin_model
         self.model, self.pm, self.data = model, pm, pm.createData()
-        self.motion, self.forces = motion, tuple(forces)
+        self.motion, self.forces = motion, tuple(as_force(f) for f in forces)
+        self.needs = max((f.needs for f in self.forces), default=Kinematics.NONE)
         free = sorted({int(i) for i in free})
         if not free or free[0] < 0 or free[-1] >= pm.nv:
             raise InputError(f"free velocity indices {free} must be within 0..{pm.nv - 1}.")
@@ -279,9 +181,42 @@ class PartitionedSystem:
         joint_q = [i + offset for i in free if not (self.free_flyer and i < 6)]
         self.q_free = np.array(list(range(self.root_q)) + joint_q, dtype=int)
         self.nqf, self.nvf = self.q_free.size, self.free.size
-        self._lower = np.tril_indices(pm.nv, -1)
-        self._ff, self._fp = np.ix_(self.free, self.free), np.ix_(self.free, self.pres)
-        self._pp, self._pf = np.ix_(self.pres, self.pres), np.ix_(self.pres, self.free)
+        self._ff = np.ix_(self.free, self.free)
+        # contiguous free rows (the leg's ankle, knee): slices instead of fancy indexing
+        lo, hi = int(self.free[0]), int(self.free[-1]) + 1
+        self._fs = slice(lo, hi) if hi - lo == self.nvf else self.free
+        if not self.free_flyer and self._fs is not self.free:
+            self._ff = (self._fs, self._fs)
+        self._qs = self._fs if not self.free_flyer else self.q_free
+        self._pivot = self._pivot_model()
+
+    def _pivot_model(self):
+        """Fast path: planar base prescribed, every joint free, hinged at the base origin.
+
+        The base's children then hang on a point (the base origin) with a prescribed
+        translation: in the lab frame that is gravity g - a_origin on the chain with the
+        base removed, whose first joints turn by the base pitch plus their own angle.
+        So a_f = ABA(reduced model; g - a_origin) minus the base's angular acceleration
+        on those first joints: one ``pin.aba`` on the chain (exact, no approximation).
+        Returns (model, data, child rows, gravity) or None when it does not apply.
+        """
+        pm = self.pm
+        if (self.free_flyer or pm.njoints < 3 or pm.joints[1].nv != 3
+                or self.pres.tolist() != [0, 1, 2]):
+            return None
+        for j in range(2, pm.njoints):
+            placement = pm.jointPlacements[j]
+            if pm.joints[j].shortname() != "JointModelRY" or not np.allclose(
+                    placement.rotation[:, 1], [0.0, 1.0, 0.0]):
+                return None
+            if pm.parents[j] == 1 and np.any(placement.translation != 0.0):
+                return None
+        chain = pin.buildReducedModel(pm, [1], pin.neutral(pm))
+        children = [pm.joints[j].idx_v - 3 for j in range(2, pm.njoints) if pm.parents[j] == 1]
+        if children == list(range(children[0], children[-1] + 1)):
+            children = slice(children[0], children[-1] + 1)
+        gravity = np.array(pm.gravity.linear)
+        return chain, chain.createData(), children, gravity, gravity.copy()
 
     @property
     def nx(self) -> int:
@@ -319,47 +254,99 @@ class PartitionedSystem:
                                np.asarray(v, dtype=float)[self.free]])
 
     def full_state(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(q, v, a_prescribed) at t for state x (free entries of a are 0)."""
+        """(q, v, a_prescribed) at t for state x (free entries of a are 0); new arrays."""
         q, v, a = self.motion(t)
-        q[self.q_free] = x[: self.nqf]
+        q[self._qs] = x[: self.nqf]
         if self.root_free:
             q[3:7] /= np.linalg.norm(q[3:7])
-        v[self.free] = x[self.nqf:]
-        a[self.free] = 0.0
+        v[self._fs] = x[self.nqf:]
+        a[self._fs] = 0.0
         return q, v, a
+
+    # -- forces -----------------------------------------------------------------------
+    def _kinematics(self, q: np.ndarray, v: np.ndarray) -> None:
+        if self.needs >= Kinematics.JACOBIANS:
+            pm, data = self.pm, self.data
+            pin.forwardKinematics(pm, data, q, v)
+            pin.computeJointJacobians(pm, data, q)
+            pin.updateFramePlacements(pm, data)
 
     def applied(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Sum of the applied generalised forces (nv,); updates the kinematics in data."""
-        pm, data = self.pm, self.data
-        pin.forwardKinematics(pm, data, q, v)
-        pin.computeJointJacobians(pm, data, q)
-        pin.updateFramePlacements(pm, data)
-        tau = np.zeros(pm.nv)
+        self._kinematics(q, v)
+        tau = np.zeros(self.pm.nv)
         for force in self.forces:
-            tau += force(t, q, v, data)
+            force.add(tau, t, q, v, self.data)
         return tau
+
+    def applied_parts(self, t: float, q: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+        """Applied generalised forces (nv,) grouped by force name."""
+        self._kinematics(q, v)
+        parts: dict[str, np.ndarray] = {}
+        for force in self.forces:
+            force.add(parts.setdefault(force.name, np.zeros(self.pm.nv)), t, q, v, self.data)
+        return parts
+
+    # -- dynamics ---------------------------------------------------------------------
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        """Full symmetric mass matrix (nv, nv) at q (a new array)."""
+        m = pin.crba(self.pm, self.data, q).copy()
+        return np.triu(m) + np.triu(m, 1).T
+
+    def accelerations(self, t: float, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                      tau: np.ndarray | None = None) -> np.ndarray:
+        """Free accelerations a_f at t from the prescribed accelerations ``a``.
+
+        The free entries of ``a`` MUST be 0 (as :meth:`full_state` returns them;
+        :meth:`solve` takes any). ``tau``: the applied forces if already computed
+        (else :meth:`applied`).
+        """
+        pm, data = self.pm, self.data
+        if tau is None:
+            tau = self.applied(t, q, v)
+        if self.pres.size == 0:
+            return pin.aba(pm, data, q, v, tau).copy()
+        if self._pivot is not None:
+            chain, chain_data, children, gravity, shifted = self._pivot
+            shifted[0], shifted[2] = gravity[0] - a[0], gravity[2] - a[1]
+            chain.gravity.linear = shifted
+            q_chain, v_chain = q[3:].copy(), v[3:].copy()
+            q_chain[children] += q[2]
+            v_chain[children] += v[2]
+            a_free = pin.aba(chain, chain_data, q_chain, v_chain, tau[3:]).copy()
+            a_free[children] -= a[2]
+            return a_free
+        b = pin.rnea(pm, data, q, v, a)
+        m = pin.crba(pm, data, q)
+        fs = self._fs
+        return _solve_small(m[self._ff], tau[fs] - b[fs])
+
+    def reaction(self, t: float, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                 tau: np.ndarray | None = None) -> np.ndarray:
+        """lambda_p (n_prescribed,): what the prescription supplies; ``a`` is complete."""
+        if tau is None:
+            tau = self.applied(t, q, v)
+        return pin.rnea(self.pm, self.data, q, v, a)[self.pres] - tau[self.pres]
 
     def solve(self, t: float, q: np.ndarray, v: np.ndarray, a: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray]:
-        """(a_free, lambda_p) at t; ``a`` holds the prescribed accelerations."""
-        pm, data = self.pm, self.data
+        """(a_free, lambda_p) at t; ``a`` holds the prescribed accelerations (free ignored)."""
         tau = self.applied(t, q, v)
-        h = pin.nonLinearEffects(pm, data, q, v)
+        full = np.array(a, dtype=float)
+        full[self.free] = 0.0
+        a_free = self.accelerations(t, q, v, full, tau)
         if self.pres.size == 0:
-            return pin.aba(pm, data, q, v, tau), np.zeros(0)
-        M = pin.crba(pm, data, q)
-        M[self._lower] = M.T[self._lower]
-        f, p = self.free, self.pres
-        a_free = np.linalg.solve(M[self._ff], tau[f] - h[f] - M[self._fp] @ a[p])
-        lam = M[self._pp] @ a[p] + M[self._pf] @ a_free + h[p] - tau[p]
-        return a_free, lam
+            return a_free, np.zeros(0)
+        full[self.free] = a_free
+        return a_free, self.reaction(t, q, v, full, tau)
 
     def configuration_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Rate of q_f (d q_f / dt) from the full q, v."""
+        if not self.root_q:
+            return v[self._fs]
         rate = np.empty(self.nqf)
-        if self.root_q:
-            quat = q[3:7]
-            rate[:3] = pin.Quaternion(quat[3], *quat[:3]).toRotationMatrix() @ v[:3]
+        quat = q[3:7]
+        rate[:3] = pin.Quaternion(quat[3], *quat[:3]).toRotationMatrix() @ v[:3]
         if self.root_free:
             w = v[3:6]
             rate[3:6] = 0.5 * (quat[3] * w + np.cross(quat[:3], w))
@@ -370,39 +357,79 @@ class PartitionedSystem:
     def __call__(self, t: float, x: np.ndarray) -> np.ndarray:
         """State derivative [q_f', a_f] at t."""
         q, v, a = self.full_state(t, x)
-        a_free = self.solve(t, q, v, a)[0]
-        return np.concatenate([self.configuration_rate(q, v), a_free])
+        out = np.empty(self.nx)
+        out[: self.nqf] = self.configuration_rate(q, v)
+        out[self.nqf:] = self.accelerations(t, q, v, a)
+        return out
 
 
+# ------------------------------------------------------------------------ result
 @dataclass(frozen=True, eq=False)
-class PartitionedRun:
-    """A simulation of a :class:`PartitionedSystem`.
+class SimulationResult:
+    """A forward simulation (any configuration of the engine).
 
     Attributes:
-        t: (n,) s. q: (n, nq), v: (n, nv), a: (n, nv) full vectors (prescribed included).
+        t: (n,) s.
+        q: (n, nq) all coordinates (prescribed ones included), m and rad.
+        qd: (n, nv) velocities.
+        qdd: (n, nv) accelerations.
         reaction: (n, n_prescribed) lambda_p, what the prescription supplied.
-        integration: The raw :class:`~predgait.dynamics.integrators.Integration`.
-        partial: True when the run diverged (this is what was computed until then).
+        coordinate_names: names of the velocity rows (the coordinates of planar models).
+        free: Names of the integrated velocity rows.
+        status: COMPLETED, EVENT (a terminal event, see ``event``) or DIVERGED.
+        event: Name of the event that stopped the run ("fall: ..." for falls), or None.
+        time_to_fall: Time from the start to a fall event, s, or None.
+        partial: True when the run diverged and this is what was computed until then.
+        message: One line saying how the run ended.
+        options: Integrator options used.
+        n_rhs_evaluations: Right-hand-side calls.
+        grf, cop: (n, 3) ground reaction on the leg's foot (N) and its COP (m), lab
+            frame, when the leg's foot is prescribed; else None.
+        extra: Further configuration-specific outputs.
     """
 
     t: np.ndarray
     q: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
     reaction: np.ndarray
-    integration: Integration
+    coordinate_names: tuple[str, ...]
+    free: tuple[str, ...]
+    status: Status
+    event: str | None
+    time_to_fall: float | None
     partial: bool
+    message: str
+    options: IntegratorOptions
+    n_rhs_evaluations: int
+    grf: np.ndarray | None = None
+    cop: np.ndarray | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def v(self) -> np.ndarray:
+        """Velocities (alias of ``qd``, Pinocchio's name)."""
+        return self.qd
+
+    @property
+    def a(self) -> np.ndarray:
+        """Accelerations (alias of ``qdd``)."""
+        return self.qdd
 
 
 def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
-                         x0: np.ndarray, *, options: IntegratorOptions,
+                         x0: np.ndarray, *, options: IntegratorOptions | None = None,
                          events: Sequence[Event] = (), progress: bool = False,
-                         t_eval=None) -> PartitionedRun:
+                         t_eval=None) -> SimulationResult:
     """Integrate ``system`` over ``t_span`` from x0 and recover the full motion.
 
+    Events whose names start with "fall" are falls (``time_to_fall``).
+
     Raises:
-        SimulationDiverged: NaN or blow-up; ``.partial`` is the PartitionedRun so far.
+        SimulationDiverged: NaN or blow-up; ``.partial`` is the SimulationResult so far
+            (``partial=True``) and the message names the time and coordinate.
     """
+    options = options or IntegratorOptions()
     error = None
     try:
         run = integrate(system, t_span, x0, options=options, events=events,
@@ -416,7 +443,14 @@ def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
         q[k], v[k], a[k] = system.full_state(t, x)
         if np.all(np.isfinite(x)):
             a[k, system.free], reaction[k] = system.solve(t, q[k], v[k], a[k])
-    result = PartitionedRun(run.t, q, v, a, reaction, run, error is not None)
+    names = tuple(system.velocity_names())
+    fall = (run.event_time - float(t_span[0])
+            if (run.event_name or "").startswith("fall") else None)
+    result = SimulationResult(
+        t=run.t, q=q, qd=v, qdd=a, reaction=reaction, coordinate_names=names,
+        free=tuple(names[i] for i in system.free), status=run.status,
+        event=run.event_name, time_to_fall=fall, partial=error is not None,
+        message=run.message, options=options, n_rhs_evaluations=run.n_rhs_evaluations)
     if error is not None:
         raise SimulationDiverged(str(error), partial=result)
     return result

@@ -192,3 +192,13 @@ class BoundedSolver:
         lo, hi = self._increment_bounds(q)
         scale = 1e-9 * max(1.0, float(np.abs(gradient).max()))
         return ((lo > -ON_LIMIT) & (gradient > scale)) | ((hi < ON_LIMIT) & (gradient < -scale))
+
+
+def frames_near(flags: np.ndarray, reach: int) -> np.ndarray:
+    """(n,) bool: frames within ``reach`` frames of a flagged one (inclusive)."""
+    flags = np.asarray(flags, dtype=bool)
+    out = flags.copy()
+    for shift in range(1, reach + 1):
+        out[shift:] |= flags[:-shift]
+        out[:-shift] |= flags[shift:]
+    return out

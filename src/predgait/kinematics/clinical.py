@@ -16,13 +16,68 @@ pelvis applies to the thigh). These are internal (muscle) moments, as in Winter 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from predgait.errors import InputError
+
 ANGLES = ("hip_flexion", "knee_flexion", "ankle_dorsiflexion")
-#: Clinical sign of each model joint coordinate and its torque.
-JOINT_SIGN = {"ankle": 1.0, "knee": -1.0}
-#: Clinical name of each model joint.
-CLINICAL_NAME = {"ankle": "ankle_dorsiflexion", "knee": "knee_flexion"}
+
+
+@dataclass(frozen=True)
+class ClinicalJoint:
+    """A joint on its clinical angle: angle = sign * sum(q[coordinates]).
+
+    The conjugate clinical moment M acts as the generalised force sign * M on each of
+    the coordinates (a moment positive toward the positive angle).
+
+    Attributes:
+        angle: Clinical angle name (e.g. "knee_flexion").
+        coordinates: Model coordinates whose sum is the (signed) angle.
+        sign: +1 or -1.
+    """
+
+    angle: str
+    coordinates: tuple[str, ...]
+    sign: float
+
+
+#: THE joint-sign table of the planar models (simulator, drivers and fitting use it
+#: through :func:`clinical_joint`). Leg (:mod:`predgait.models.urdf`): ankle = ankle
+#: dorsiflexion, knee = -knee flexion, thigh pitch (base_pitch + ankle + knee) = -hip
+#: flexion (no pelvis: the thigh against the vertical). gait7 (:mod:`predgait.models.
+#: gait7`): positive hip extension, knee flexion, ankle plantarflexion.
+PLANAR_JOINTS: dict[str, dict[str, ClinicalJoint]] = {
+    "leg": {"ankle": ClinicalJoint("ankle_dorsiflexion", ("ankle",), 1.0),
+            "knee": ClinicalJoint("knee_flexion", ("knee",), -1.0),
+            "hip": ClinicalJoint("hip_flexion", ("base_pitch", "ankle", "knee"), -1.0)},
+    "gait7": {f"{joint}_{side}": ClinicalJoint(f"{angle}_{side}", (f"{joint}_{side}",), sign)
+              for side in ("r", "l")
+              for joint, angle, sign in (("hip", "hip_flexion", -1.0),
+                                         ("knee", "knee_flexion", 1.0),
+                                         ("ankle", "ankle_dorsiflexion", -1.0))},
+}
+#: Clinical sign of each leg joint coordinate and its torque (from the table).
+JOINT_SIGN = {j: PLANAR_JOINTS["leg"][j].sign for j in ("ankle", "knee")}
+#: Clinical name of each leg joint.
+CLINICAL_NAME = {j: PLANAR_JOINTS["leg"][j].angle for j in ("ankle", "knee")}
+
+
+def clinical_joint(model, joint: str) -> ClinicalJoint:
+    """The :class:`ClinicalJoint` of ``joint`` on ``model`` (leg, gait7 or whole body).
+
+    Raises:
+        InputError: The model has no such joint (the message lists those it has).
+    """
+    table = PLANAR_JOINTS.get(model.kind)
+    if table is None:  # the whole body: every joint coordinate is its own joint
+        table = {name: ClinicalJoint(CLINICAL_3D[name][0], (name,), CLINICAL_3D[name][1])
+                 for name in model.coordinate_names if name in CLINICAL_3D}
+    if joint not in table:
+        raise InputError(f"passive elements on '{joint}': the {model.kind} model has "
+                         f"joints {', '.join(table) or 'none'}.")
+    return table[joint]
 
 
 def thigh_pitch(q: np.ndarray) -> np.ndarray:

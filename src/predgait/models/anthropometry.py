@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from enum import StrEnum
 from pathlib import Path
 
 from predgait.errors import InputError
@@ -168,40 +169,46 @@ def leg_from_subject(mass: float, height: float, *,
 
 
 SEGMENT_CSV_COLUMNS = ("segment", "mass_kg", "length_m", "com_from_proximal", "inertia_kg_m2")
+#: Optional columns: radius of gyration (fraction of length) instead of the inertia; how
+#: the foot COM is given; the foot COM offset from the ankle (m, foot frame).
+OPTIONAL_CSV_COLUMNS = ("gyration_fraction", "foot_com", "com_x_m", "com_z_m")
 
 
-def leg_from_csv(path: str | Path) -> LegParameters:
-    """Leg parameters from a lab's own segment table.
+class FootCom(StrEnum):
+    """Where a segment table puts the foot COM (``foot_com`` column of the foot row)."""
 
-    The CSV has a header ``segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2`` and
-    one row each for ``foot``, ``shank`` and ``thigh``: mass (kg), length (m; foot: heel
-    to toe), COM as a fraction of length from the proximal joint (foot: from the heel)
-    and the sagittal moment of inertia about the COM (kg m^2). The ankle height and the
-    heel-to-ankle distance are scaled from the foot length by the regression ratios.
+    THESIS = "thesis"          # com_from_proximal from the heel along the foot, at 0.522 of
+                               # the ankle height (thesis Table 3.3.2; the default)
+    HEEL_TOE = "heel_toe"      # com_from_proximal along the heel-toe line (at the sole)
+    ANKLE_TOE = "ankle_toe"    # com_from_proximal from the ankle along the ankle-toe line
+                               # (Dempster/Winter: malleolus to 2nd metatarsal head)
+    OFFSET = "offset"          # com_x_m, com_z_m from the ankle centre in the foot frame
 
-    Raises:
-        InputError: The file is missing, a column or segment is missing, or a value is
-            not a positive finite number.
-    """
+
+def _csv_rows(path: Path) -> dict[str, tuple[int, dict[str, str]]]:
+    """Segment name -> (line, row) of a segment table; unknown or repeated names refused."""
     from predgait.textfile import read_text
 
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: segment table not found; give a CSV with columns "
-                         f"{', '.join(SEGMENT_CSV_COLUMNS)}.")
     text = read_text(path, what="segment table CSV", allow_empty=True)
     numbered = [(n, ln) for n, ln in enumerate(text.splitlines(), start=1)
                 if ln.strip() and not ln.lstrip().startswith("#")]
     reader = csv.reader([ln for _, ln in numbered])
     header = [h.strip() for h in next(reader, [])]
-    missing = [c for c in SEGMENT_CSV_COLUMNS if c not in header]
+    required = [c for c in SEGMENT_CSV_COLUMNS if c != "inertia_kg_m2"]
+    missing = [c for c in required if c not in header]
+    if not {"inertia_kg_m2", "gyration_fraction"} & set(header):
+        missing.append("inertia_kg_m2 (or gyration_fraction)")
     if missing:
         raise InputError(f"{path}: missing column(s) {', '.join(missing)}; the file has "
                          f"{', '.join(header) or 'no header'}.")
+    unknown = [h for h in header if h not in SEGMENT_CSV_COLUMNS + OPTIONAL_CSV_COLUMNS]
+    if unknown:
+        raise InputError(f"{path}: unknown column(s) {', '.join(unknown)}; columns: "
+                         f"{', '.join(SEGMENT_CSV_COLUMNS + OPTIONAL_CSV_COLUMNS)}.")
     if len(set(header)) != len(header):
         twice = next(h for h in header if header.count(h) > 1)
         raise InputError(f"{path}: column {twice!r} appears twice in the header.")
-    rows = {}
+    rows: dict[str, tuple[int, dict[str, str]]] = {}
     for (line, _), fields in zip(numbered[1:], reader, strict=True):
         row = dict(zip(header, (f.strip() for f in fields), strict=False))
         name = row.get("segment", "").lower()
@@ -211,32 +218,104 @@ def leg_from_csv(path: str | Path) -> LegParameters:
         if name in rows:
             raise InputError(f"{path}, line {line}: segment '{name}' again (first on line "
                              f"{rows[name][0]}); give each segment once.")
-        rows[name] = (line, {c: row.get(c, "") for c in SEGMENT_CSV_COLUMNS})
+        rows[name] = (line, row)
+    return rows
+
+
+def _row(path: Path, rows, name: str) -> tuple[int, dict[str, str]]:
+    if name not in rows:
+        raise InputError(f"{path}: no row for segment '{name}'; rows needed: "
+                         f"{', '.join(LEG_SEGMENTS)}.")
+    return rows[name]
+
+
+def _number(path: Path, line: int, row: dict[str, str], column: str, *, low: float = 0.0,
+            high: float = math.inf, strict: bool = True, signed: bool = False) -> float:
+    text = row.get(column, "")
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    bad = not math.isfinite(value) or (not signed and (value < low or value > high
+                                                       or (strict and value == low)))
+    if bad:
+        what = ("a number" if signed else f"a number in {low:g}..{high:g}" if not strict
+                else "a positive number")
+        raise InputError(f"{path}, line {line}, column {column}: {text!r} is not {what} "
+                         "(SI units: kg, m, kg m^2).")
+    return value
+
+
+def leg_from_csv(path: str | Path) -> LegParameters:
+    """Leg parameters from a lab's own segment table.
+
+    The CSV has a header ``segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2`` and
+    one row each for ``foot``, ``shank`` and ``thigh``: mass (kg), length (m; foot: heel
+    to toe), COM as a fraction 0..1 of the length from the proximal joint and the
+    sagittal moment of inertia about the COM (kg m^2). Optional columns:
+
+    * ``gyration_fraction``: radius of gyration about the COM as a fraction of the
+      length, for rows whose ``inertia_kg_m2`` is empty (I = m (k L)^2).
+    * ``foot_com`` (foot row): ``thesis`` (default: from the heel along the foot, at
+      0.522 of the ankle height, thesis Table 3.3.2), ``heel_toe`` (along the heel-toe
+      line), ``ankle_toe`` (from the ankle centre along the ankle-toe line, as Dempster's
+      and Winter's tables give it) or ``offset`` (``com_x_m``, ``com_z_m``: from the
+      ankle centre in the foot frame, X toward the toe, Z up; ``0, 0`` = at the ankle).
+
+    The ankle height and the heel-to-ankle distance are scaled from the foot length by
+    the regression ratios.
+
+    Raises:
+        InputError: The file is missing; a column is missing or unknown; a segment is
+            missing, unknown or repeated; a value is out of range.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: segment table not found; give a CSV with columns "
+                         f"{', '.join(SEGMENT_CSV_COLUMNS)}.")
+    rows = _csv_rows(path)
+    line, foot_row = _row(path, rows, "foot")
+    try:
+        foot_com = FootCom(foot_row.get("foot_com", "") or FootCom.THESIS)
+    except ValueError:
+        raise InputError(f"{path}, line {line}, column foot_com: "
+                         f"{foot_row.get('foot_com')!r} is not one of "
+                         f"{', '.join(c.value for c in FootCom)}.") from None
     segments = {}
     for name in LEG_SEGMENTS:
-        if name not in rows:
-            raise InputError(f"{path}: no row for segment '{name}'; rows needed: "
-                             f"{', '.join(LEG_SEGMENTS)}.")
-        line, row = rows[name]
-        values = {}
-        for column in SEGMENT_CSV_COLUMNS[1:]:
-            try:
-                value = float(row[column])
-            except ValueError:
-                value = math.nan
-            if not math.isfinite(value) or value <= 0:
-                raise InputError(f"{path}, line {line}, column {column}: {row[column]!r} is "
-                                 f"not a positive number (SI units: kg, m, kg m^2).")
-            values[column] = value
-        if values["com_from_proximal"] >= 1:
-            raise InputError(f"{path}, line {line}, column com_from_proximal: must be a "
-                             f"fraction of the segment length between 0 and 1.")
-        segments[name] = Segment(name, values["mass_kg"], values["length_m"],
-                                 values["com_from_proximal"], values["inertia_kg_m2"])
+        line, row = _row(path, rows, name)
+        for column in ("foot_com", "com_x_m", "com_z_m"):
+            if name != "foot" and row.get(column, ""):
+                raise InputError(f"{path}, line {line}, column {column}: only the foot row "
+                                 "takes it; leave it empty.")
+        mass = _number(path, line, row, "mass_kg")
+        length = _number(path, line, row, "length_m")
+        offset = name == "foot" and foot_com is FootCom.OFFSET
+        fraction = (math.nan if offset and not row.get("com_from_proximal", "")
+                    else _number(path, line, row, "com_from_proximal", high=1.0, strict=False))
+        if row.get("inertia_kg_m2", ""):
+            if row.get("gyration_fraction", ""):
+                raise InputError(f"{path}, line {line}: give inertia_kg_m2 or "
+                                 "gyration_fraction, not both.")
+            inertia = _number(path, line, row, "inertia_kg_m2")
+        else:
+            inertia = mass * (_number(path, line, row, "gyration_fraction") * length) ** 2
+        segments[name] = Segment(name, mass, length, fraction, inertia)
     foot_len = segments["foot"].length
     ankle_height = ANKLE_HEIGHT_FRACTION / LENGTH_FRACTION["foot"] * foot_len
-    foot = foot_geometry(foot_len, ankle_height, segments["foot"].com_fraction)
-    return LegParameters(segments=segments, foot=foot, source=str(path))
+    geometry = foot_geometry(foot_len, ankle_height,
+                             0.0 if offset else segments["foot"].com_fraction)
+    line, row = rows["foot"]
+    fraction = segments["foot"].com_fraction
+    if foot_com is FootCom.HEEL_TOE:
+        geometry = replace(geometry, com_z=geometry.sole_z)
+    elif foot_com is FootCom.ANKLE_TOE:
+        geometry = replace(geometry, com_x=fraction * geometry.toe_x,
+                           com_z=fraction * geometry.sole_z)
+    elif foot_com is FootCom.OFFSET:
+        geometry = replace(geometry, com_x=_number(path, line, row, "com_x_m", signed=True),
+                           com_z=_number(path, line, row, "com_z_m", signed=True))
+    return LegParameters(segments=segments, foot=geometry, source=str(path))
 
 
 #: Thesis rod (section 3.2.1): diameter 3.5 cm, length/diameter 37.2.

@@ -103,9 +103,14 @@ def rod_urdf(rod: Segment) -> str:
     )
 
 
-#: Joint ranges of the model coordinates, rad (ankle: dorsiflexion +; knee: the model
-#: coordinate is minus knee flexion, so flexion 0..150 deg and 20 deg of hyperextension).
-ANKLE_RANGE = (-0.87, 0.61)
+#: Joint ranges of the model coordinates, rad: anatomical ranges of motion (Norkin &
+#: White 2016, Measurement of Joint Motion, 5th ed., F.A. Davis: knee flexion 0..140 deg,
+#: hyperextension up to ~10 deg; ankle dorsiflexion 0..20, plantarflexion 0..50) widened
+#: by a margin of 10 deg (15 for dorsiflexion) so that normal gait never meets them.
+#: Inverse kinematics is bounded by them (``--limit-margin`` widens them further).
+#: Ankle: dorsiflexion +, -60..35 deg; knee: the model coordinate is minus knee
+#: flexion, so flexion 0..150 deg and 20 deg of hyperextension.
+ANKLE_RANGE = (-1.05, 0.61)
 KNEE_RANGE = (-2.62, 0.35)
 
 

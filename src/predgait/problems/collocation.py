@@ -6,8 +6,9 @@ coordinates q_b prescribed and the free joints q_f = (ankle, knee),
     M_ff(q) a_f = tau_f + (J_H^T w_H)_f - h_f(q, v) - M_fb(q) a_b,
 
 where w_H = (F_x, F_z, M_y) is the hip load at ``hip_center`` and J_H the Jacobian of
-(hip x, hip z, thigh pitch). The same equations as
-:class:`predgait.dynamics.forward.LegSystem` (Pinocchio), which checks every result.
+(hip x, hip z, thigh pitch), built from the numeric engine's description of the leg
+(:func:`free_dynamics`); Pinocchio's :class:`predgait.dynamics.forward.LegSystem`
+checks every result.
 
 Decision vector layout (opty-style, documented once; :meth:`LegCollocation.unpack` is the
 only place that slices it):
@@ -40,7 +41,10 @@ import casadi as cs
 import numpy as np
 
 from predgait.dynamics.drivers import LegDrivers
+from predgait.dynamics.forward import LEG_FREE
+from predgait.dynamics.partitioned import free_accelerations
 from predgait.errors import InputError
+from predgait.kinematics.clinical import clinical_joint
 from predgait.models.loading import Model
 from predgait.models.symbolic import symbolic_model
 
@@ -64,17 +68,29 @@ def free_dynamics(model: Model) -> cs.Function:
 
     x: (4,) free state; qb, vb, ab: (3,) base coordinates, rates, accelerations;
     tau: (2,) ankle, knee torques (model sign, N m); hip: (3,) F_x, F_z (N), M_y (N m).
+
+    Built from the numeric engine's description of the leg
+    (:class:`predgait.dynamics.forward.LegSystem`): the same free rows (``LEG_FREE``),
+    joint torques on those rows, the hip load at frame ``hip_center`` (force through its
+    position Jacobian, moment on the thigh's rows of the joint-sign table) and the same
+    partitioned equations (:func:`predgait.dynamics.partitioned.free_accelerations`), on
+    ADAM's M and h of the same URDF.
     """
     sym = symbolic_model(model)
+    free = [model.coordinate_index(n) for n in LEG_FREE]
+    pres = [i for i in range(model.nq) if i not in free]
     x, qb, vb, ab = cs.SX.sym("x", 4), cs.SX.sym("qb", 3), cs.SX.sym("vb", 3), cs.SX.sym("ab", 3)
     tau, hip = cs.SX.sym("tau", 2), cs.SX.sym("hip", 3)
-    q, v = cs.vertcat(qb, x[:2]), cs.vertcat(vb, x[2:])
+    q, v = cs.SX.zeros(model.nq), cs.SX.zeros(model.nq)
+    q[pres], q[free], v[pres], v[free] = qb, x[:2], vb, x[2:]
     point = sym.frame_position("hip_center")(q)
-    jac = cs.jacobian(cs.vertcat(point[0], point[2], q[2] + q[3] + q[4]), q)
-    mass, bias = sym.mass_matrix(q), sym.bias_force(q, v)
-    generalized = jac.T @ hip
-    rhs = tau + generalized[3:] - bias[3:] - mass[3:, :3] @ ab
-    accel = cs.solve(mass[3:, 3:], rhs)
+    thigh = clinical_joint(model, "hip").coordinates  # rows turning the thigh about +Y
+    pitch = sum(q[model.coordinate_index(c)] for c in thigh)
+    applied = cs.SX.zeros(model.nq)
+    applied[free] = tau
+    applied += cs.jacobian(cs.vertcat(point[0], point[2], pitch), q).T @ hip
+    accel = free_accelerations(sym.mass_matrix(q), sym.bias_force(q, v), applied, ab,
+                               free, pres)
     return cs.Function("free_dynamics", [x, qb, vb, ab, tau, hip], [cs.vertcat(x[2:], accel)],
                        ["x", "qb", "vb", "ab", "tau", "hip"], ["xdot"])
 

@@ -64,11 +64,15 @@ class GaitSamples:
 
     @classmethod
     def from_inverse(cls, inverse) -> GaitSamples:
-        """From an :class:`~predgait.dynamics.inverse_trial.InverseResult` (all its cycles)."""
+        """From an :class:`~predgait.dynamics.inverse_trial.InverseResult` (all its cycles).
+
+        The knee flexion is the anatomical one (standing straight in the static trial = 0,
+        when there is one), so that the extension stop at 0 means full extension.
+        """
         percent, cycle, how = cycle_phase(inverse.time, inverse.events.heel_strikes,
                                           inverse.events.toe_offs,
                                           where=inverse.provenance.get("trial", "the trial"))
-        angles, rates = inverse.clinical_angles(), inverse.clinical_rates()
+        angles, rates = inverse.anatomical_angles(), inverse.clinical_rates()
         moments = inverse.clinical_moments()
         cutoff = inverse.provenance.get("marker_cutoff_hz") or 6.0
         return cls(time=inverse.time, percent=percent, cycle=cycle,
@@ -271,10 +275,13 @@ def _weights(samples: GaitSamples, model: PassiveModel, settings: Settings,
     m = samples.samples_per_correlation
     weights = np.zeros((len(quiet), 2 * len(model.joints)))
     for j, joint in enumerate(model.joints):
-        finite = np.isfinite(samples.moments[joint]) & np.isfinite(samples.angles[joint])
+        finite = np.isfinite(samples.moments[joint]) & np.isfinite(samples.angles[joint]) \
+            & np.isfinite(samples.rates[joint])
+        around = finite.copy()
+        around[1:-1] = finite[:-2] & finite[1:-1] & finite[2:]
         base = 1.0 / (sigma[joint] ** 2 * m)
         weights[:, 2 * j] = np.where(quiet & finite, base, 0.0)
-        weights[:, 2 * j + 1] = np.where(elsewhere & finite,
+        weights[:, 2 * j + 1] = np.where(elsewhere & around,
                                          settings.smoothness_weight * base, 0.0)
     return weights
 

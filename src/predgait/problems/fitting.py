@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
+from predgait.dynamics.forces import joint_passive_torque
 from predgait.dynamics.passive import LinearSpringDamper
 from predgait.errors import SolveFailed
 from predgait.problems.collocation import LegCollocation, NodeData, Solved, Transcription
@@ -57,10 +58,10 @@ class FitResult:
     diagnostics: dict = field(default_factory=dict)
 
 
-def _knee_passive(params):
-    """Model knee torque of the linear element on clinical flexion = -q_knee."""
+def _knee_passive(model, params):
+    """Model knee torque of the linear element (k, c, theta0 = ``params``), by the table."""
     element = LinearSpringDamper(k=params[0], c=params[1], theta0=params[2])
-    return lambda q, v: -element.moment(-q, -v)
+    return joint_passive_torque(model, "knee", element)
 
 
 def _check(solved: Solved, kind: str) -> None:
@@ -89,7 +90,7 @@ TRAPEZOIDAL = Transcription.TRAPEZOIDAL
 @functools.lru_cache(maxsize=16)
 def _knee_problem(model, n: int, h: float, max_iter: int, transcription: Transcription):
     col = LegCollocation(model, n, h, 3, transcription)
-    constraints = col.defects(col.xdot(0, passive_knee=_knee_passive(col.p)))
+    constraints = col.defects(col.xdot(0, passive_knee=_knee_passive(model, col.p)))
     residuals = cs.vec(col.x[:2, :] - col.node["x_ref"][:2, :])
     sensitivity = cs.Function("sensitivity", [col.w, cs.vec(col.data)], [
         cs.jacobian(constraints, col.w), cs.jacobian(residuals, col.w), residuals],

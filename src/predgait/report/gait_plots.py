@@ -52,7 +52,7 @@ def save_gait_plots(result, folder) -> list[str]:
     """Write angles.png, moments.png, powers.png and grf.png; returns the file names."""
     mass = result.body_mass
     figures = {
-        "angles.png": plot_series(result, result.clinical_angles(), scale=180 / np.pi,
+        "angles.png": plot_series(result, result.anatomical_angles(), scale=180 / np.pi,
                                   ylabel="angle (deg)", suffix="", title="Joint angles"),
         "moments.png": plot_series(result, result.clinical_moments(), scale=1 / mass,
                                    ylabel="moment (N m/kg)", suffix="_moment",

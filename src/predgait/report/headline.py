@@ -341,11 +341,13 @@ def headline(folder: Path) -> Headline | None:
         data = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError):
         return Headline(folder.name, "-", "unreadable summary")
+    unknown = Headline(folder.name.replace("_", " "), "-", str(data.get("status", "-")),
+                       note=f"No headline: {path.name} is not in a layout this predgait "
+                            "version knows; every value is in the details below.")
     builder = BUILDERS.get(_kind(data) or "")
     if builder is None:
-        return Headline(folder.name.replace("_", " "), "-", str(data.get("status", "-")))
+        return unknown
     try:
         return builder(data)
     except (KeyError, TypeError, IndexError, ValueError, ZeroDivisionError):
-        # A summary from another predgait version: no headline numbers, details below.
-        return Headline(folder.name.replace("_", " "), "-", str(data.get("status", "-")))
+        return unknown  # e.g. a summary written by another predgait version

@@ -23,7 +23,7 @@ import numpy as np
 from predgait import __version__
 from predgait.errors import InputError
 from predgait.report.headline import GOOD, Headline, headline, summary_file
-from predgait.report.tidy import format_quantity
+from predgait.report.tidy import format_quantity, label_of, unit_of
 from predgait.report.viewer import viewer_markup, viewer_script
 
 _STYLE = """
@@ -61,7 +61,7 @@ CAPTIONS = {
     "deviation": "Deviation from the measured motion: threshold band and fall",
     "active_passive": "Inverse-dynamics moment split into passive and active parts",
     "clinical_moments": "Clinical joint moments, left and right",
-    "heatmap_": "Sweep outcome", "outcome_vs_": "Sweep outcome",
+    "heatmap_": "Sweep outcome", "outcome_vs_": "Sweep outcomes against",
 }
 _ORDER = ("angles", "clinical_angles", "deviation", "moments", "clinical_moments", "powers",
           "grf", "fullbody", "knee", "before_after", "contributions", "stick")
@@ -159,7 +159,11 @@ def _caption(path: Path) -> str:
         return "Stick figure over the trial, sagittal plane (animation; measured in grey)"
     for key, text in CAPTIONS.items():
         if stem == key or (key.endswith("_") and stem.startswith(key)):
-            extra = stem[len(key):].replace("_", " ") if key.endswith("_") else ""
+            extra = stem[len(key):] if key.endswith("_") else ""
+            if extra and key == "heatmap_":
+                unit = unit_of(extra)
+                extra = label_of(extra) + (f" ({unit[0]})" if unit else "")
+            extra = extra.replace("_", " ")
             return f"{text}{': ' + extra if extra else ''}"
     return stem.replace("_", " ")
 

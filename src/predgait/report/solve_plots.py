@@ -11,8 +11,19 @@ from predgait.report.figures import new_figure, save_figure
 JOINTS = (("ankle dorsiflexion", 3, 1.0), ("knee flexion", 4, -1.0))
 
 
-def save_solve_plots(folder: Path, inverse, fit, sim, drivers) -> None:
-    """angles.png (measured, optimised, Pinocchio re-simulation) and moments.png."""
+def save_solve_plots(folder: Path, inverse, fit, sim, drivers, *, threshold_deg: float,
+                     time_to_threshold: float | None = None) -> None:
+    """angles.png (measured, optimised, Pinocchio re-simulation), deviation.png, moments.png.
+
+    deviation.png: the re-simulation with the optimised inputs minus the measured motion,
+    the ``threshold_deg`` band shaded, where it leaves the band and the fall marked.
+    """
+    from predgait.report.simulation_plots import plot_deviation
+
+    ax = plot_deviation(sim.t, sim.q[:, 3:], (inverse.time, inverse.q[:, 3:]),
+                        ("ankle", "knee"), threshold_deg=threshold_deg,
+                        time_to_threshold=time_to_threshold, time_to_fall=sim.time_to_fall)
+    save_figure(ax.figure, folder / "deviation.png")
     fig, axes = new_figure(1, 2, figsize=(10, 3.6), wspace=0.25, title=True)
     window = (inverse.time >= fit.t[0]) & (inverse.time <= fit.t[-1])
     for ax, (name, i, sign) in zip(axes, JOINTS, strict=True):

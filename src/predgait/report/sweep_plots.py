@@ -31,7 +31,7 @@ def _heatmaps(ok, params, metrics, folder: Path, baseline) -> list[str] | None:
         for o in ok:
             grid[ys.index(o.point.values[params[1]]),
                  xs.index(o.point.values[params[0]])] = o.metrics.get(metric, np.nan)
-        fig, ax = new_figure(figsize=(5.5, 4.2), title=True)
+        fig, ax = new_figure(figsize=(6.0, 4.2))
         image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
         for (row, col), value in np.ndenumerate(grid):
             ax.text(col, row, f"{value:.3g}", ha="center", va="center", fontsize=7,
@@ -44,9 +44,10 @@ def _heatmaps(ok, params, metrics, folder: Path, baseline) -> list[str] | None:
         if all(b is not None for b in base):
             bx = np.interp(base[0], xs, range(len(xs)))
             by = np.interp(base[1], ys, range(len(ys)))
-            ax.plot(bx, by, "*", ms=16, mfc="none", mec="red", mew=1.5,
-                    label="scenario file setting")
-            ax.legend(loc="upper left", bbox_to_anchor=(0, 1.12), fontsize=7, frameon=False)
+            ax.plot(bx, by, "*", ms=16, mfc="none", mec="red", mew=1.5)
+        ax.set_title(_metric_label(metric) + ("; red star: scenario file setting"
+                                              if all(b is not None for b in base) else ""),
+                     fontsize=9)
         fig.colorbar(image, ax=ax, label=_metric_label(metric))
         name = f"heatmap_{metric}.png"
         save_figure(fig, folder / name)

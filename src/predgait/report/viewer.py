@@ -38,7 +38,7 @@ def viewer_data(model, t, q, *, reference_q=None, grf=None, measured_grf=None,
         q: (n, nq) configurations of the main motion.
         reference_q: Optional (n, nq) measured motion at the same times (drawn grey).
         grf: Optional (force (n, 3) N, point (n, 3) m) drawn from the point (the main
-            motion's ground reaction).
+            motion's ground reaction), or a mapping name -> such a pair (e.g. per foot).
         measured_grf: Optional (force, point) of the measured ground reaction.
         label: Name of the main motion ("simulated", "measured", ...).
         max_frames: At most this many frames (the motion is subsampled).
@@ -53,8 +53,10 @@ def viewer_data(model, t, q, *, reference_q=None, grf=None, measured_grf=None,
             _round(p) for p in stick_points(model, np.asarray(reference_q)[rows],
                                             plane=False)]})
     arrows = []
-    for name, colour, pair in (("ground reaction", GRF, grf),
-                               ("measured ground reaction", MEASURED, measured_grf)):
+    simulated = grf if isinstance(grf, dict) else {"": grf}
+    sets = [(f"ground reaction{', ' + name if name else ''}", GRF, pair)
+            for name, pair in simulated.items()]
+    for name, colour, pair in [*sets, ("measured ground reaction", MEASURED, measured_grf)]:
         if pair is None:
             continue
         force, point = (np.asarray(a, dtype=float)[rows] for a in pair)
@@ -64,6 +66,40 @@ def viewer_data(model, t, q, *, reference_q=None, grf=None, measured_grf=None,
                        "vector": _round(GRF_SCALE * force)})
     return {"time": _round(t[rows]), "bodies": bodies, "arrows": arrows,
             "model": model.kind}
+
+
+def contact_grf(model, q, forces, frames, groups) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Ground reaction per group of contact points: total force at the loaded points' centre.
+
+    Args:
+        model: The model (Pinocchio frames ``frames``).
+        q: (n, nq) configurations.
+        forces: (n, len(frames), 3) N, lab-frame force at each contact point.
+        frames: Contact frame names.
+        groups: Per arrow, the frame names summed (e.g. the heel and toe of one foot).
+
+    Returns:
+        Per group, (force (n, 3) N, point (n, 3) m; the vertical-force-weighted mean of
+        its points, NaN when unloaded).
+    """
+    import pinocchio as pin
+
+    pm, data = model.pin_model, model.pin_model.createData()
+    ids = [model.frame_id(name) for name in frames]
+    pos = np.zeros((len(q), len(frames), 3))
+    for k, qk in enumerate(np.asarray(q)):
+        pin.framesForwardKinematics(pm, data, qk)
+        pos[k] = [data.oMf[i].translation for i in ids]
+    out = []
+    for group in groups:
+        cols = [frames.index(name) for name in group]
+        force = forces[:, cols].sum(axis=1)
+        weight = np.clip(forces[:, cols, 2], 0.0, None)
+        total = weight.sum(axis=1, keepdims=True)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            point = (weight[:, :, None] * pos[:, cols]).sum(axis=1) / total
+        out.append((force, point))
+    return out
 
 
 def write_viewer(path: str | Path, data: dict) -> Path:

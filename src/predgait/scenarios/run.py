@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from predgait.dynamics.drivers import LegDrivers, PDFeedback
+from predgait.dynamics.drivers import LegDrivers
+from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, SimulationResult, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
@@ -171,12 +172,13 @@ def _locked(drivers: LegDrivers, model, locks) -> tuple[LegDrivers, tuple[str, .
 def _simulate(model, drivers, spec: ScenarioSpec, passive, free, gains) -> SimulationResult:
     free_index = [model.coordinate_index(j) for j in free]
     joint = [i - 3 for i in free_index]
-    feedback = PDFeedback(gains[0][joint], gains[1][joint], drivers.reference_q,
-                          drivers.reference_qd)
+    feedback = JointFeedback(np.array(free_index), drivers.reference, gains[0][joint],
+                             gains[1][joint])
     x0 = np.concatenate([drivers.reference_q(spec.window[0])[free_index],
                          drivers.reference_qd(spec.window[0])[free_index]])
     try:
-        return simulate_leg(model, drivers, spec.window, x0, passive=passive, feedback=feedback,
+        return simulate_leg(model, drivers.with_passive(passive), spec.window, x0,
+                            feedback=feedback,
                             options=spec.options, free=free,
                             fall=FallLimit(segment_angle_deg=FALL_ANGLE_DEG))
     except SimulationDiverged as exc:

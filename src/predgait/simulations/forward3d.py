@@ -33,17 +33,10 @@ from predgait.analysis.deviation3d import deviations3d, pelvis_angle_error
 from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.external import Load
+from predgait.dynamics.forces import GroundContact, JointFeedback, JointTorques, MeasuredLoads
 from predgait.dynamics.integrators import Direction, Event, IntegratorOptions, Status
 from predgait.dynamics.inverse3d import FEET, sole_points
-from predgait.dynamics.partitioned import (
-    GroundContact,
-    JointFeedback,
-    JointTorques,
-    MeasuredLoads,
-    MotionHistory,
-    PartitionedSystem,
-    simulate_partitioned,
-)
+from predgait.dynamics.partitioned import MotionHistory, PartitionedSystem, simulate_partitioned
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.fullbody import CONTACTS
 from predgait.models.loading3d import Model3D
@@ -293,14 +286,14 @@ def fall_events(system: PartitionedSystem, history: MotionHistory,
         def height(t, x):
             return x[2] - history(t)[0][2] + limits.pelvis_drop
 
-        events.append(Event("pelvis height", height, Direction.FALLING))
+        events.append(Event("fall: pelvis height", height, Direction.FALLING))
     if system.root_free:
         tilt = np.radians(limits.pelvis_angle_deg)
         for axis, name in enumerate(PELVIS_ANGLES):
             def angle(t, x, axis=axis):
                 return tilt - abs(pelvis_angle_error(x[:7], history(t)[0])[axis])
 
-            events.append(Event(name, angle, Direction.FALLING))
+            events.append(Event(f"fall: {name}", angle, Direction.FALLING))
     joints = system.q_free[root:]
     if limits.joint_deg is not None and joints.size:
         bend = np.radians(limits.joint_deg)
@@ -308,7 +301,7 @@ def fall_events(system: PartitionedSystem, history: MotionHistory,
         def joint(t, x):
             return bend - np.max(np.abs(x[root:system.nqf] - history(t)[0][joints]))
 
-        events.append(Event("joint angle", joint, Direction.FALLING))
+        events.append(Event("fall: joint angle", joint, Direction.FALLING))
     return events
 
 
@@ -319,7 +312,7 @@ class Forward3DRun:
     Attributes:
         mode: What was simulated.
         t: (n,) s. q: (n, nq) simulated configurations. measured: (n, nq) at ``t``.
-        status: "completed", "fell" or "diverged".
+        status: COMPLETED, EVENT (fell) or DIVERGED.
         time_to_fall: s after the start (None if it did not fall).
         fall_criterion: What fell (event name, joint named), or None.
         message: How the run ended.
@@ -332,7 +325,7 @@ class Forward3DRun:
     t: np.ndarray
     q: np.ndarray
     measured: np.ndarray
-    status: str
+    status: Status
     time_to_fall: float | None
     fall_criterion: str | None
     message: str
@@ -365,18 +358,17 @@ def simulate_fullbody(drive: FullbodyDrive, mode: Mode, t_span: tuple[float, flo
         run = simulate_partitioned(system, (t0, t1), x0, options=options,
                                    events=fall_events(system, history, fall),
                                    progress=progress)
-        status = "fell" if run.integration.status is Status.EVENT else "completed"
     except SimulationDiverged as exc:
-        run, status = exc.partial, "diverged"
+        run = exc.partial
     measured = np.array([history(t)[0] for t in run.t])
-    criterion, fall_time = None, None
-    if status == "fell":
-        criterion, fall_time = run.integration.event_name, run.integration.event_time - t0
+    criterion, fall_time = None, run.time_to_fall
+    if run.status is Status.EVENT:
+        criterion = run.event.removeprefix("fall: ")
         if criterion == "joint angle":
             worst = np.argmax(np.abs(run.q[-1, 7:] - measured[-1, 7:]))
             criterion = f"joint angle {drive.model.joint_names[worst]}"
     dev = deviations3d(run.t, run.q, measured, drive.model.joint_names,
                        band_deg=band_deg, band_m=band_m)
-    return Forward3DRun(mode, run.t, run.q, measured, status, fall_time, criterion,
-                        run.integration.message, dev, growth,
+    return Forward3DRun(mode, run.t, run.q, measured, run.status, fall_time, criterion,
+                        run.message, dev, growth,
                         *((ground.ground_z, ground.belt_velocity) if ground else (None, None)))

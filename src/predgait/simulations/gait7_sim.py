@@ -31,14 +31,18 @@ import numpy as np
 from scipy.optimize import brentq
 
 from predgait.dynamics.drivers import SampledHistory
-from predgait.dynamics.integrators import Direction, Event, IntegratorOptions
-from predgait.dynamics.partitioned import (
+from predgait.dynamics.forces import (
     GroundContact,
     JointTorques,
-    MotionHistory,
-    PartitionedRun,
-    PartitionedSystem,
     PassiveTorques,
+    passive_generalized,
+)
+from predgait.dynamics.integrators import Direction, Event, IntegratorOptions
+from predgait.dynamics.partitioned import (
+    MotionHistory,
+    PartitionedSystem,
+    SimulationResult,
+    Status,
     simulate_partitioned,
 )
 from predgait.dynamics.passive import PassiveJoint
@@ -70,16 +74,16 @@ class Gait7Result:
     """A run with its contact forces.
 
     Attributes:
-        run: The :class:`PartitionedRun` (t s, q, v, reaction of the prescription).
+        run: The :class:`SimulationResult` (t s, q, v, reaction of the prescription).
         forces: (n, 4, 3) N, lab-frame forces at CONTACT_FRAMES at ``run.t``.
-        status: "completed", "fall" (an event) or "diverged".
+        status: COMPLETED, EVENT (a fall) or DIVERGED.
         time_to_fall: s after the start, or None.
         fall_cause: Name of the event, the divergence message, or None.
     """
 
-    run: PartitionedRun
+    run: SimulationResult
     forces: np.ndarray
-    status: str
+    status: Status
     time_to_fall: float | None
     fall_cause: str | None
 
@@ -90,7 +94,7 @@ class Gait7Result:
 
 
 def _contact_forces(system: PartitionedSystem, contact: GroundContact,
-                    run: PartitionedRun) -> np.ndarray:
+                    run: SimulationResult) -> np.ndarray:
     out = np.zeros((len(run.t), len(contact.frames), 3))
     for k, (t, q, v) in enumerate(zip(run.t, run.q, run.v, strict=True)):
         if np.all(np.isfinite(q)) and np.all(np.isfinite(v)):
@@ -104,11 +108,10 @@ def _simulate(system, contact, t_span, x0, *, options, events=(), t_eval=None,
     try:
         run = simulate_partitioned(system, t_span, x0, options=options, events=events,
                                    t_eval=t_eval, progress=progress)
-        status = "fall" if run.integration.event_name else "completed"
-        cause = run.integration.event_name
-        fall = None if cause is None else run.integration.event_time - t_span[0]
+        status, fall = run.status, run.time_to_fall
+        cause = None if run.event is None else run.event.removeprefix("fall: ")
     except SimulationDiverged as exc:
-        run, status, cause = exc.partial, "diverged", str(exc)
+        run, status, cause = exc.partial, Status.DIVERGED, str(exc)
         fall = float(run.t[-1] - t_span[0])
     return Gait7Result(run, _contact_forces(system, contact, run), status, fall, cause)
 
@@ -167,12 +170,13 @@ def knee_moment_history(model: Model, motion: Gait7Motion, kinematic: Gait7Resul
         run = kinematic.run
         pres = [int(i) for i in range(model.nq) if i != model.coordinate_index("base_z")]
         time, total = run.t, run.reaction[:, [pres.index(r) for r in rows]]
-        q, v = run.q[:, rows], run.v[:, rows]
+        q, v = run.q, run.v
     else:
         time = motion.time
         total = np.column_stack([motion.knee_moment[s] for s in sides])
-        q, v = motion.q[:, rows], motion.v[:, rows]
-    active = total - np.asarray(passive.moment(q, v))
+        q, v = motion.q, motion.v
+    joints = {f"knee_{s[0]}": passive for s in sides}
+    active = total - passive_generalized(model, joints, q, v)[:, rows]
     return SampledHistory(time, active, name=f"{source.value} knee moment")
 
 
@@ -190,7 +194,7 @@ def knee_run(model: Model, motion: Gait7Motion, kinematic: Gait7Result, contact,
     rows = [model.coordinate_index(f"knee_{s[0]}") for s in sides]
     drive = JointTorques(np.array(rows), knee_moment_history(model, motion, kinematic, sides,
                                                              source, passive))
-    spring = PassiveTorques(tuple(rows), passive)  # gait7 knee coordinate = clinical flexion
+    spring = PassiveTorques.on(model, {f"knee_{s[0]}": passive for s in sides})
     system = PartitionedSystem(model, [z, *rows], history, [ground, drive, spring])
     ref = kinematic.run
     z_ref = SampledHistory(ref.t, ref.q[:, z], name="kinematic HAT height")
@@ -198,10 +202,10 @@ def knee_run(model: Model, motion: Gait7Motion, kinematic: Gait7Result, contact,
     limit = np.radians(fall.knee_deviation_deg)
     iz = list(system.q_free).index(z)
     ik = [list(system.q_free).index(r) for r in rows]
-    events = [Event("HAT drop", lambda t, x: z_ref(t)[0] - x[iz] - fall.hat_drop,
+    events = [Event("fall: HAT drop", lambda t, x: z_ref(t)[0] - x[iz] - fall.hat_drop,
                     Direction.RISING)]
     for side, i, j in zip(sides, ik, range(len(rows)), strict=True):
-        events.append(Event(f"{side} knee deviation",
+        events.append(Event(f"fall: {side} knee deviation",
                             lambda t, x, i=i, j=j: abs(x[i] - knee_ref(t)[j]) - limit,
                             Direction.RISING))
     t0 = float(ref.t[0])

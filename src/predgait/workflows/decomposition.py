@@ -55,6 +55,9 @@ class DecompositionSpec:
     seed: int
     min_cycles: int
     block_s: float
+    noise_repeats: int = 0
+    noise_marker_mm: float = 1.0
+    noise_force_percent: float = 1.0
 
 
 def parse_decomposition(table: Table) -> DecompositionSpec:
@@ -96,7 +99,8 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
     if not isinstance(cutoff, str):
         cutoff = filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
     unc = table.table("uncertainty")
-    unc.check_keys(("bootstrap", "seed", "min_cycles", "block_s"))
+    unc.check_keys(("bootstrap", "seed", "min_cycles", "block_s", "noise_repeats",
+                    "noise_marker_mm", "noise_force_percent"))
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
     settings = Settings(quiet_phases=tuple(checked),
@@ -111,7 +115,11 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
         repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
         seed=int(unc.number("seed", 0, low=0)),
         min_cycles=int(unc.number("min_cycles", 6, low=2, high=1000)),
-        block_s=unc.number("block_s", 0.1, low=0.01, high=2.0, unit="s"))
+        block_s=unc.number("block_s", 0.1, low=0.01, high=2.0, unit="s"),
+        noise_repeats=int(unc.number("noise_repeats", 0, low=0, high=1000)),
+        noise_marker_mm=unc.number("noise_marker_mm", 1.0, low=0.0, high=50.0, unit="mm"),
+        noise_force_percent=unc.number("noise_force_percent", 1.0, low=0.0, high=50.0,
+                                       unit="%"))
 
 
 def _passive_model(passive: Table, joints) -> PassiveModel:
@@ -131,7 +139,10 @@ def _passive_model(passive: Table, joints) -> PassiveModel:
         if sub.has("stops_deg"):
             lower, upper = sub.numbers("stops_deg", length=2, increasing=True, unit="deg")
             choices["stops"][joint] = (np.radians(lower), np.radians(upper))
-    return build_model(joints, where=f"{passive.path}: passive", **choices)
+    try:
+        return build_model(joints, where="passive", **choices)
+    except InputError as exc:
+        raise InputError(f"{passive.path}: {exc}") from None
 
 
 def _options(spec: DecompositionSpec) -> InverseOptions:
@@ -173,6 +184,48 @@ def cutoff_sensitivity(spec: DecompositionSpec, options: InverseOptions) -> dict
     return table
 
 
+def noise_sensitivity(spec: DecompositionSpec, options: InverseOptions, cutoff: float
+                      ) -> dict | None:
+    """SD of the fitted values over refits with marker and force noise added to the trial.
+
+    A parametric bootstrap of the measurement: Gaussian noise of ``noise_marker_mm`` on
+    every marker coordinate and ``noise_force_percent`` of each plate's peak on its force
+    while loaded, then the whole inverse dynamics and the fit again. The trial already
+    holds its own noise, so this is the spread that noise of that size causes; it is
+    reported beside the intervals, not folded into them.
+    """
+    if spec.noise_repeats < 2:
+        return None
+    from predgait.dynamics.inverse_trial import read_trial
+
+    trial, turn = read_trial(options)
+    rng = np.random.default_rng(spec.seed + 1)
+    options = replace(options, cutoff=cutoff, grf_cutoff=cutoff)
+    rows, failed = [], 0
+    for _ in range(spec.noise_repeats):
+        xyz = trial.markers.xyz
+        markers = trial.markers.with_xyz(xyz + rng.normal(0.0, spec.noise_marker_mm / 1e3,
+                                                          xyz.shape))
+        plates = tuple(replace(plate, force=plate.force + rng.normal(0.0, 1.0, plate.force.shape)
+                               * (plate.force[:, 2:3] > options.threshold)
+                               * spec.noise_force_percent / 100 * np.abs(plate.force).max(axis=0))
+                       for plate in trial.plates)
+        try:
+            inverse = run_inverse(options, loaded=(replace(trial, markers=markers,
+                                                           plates=plates), turn))
+            fit = fit_decomposition(GaitSamples.from_inverse(inverse), spec.model,
+                                    spec.settings)
+        except (InputError, SolveFailed):
+            failed += 1
+            continue
+        rows.append([fit.values[p.key] for p in spec.model.fitted])
+    sd = np.std(rows, axis=0, ddof=1) if len(rows) > 1 else np.full(len(spec.model.fitted),
+                                                                     np.nan)
+    return {"repeats": len(rows), "failed": failed, "marker_noise_mm": spec.noise_marker_mm,
+            "force_noise_percent": spec.noise_force_percent if trial.plates else None,
+            "sd": {p.key: float(v) for p, v in zip(spec.model.fitted, sd, strict=True)}}
+
+
 def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False) -> dict:
     """Fit, bootstrap, assess, repeat at other cut-offs; write the result folder.
 
@@ -191,6 +244,7 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         if spec.repeats > 1 else None
     reports, correlation = assess(spec.model, fit, boot)
     sensitivity = cutoff_sensitivity(spec, options)
+    noise = noise_sensitivity(spec, options, chosen)
     quiet = fit.quiet
     solution = {
         "status": "solved", "kind": "passive_decomposition", "method": METHOD,
@@ -212,6 +266,7 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
         "cutoff_sensitivity": sensitivity,
+        "noise_sensitivity": noise,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
@@ -255,6 +310,13 @@ def summary_lines(solution: dict) -> list[str]:
             low, high = report["interval95"]
             note = f"; {report['note']}" if report["note"] else ""
             lines.append(f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}")
+    noise = solution.get("noise_sensitivity")
+    if noise:
+        forces = "" if noise["force_noise_percent"] is None else \
+            f", {noise['force_noise_percent']:g} % forces"
+        lines.append(f"  spread from re-added noise ({noise['marker_noise_mm']:g} mm markers"
+                     f"{forces}, {noise['repeats']} refits), SD: "
+                     + ", ".join(f"{k} {v:.3g}" for k, v in noise["sd"].items()))
     for cutoff, values in solution["cutoff_sensitivity"].items():
         if "failed" in values:
             lines.append(f"  at {cutoff} Hz: fit failed ({values['failed']})")

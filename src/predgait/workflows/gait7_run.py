@@ -19,6 +19,7 @@ import numpy as np
 
 from predgait import __version__
 from predgait.data.storage import write_csv, write_storage
+from predgait.dynamics.integrators import Status
 from predgait.errors import InputError
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.report.figures import plots_wanted
@@ -45,7 +46,7 @@ def _kinematic_metrics(spec, model, motion, t, kin: Gait7Result) -> dict:
     z = model.coordinate_index("base_z")
     dz = kin.run.q[:, z] - np.interp(kin.run.t, motion.time, motion.q[:, z])
     total = kin.foot_fz("right") + kin.foot_fz("left")
-    return {"status": kin.status,
+    return {"status": kin.status.value,
             "grf": {s: grf_comparison(kin.run.t, kin.foot_fz(s), measured[s]) for s in SIDES},
             "mean_total_vertical_n": float(np.mean(total)),
             "body_weight_n": float(model.total_mass() * model.gravity),
@@ -69,7 +70,7 @@ def _run_variant(spec: Gait7Spec, v: Gait7Variant, model, motion, t, cache: dict
     row = {"name": v.name, "contact": contact.describe(),
            **_kinematic_metrics(spec, model, motion, t, kin)}
     driven = None
-    if knee.sides and kin.status == "completed":
+    if knee.sides and kin.status is Status.COMPLETED:
         driven = knee_run(model, motion, kin, contact.law, ground_z=spec.ground_z,
                           sides=knee.sides, source=knee.moment, passive=passive,
                           fall=spec.fall, options=spec.integrator, t_eval=t,
@@ -79,7 +80,7 @@ def _run_variant(spec: Gait7Spec, v: Gait7Variant, model, motion, t, cache: dict
         dev = np.degrees(np.abs(driven.run.q[:, cols] - kin.run.q[:n, cols]))
         row["knee_run"] = {
             "sides": list(knee.sides), "moment": knee.moment.value,
-            "passive": [vars(e) for e in passive.elements], "status": driven.status,
+            "passive": [vars(e) for e in passive.elements], "status": driven.status.value,
             "time_to_fall_s": driven.time_to_fall, "fall_cause": driven.fall_cause,
             "end_time_s": float(driven.run.t[-1]),
             "max_knee_deviation_deg": float(np.max(dev)) if dev.size else 0.0}
@@ -91,7 +92,7 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
           interval: float) -> None:
     from predgait.report.figures import new_figure, save_figure
     from predgait.report.stick import plot_stick
-    from predgait.report.viewer import write_motion
+    from predgait.report.viewer import contact_grf, write_motion
 
     t = kin.run.t
     rows = np.searchsorted(motion.plate_time, t)
@@ -116,7 +117,10 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
     ax = plot_stick(model, t, kin.run.q, interval=interval)
     save_figure(ax.figure, folder / "stick.png")
     measured = motion.q[np.clip(np.searchsorted(motion.time, t), 0, len(motion.time) - 1)]
-    write_motion(folder, model, t, kin.run.q, reference_q=measured)
+    feet = contact_grf(model, kin.run.q, kin.forces, CONTACT_FRAMES,
+                       [[f for f in CONTACT_FRAMES if f.endswith(f"_{s[0]}")] for s in SIDES])
+    write_motion(folder, model, t, kin.run.q, reference_q=measured,
+                 grf=dict(zip((f"{s} foot" for s in SIDES), feet, strict=True)))
 
 
 def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
@@ -136,7 +140,7 @@ def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
             angle = np.degrees(driven.run.q[:, col])
             ax.plot(driven.run.t, angle, color=f"C{i % 10}", lw=1,
                     label=f"{row['name']} ({side})")
-            if driven.status != "completed":
+            if driven.status is not Status.COMPLETED:
                 ax.plot(driven.run.t[-1], angle[-1], "x", color=f"C{i % 10}")
     ax.set_xlabel("trial time (s)")
     ax.set_ylabel("knee flexion (deg)")
@@ -148,9 +152,9 @@ def _write_states(folder: Path, name: str, model, result: Gait7Result, header: d
     run = result.run
     cols = {n: run.q[:, i] for i, n in enumerate(model.coordinate_names)}
     cols |= {f"{n}_speed": run.v[:, i] for i, n in enumerate(model.coordinate_names)}
-    partial = "_partial" if result.status == "diverged" else ""
+    partial = "_partial" if result.status is Status.DIVERGED else ""
     write_storage(folder / f"{name}{partial}.sto", run.t, cols,
-                  header={"units": "m, rad, m/s, rad/s", "status": result.status} | header)
+                  header={"units": "m, rad, m/s, rad/s", "status": result.status.value} | header)
 
 
 def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
@@ -179,7 +183,7 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
         _plot(folder, model, motion, main_kin, main_knee, spec.stick_interval)
         _plot_knees(folder, model, main_kin, results)
     main = rows[0]
-    summary = {"kind": "gait7", "status": "diverged" if main_kin.status == "diverged"
+    summary = {"kind": "gait7", "status": "diverged" if main_kin.status is Status.DIVERGED
                else "completed",
                "message": main_kin.fall_cause or "kinematic run completed",
                "integrator": {"method": spec.integrator.method.value,

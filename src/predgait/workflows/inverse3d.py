@@ -49,6 +49,7 @@ from predgait.dynamics.inverse3d import (
     velocities,
 )
 from predgait.errors import InputError
+from predgait.kinematics.bounded_ik import frames_near
 from predgait.kinematics.clinical import PELVIS_3D, clinical_angles_3d
 from predgait.kinematics.ik3d import (
     IKOptions,
@@ -242,6 +243,19 @@ class Inverse3DResult:
     sides: np.ndarray | None = None
     scaling: Scaling | None = None
 
+    @property
+    def valid(self) -> np.ndarray:
+        """(n,) bool: frames whose results stand.
+
+        Not within 2 frames of a flagged IK frame (accelerations reach 2 frames).
+        """
+        return ~frames_near(self.ik.flagged, 2)
+
+    def status(self) -> str:
+        """``completed`` or ``completed with N flagged frames``."""
+        n = int(self.ik.flagged.sum())
+        return "completed" if n == 0 else f"completed with {n} flagged frames"
+
 
 def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map: MarkerMap, *,
                      mass: float, height: float, sex: str = "male",
@@ -346,7 +360,7 @@ def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, 
 
 
 def clinical(result: Inverse3DResult) -> tuple[dict, dict]:
-    """Clinical angles (deg; pelvis first) and joint moments (N m).
+    """Clinical angles (deg; pelvis first) and joint moments (N m); NaN at flagged frames.
 
     Names and signs: :data:`predgait.kinematics.clinical.CLINICAL_3D`.
     """
@@ -355,7 +369,29 @@ def clinical(result: Inverse3DResult) -> tuple[dict, dict]:
     angles |= {k: np.degrees(v) for k, v in clinical_angles_3d(names, result.q[:, 7:]).items()}
     moments = {f"{k}_moment": v for k, v in
                clinical_angles_3d(names, result.dynamics.tau[:, 6:]).items()}
-    return angles, moments
+    valid = result.valid
+    return ({k: np.where(valid, v, np.nan) for k, v in angles.items()},
+            {k: np.where(valid, v, np.nan) for k, v in moments.items()})
+
+
+def _finite(reduce, values: np.ndarray) -> float | None:
+    """``reduce`` of the finite values; None when there are none (every frame flagged)."""
+    return float(reduce(values)) if np.isfinite(values).any() else None
+
+
+def _limited(result: Inverse3DResult) -> dict[str, int]:
+    """Joint -> frames its coordinates were held at a limit against the markers."""
+    at_limit = result.ik.at_limit
+    if at_limit is None or not at_limit.any():
+        return {}
+    pm = result.model.pin_model
+    out: dict[str, int] = {}
+    for joint in range(2, pm.njoints):
+        start, nv = pm.joints[joint].idx_v, pm.joints[joint].nv
+        frames = int(at_limit[:, start:start + nv].any(axis=1).sum())
+        if frames:
+            out[pm.names[joint]] = frames
+    return out
 
 
 def summary(result: Inverse3DResult) -> dict:
@@ -374,9 +410,12 @@ def summary(result: Inverse3DResult) -> dict:
         "note": "frames with a plate loaded. Whenever a foot stands outside the plates the "
                 "pelvis residual carries that unmeasured ground reaction (~ body weight)",
     }
-    peaks = {k: float(np.abs(v).max()) for k, v in dyn.joint_moments.items()}
+    valid = result.valid
+    peaks = {k: _finite(np.nanmax, np.abs(v[valid])) for k, v in dyn.joint_moments.items()}
     return {
+        "status": result.status(),
         "frames": int(ik.time.size),
+        "ik_flagged_at_joint_limits": _limited(result),
         "ik_rms_m": {"mean": float(ik.rms.mean()), "max": float(ik.rms.max())},
         "ik_flagged_frames": [float(ik.time[i]) for i in ik.failed_frames],
         "ik_marker_rms_m": {m: float(np.sqrt(np.nanmean(ik.residuals[:, i] ** 2)))
@@ -387,9 +426,10 @@ def summary(result: Inverse3DResult) -> dict:
                                       "max": float(mmag.max())},
         "pelvis_residual_while_plates_loaded": on_plates,
         "peak_joint_moments_Nm": peaks,
-        "clinical_angle_range_deg": {k: [float(v.min()), float(v.max())]
+        "clinical_angle_range_deg": {k: [_finite(np.nanmin, v), _finite(np.nanmax, v)]
                                      for k, v in angles.items()},
-        "clinical_moment_range_Nm_per_kg": {k: [float(v.min() / mass), float(v.max() / mass)]
+        "clinical_moment_range_Nm_per_kg": {k: [_finite(np.nanmin, v / mass),
+                                                _finite(np.nanmax, v / mass)]
                                             for k, v in moments.items()},
         "stances": [vars(s) for s in result.stances],
         "provenance": result.provenance,
@@ -400,16 +440,25 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     """Write the output files into an existing (staging) folder; returns the summary."""
     time, model, dyn = result.ik.time, result.model, result.dynamics
     prov = "; ".join(f"{k}={v}" for k, v in result.provenance.items())
+    hide = ~result.valid
+
+    def masked(values: np.ndarray) -> np.ndarray:
+        out = np.array(values, dtype=float)
+        out[hide] = np.nan
+        return out
+
     kin = {"pelvis_tx": result.q[:, 0], "pelvis_ty": result.q[:, 1], "pelvis_tz": result.q[:, 2]}
     kin |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(result.q).T,
                                                         strict=True)}
     kin |= {n: np.degrees(result.q[:, 7 + i]) for i, n in enumerate(model.joint_names)}
+    kin = {k: masked(v) for k, v in kin.items()}
     write_storage(folder / "kinematics3d.sto", time, kin, in_degrees=True,
                   header={"units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
                           "provenance": prov})
     cols = {f"{n}_moment": m for n, m in dyn.joint_moments.items()}
     cols |= {"pelvis_residual_force": dyn.residual_force,
              "pelvis_residual_moment": dyn.residual_moment}
+    cols = {k: masked(v) for k, v in cols.items()}
     write_storage(folder / "inverse_dynamics3d.sto", time, cols,
                   header={"units": "N m (moments), N (pelvis_residual_force, lab frame)",
                           "provenance": prov})

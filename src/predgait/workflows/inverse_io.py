@@ -103,7 +103,7 @@ def _cutoff(table: Table, key: str, default, rules):
 
 def result_columns(result: InverseResult) -> tuple[dict, dict]:
     """Kinematics and kinetics columns (SI) of a result."""
-    kin = dict(result.clinical_angles())
+    kin = dict(result.anatomical_angles())
     kinetics = dict(result.clinical_moments())
     for joint in ("ankle", "knee", "hip"):
         force = np.where(result.valid[:, None], result.joint_force[joint], np.nan)
@@ -132,7 +132,7 @@ def summary(result: InverseResult) -> dict:
     """Peaks (per kg), IK residuals, events and provenance as JSON-ready values."""
     mask, _, xlabel = cycle_axis(result)
     moments = result.clinical_moments()
-    angles = result.clinical_angles()
+    angles = result.anatomical_angles()
     ik = result.ik
     return {
         "status": result.status(),

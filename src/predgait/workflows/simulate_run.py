@@ -183,14 +183,15 @@ def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
     model = load_model("leg")
     foot, shank, thigh = np.radians([spec.foot_deg, spec.shank_deg, spec.thigh_deg])
     x0 = np.array([shank - foot, thigh - shank, 0.0, 0.0])
-    drivers = LegDrivers.still(base=(0.0, 0.0, foot))
+    drivers = LegDrivers.still(base=(0.0, 0.0, foot), passive=spec.passive)
     variants = [Variant("main", passive=spec.passive), *spec.compare]
     runs, rows = {}, []
     for v in variants:
         opts = _variant_options(spec.integrator, v)
-        sim, msg = _run(simulate_leg, model, drivers, (0.0, spec.duration), x0,
-                        options=opts, fall=spec.fall, progress=progress and v.name == "main",
-                        passive=v.passive if v.passive is not None else spec.passive)
+        passive = v.passive if v.passive is not None else spec.passive
+        sim, msg = _run(simulate_leg, model, drivers.with_passive(passive),
+                        (0.0, spec.duration), x0, options=opts, fall=spec.fall,
+                        progress=progress and v.name == "main")
         runs[v.name] = sim
         rows.append({"name": v.name, **_options_dict(opts), "status": sim.status,
                      "time_to_fall_s": sim.time_to_fall, "end_time_s": float(sim.t[-1]),
@@ -199,7 +200,7 @@ def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
                      "message": msg or sim.message})
     main = runs["main"]
     write_states(folder, main)
-    lin = linearize(LegSystem(model, drivers, passive=spec.passive), 0.0, x0)
+    lin = linearize(LegSystem(model, drivers), 0.0, x0)
     if plots_wanted():
         _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee")),
               folder / "angles.png")
@@ -272,7 +273,7 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     for v in variants:
         passive = v.passive if v.passive is not None else spec.passive
         active = LegDrivers.from_inverse(inv, passive=passive)
-        sim, msg = _run(simulate_leg, model, active, (t0, t1), None, passive=passive,
+        sim, msg = _run(simulate_leg, model, active, (t0, t1), None,
                         options=_variant_options(spec.integrator, v), fall=spec.fall,
                         progress=progress and v.name == "main")
         runs[v.name] = sim
@@ -293,8 +294,7 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     grf_i = np.column_stack([np.interp(inv.time[inside], main.t, main.grf[:, i])
                              for i in (0, 2)])
     grf_rms = np.sqrt(np.mean((grf_i - inv.grf[inside][:, [0, 2]]) ** 2, axis=0))
-    system = LegSystem(model, LegDrivers.from_inverse(inv, passive=spec.passive),
-                       passive=spec.passive)
+    system = LegSystem(model, LegDrivers.from_inverse(inv, passive=spec.passive))
     stability = []
     for t in spec.stability_times:
         tt = t0 + t

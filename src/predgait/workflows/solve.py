@@ -19,7 +19,8 @@ import numpy as np
 
 from predgait.analysis.deviation import deviation
 from predgait.data import write_storage
-from predgait.dynamics.drivers import LegDrivers, PDFeedback
+from predgait.dynamics.drivers import LegDrivers
+from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse, run_inverse
@@ -131,8 +132,10 @@ def solve_problem(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers) 
 
 def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None):
     options = IntegratorOptions(method=Method.RK4, step=spec.check_step)
+    if passive is not None:
+        drivers = drivers.with_passive(passive)
     try:
-        sim = simulate_leg(inverse.model, drivers, spec.window, x0, passive=passive,
+        sim = simulate_leg(inverse.model, drivers, spec.window, x0,
                            feedback=feedback, options=options,
                            fall=FallLimit(segment_angle_deg=90.0))
     except SimulationDiverged as exc:
@@ -173,9 +176,9 @@ def resimulations(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers,
         corrected = drivers.with_torque_change(fit.t, fit.torque_change)
         sim, report["with_fit"] = _resimulate(inverse, corrected, spec)
     else:
-        gains = PDFeedback(np.array([p["kp_ankle"], p["kp_knee"]]),
-                           np.array([p["kd_ankle"], p["kd_knee"]]),
-                           drivers.reference_q, drivers.reference_qd)
+        gains = JointFeedback(np.arange(3, 5), drivers.reference,
+                              np.array([p["kp_ankle"], p["kp_knee"]]),
+                              np.array([p["kd_ankle"], p["kd_knee"]]))
         sim, report["with_fit"] = _resimulate(inverse, drivers, spec, feedback=gains)
         x0 = np.concatenate([drivers.reference_q(spec.window[0])[3:],
                              drivers.reference_qd(spec.window[0])[3:]])
@@ -257,7 +260,8 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         if plots_wanted():
             from predgait.report.solve_plots import save_solve_plots
 
-            save_solve_plots(stage, inverse, fit, sim, drivers)
+            save_solve_plots(stage, inverse, fit, sim, drivers, threshold_deg=spec.threshold_deg,
+                             time_to_threshold=check["with_fit"]["time_to_threshold_s"])
             labels = {"baseline_uncorrected": "re-simulated, uncorrected (before)",
                       "with_fit": "re-simulated, fitted (after)",
                       "with_fit_perturbed_start": "re-simulated, fitted, perturbed start"}

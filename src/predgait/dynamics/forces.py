@@ -1,0 +1,329 @@
+"""Applied forces of the forward engine (:mod:`predgait.dynamics.partitioned`).
+
+Each force adds its generalised force (nv,) to a buffer: ``force.add(tau, t, q, v,
+data)``; calling it, ``force(t, q, v, data)``, returns that contribution alone. A force
+says how much kinematics it reads from ``data`` (:class:`Kinematics`): the engine
+updates ``data`` once per evaluation to the highest level any of its forces needs, so a
+model whose forces need nothing (joint torques, passive elements, feedback) skips
+forward kinematics and Jacobians altogether. ``name`` groups forces for the
+acceleration contributions of :mod:`predgait.analysis.contributions`.
+
+Forces: :class:`JointTorques` (sampled joint torques), :class:`PassiveTorques`
+(passive elements on clinical angles, one sign table), :class:`JointFeedback` (the one PD
+law), :class:`FrameLoad` (a world-frame wrench at one frame, e.g. the hip load),
+:class:`MeasuredLoads` (world-frame loads at points, e.g. measured ground reactions)
+and :class:`GroundContact` (point contacts with the floor).
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.dynamics.external import Load, generalized_load
+from predgait.kinematics.clinical import clinical_joint
+from predgait.models.loading import RigidBodyModel
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class Kinematics(enum.IntEnum):
+    """What a force reads from ``pin.Data`` (the engine computes the highest level)."""
+
+    NONE = 0        # nothing: the force uses q and v only (or computes what it needs)
+    JACOBIANS = 1   # forwardKinematics(q, v), computeJointJacobians, updateFramePlacements
+
+
+class Force:
+    """Base of the applied forces: ``add`` is the primitive, calling returns one term."""
+
+    name = "applied"
+    needs = Kinematics.NONE
+
+    def add(self, tau: np.ndarray, t: float, q: np.ndarray, v: np.ndarray,
+            data: pin.Data) -> None:
+        """Add the generalised force at (t, q, v) to ``tau`` (nv,) in place."""
+        raise NotImplementedError
+
+    def __call__(self, t, q, v, data) -> np.ndarray:
+        """This force's generalised force (nv,) alone."""
+        tau = np.zeros(v.size)
+        self.add(tau, t, q, v, data)
+        return tau
+
+
+@dataclass(frozen=True, eq=False)
+class CallableForce(Force):
+    """Any ``function(t, q, v, data) -> (nv,)`` as a force (full kinematics in data)."""
+
+    function: Callable
+    name: str = "applied"
+    needs = Kinematics.JACOBIANS
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the function's generalised force."""
+        tau += self.function(t, q, v, data)
+
+
+def as_force(force) -> Force:
+    """``force`` itself, or a plain callable wrapped in :class:`CallableForce`."""
+    return force if isinstance(force, Force) else CallableForce(force)
+
+
+@dataclass(frozen=True, eq=False)
+class JointTorques(Force):
+    """Sampled torques on chosen velocity rows: tau[rows] += history(t), N m (or N).
+
+    Attributes:
+        rows: Velocity rows. history: t -> (len(rows),). name: contribution group.
+    """
+
+    rows: np.ndarray | slice
+    history: Callable[[float], np.ndarray]
+    name: str = "active"
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the torques at t."""
+        tau[self.rows] += self.history(t)
+
+
+@dataclass(frozen=True, eq=False)
+class PassiveTorques(Force):
+    """Passive elements on clinical joint angles, through the one joint-sign table.
+
+    For each joint, :func:`predgait.kinematics.clinical.clinical_joint` gives its
+    coordinates and sign: clinical angle = sign * sum(q[rows]), and the element's clinical
+    moment M acts as the generalised force sign * M on each of those rows (the moment
+    conjugate to the clinical angle). The leg's hip is the thigh pitch (rows base_pitch,
+    ankle, knee): a moment on the thigh, reacted by the prescribed foot.
+
+    With ``offset`` (t -> (nv,)), that generalised force is subtracted: the elements then
+    act on the deviation from a measured motion whose inverse-dynamics moments already
+    contain them (thesis 3.3.3-3.3.4, the same elements in the indirect and forward
+    problems); see :meth:`predgait.dynamics.drivers.LegDrivers.from_inverse`.
+
+    Attributes:
+        rows: joint name -> (velocity rows, sign). joints: joint name -> PassiveJoint.
+        offset: Optional t -> (nv,) generalised passive force at the measured motion.
+    """
+
+    rows: Mapping[str, tuple[tuple[int, ...], float]]
+    joints: Mapping[str, object]
+    offset: Callable[[float], np.ndarray] | None = None
+    name: str = "passive"
+
+    @classmethod
+    def on(cls, model: RigidBodyModel, joints: Mapping[str, object], *, offset=None
+           ) -> PassiveTorques:
+        """The elements ``joints`` (joint name -> PassiveJoint) on ``model``'s joints."""
+        return cls(passive_rows(model, joints), dict(joints), offset)
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the passive moments at (q, v) (minus the offset at t)."""
+        for name, (rows, sign) in self.rows.items():
+            if len(rows) == 1:
+                angle, rate = sign * q[rows[0]], sign * v[rows[0]]
+            else:
+                angle, rate = sign * q[list(rows)].sum(), sign * v[list(rows)].sum()
+            moment = sign * float(self.joints[name].moment(angle, rate))
+            for row in rows:
+                tau[row] += moment
+        if self.offset is not None:
+            tau -= self.offset(t)
+
+
+def passive_rows(model: RigidBodyModel, joints) -> dict[str, tuple[tuple[int, ...], float]]:
+    """Joint name -> (velocity rows, clinical sign) from the one joint-sign table."""
+    out = {}
+    for name in joints:
+        joint = clinical_joint(model, name)
+        out[name] = (tuple(model.coordinate_index(c) for c in joint.coordinates), joint.sign)
+    return out
+
+
+def passive_generalized(model: RigidBodyModel, joints: Mapping[str, object], q, v
+                        ) -> np.ndarray:
+    """Generalised passive force (n, nv) along sampled q, v (n, nv), numpy or CasADi-free.
+
+    The same table and signs as :class:`PassiveTorques` (used to build its ``offset``).
+    """
+    q, v = np.atleast_2d(q), np.atleast_2d(v)
+    out = np.zeros(q.shape)
+    for name, (rows, sign) in passive_rows(model, joints).items():
+        angle = sign * q[:, list(rows)].sum(axis=1)
+        rate = sign * v[:, list(rows)].sum(axis=1)
+        moment = sign * np.asarray(joints[name].moment(angle, rate), dtype=float)
+        for row in rows:
+            out[:, row] += moment
+    return out
+
+
+def joint_passive_torque(model: RigidBodyModel, joint: str, element) -> Callable:
+    """(q, v) of a one-coordinate joint -> the element's model torque on that coordinate.
+
+    The same table and signs as :class:`PassiveTorques`, for numpy or CasADi values
+    (the fitting problems use it on symbols).
+    """
+    clinical = clinical_joint(model, joint)
+    if len(clinical.coordinates) != 1:
+        raise ValueError(f"joint '{joint}' spans several coordinates; use PassiveTorques.")
+    sign = clinical.sign
+    return lambda q, v: sign * element.moment(sign * q, sign * v)
+
+
+@dataclass(frozen=True, eq=False)
+class JointFeedback(Force):
+    """PD feedback toward a reference motion on chosen 1-DOF joint velocity rows.
+
+    tau[rows] += kp (q_ref - q) + kd (v_ref - v), with ``reference(t)`` -> (q_ref (nq,),
+    v_ref (nv,), ...) full vectors (e.g. a :class:`MotionHistory` of the measured motion
+    or :meth:`LegDrivers.reference`): a simple stand-in for the subject's control (thesis
+    4.2 and chapter 5, future work). The one PD law of predgait.
+
+    Attributes:
+        rows: velocity rows of 1-DOF joints. kp: N m/rad (scalar or per row).
+        kd: N m s/rad (scalar or per row; see :meth:`damped`).
+        q_offset: nq - nv (1 with a free-flyer root: joint rows shift by one in q).
+    """
+
+    rows: np.ndarray
+    reference: Callable[[float], tuple]
+    kp: float | np.ndarray
+    kd: float | np.ndarray
+    q_offset: int = 0
+    name: str = "feedback"
+
+    @classmethod
+    def damped(cls, model: RigidBodyModel, rows, reference, kp: float, ratio: float,
+               q: np.ndarray) -> JointFeedback:
+        """Stiffness ``kp`` on every row, damping 2 ratio sqrt(kp M_ii) at configuration q.
+
+        Each joint gets the damping ratio ``ratio`` for its own inertia M_ii (pin.crba):
+        one kd for all would overdamp a foot (M_ii ~ 1e-3 kg m^2) into a time constant
+        far below the integration step, and underdamp the trunk.
+        """
+        rows = np.asarray(rows, dtype=int)
+        inertia = np.diag(pin.crba(model.pin_model, model.pin_model.createData(), q))[rows]
+        return cls(rows, reference, kp, 2.0 * ratio * np.sqrt(kp * inertia),
+                   q_offset=model.pin_model.nq - model.pin_model.nv)
+
+    def torque(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Feedback torques (len(rows),) at t."""
+        ref = self.reference(t)
+        rows_q = self.rows + self.q_offset
+        return (self.kp * (ref[0][rows_q] - q[rows_q])
+                + self.kd * (ref[1][self.rows] - v[self.rows]))
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the feedback torques at t."""
+        tau[self.rows] += self.torque(t, q, v)
+
+
+@dataclass(frozen=True, eq=False)
+class FrameLoad(Force):
+    """A world-frame force and moment at the origin of one frame (e.g. the hip load).
+
+    tau += J^T (f, m), J the frame Jacobian (LOCAL_WORLD_ALIGNED), computed only when the
+    load is not zero.
+
+    Attributes:
+        model: The model. frame: frame name. force, moment: t -> (3,) N, N m (lab frame).
+    """
+
+    model: RigidBodyModel
+    frame: str
+    force: Callable[[float], np.ndarray]
+    moment: Callable[[float], np.ndarray]
+    name: str = "load"
+    _id: int = field(init=False, repr=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "_id", self.model.frame_id(self.frame))
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add J^T w at t."""
+        f, m = self.force(t), self.moment(t)
+        if not (f.any() or m.any()):
+            return
+        jac = pin.computeFrameJacobian(self.model.pin_model, data, q, self._id, LWA)
+        tau += jac[:3].T @ f + jac[3:].T @ m
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredLoads(Force):
+    """World-frame loads at time t (e.g. measured ground reactions at their COP).
+
+    ``loads(t, data)`` returns :class:`~predgait.dynamics.external.Load` objects; their
+    generalised force is sum J^T w (:func:`~predgait.dynamics.external.generalized_load`).
+    """
+
+    model: RigidBodyModel
+    loads: Callable[[float, pin.Data], Sequence[Load]]
+    name: str = "load"
+    needs = Kinematics.JACOBIANS
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the loads' generalised force at t."""
+        loads = self.loads(t, data)
+        if loads:
+            tau += generalized_load(self.model, data, loads)
+
+
+@dataclass(eq=False)
+class GroundContact(Force):
+    """Point contacts of model frames with the ground plane z = ``ground_z``.
+
+    Each frame gets the contact model's normal force along +Z from its penetration
+    d = ground_z - z and rate -z_dot, and (if the model has friction) tangential forces
+    along X and Y from its slip velocities (:mod:`predgait.dynamics.contact`), taken
+    relative to the ground surface (a treadmill belt moves at ``belt_velocity`` along X).
+    ``last_forces`` holds the (n_frames, 3) lab-frame forces of the latest call.
+
+    Attributes:
+        model: The model. frames: contact frame names. contact: a contact model with
+        ``force(penetration, rate, slip) -> (normal, tangential)``. ground_z: m.
+        planar: only X slip (planar models). belt_velocity: m/s along X of the ground
+        surface (0: fixed floor).
+    """
+
+    model: RigidBodyModel
+    frames: Sequence[str]
+    contact: object
+    ground_z: float = 0.0
+    planar: bool = False
+    belt_velocity: float = 0.0
+    last_forces: np.ndarray = field(init=False, repr=False)
+    name = "contact"
+    needs = Kinematics.JACOBIANS
+
+    def __post_init__(self):
+        self._ids = [self.model.frame_id(f) for f in self.frames]
+        self.last_forces = np.zeros((len(self._ids), 3))
+
+    def forces(self, data: pin.Data) -> np.ndarray:
+        """(n_frames, 3) lab-frame contact forces for the kinematics stored in ``data``."""
+        pm = self.model.pin_model
+        out = np.zeros((len(self._ids), 3))
+        for i, fid in enumerate(self._ids):
+            z = data.oMf[fid].translation[2]
+            if z > self.ground_z + 0.05:  # far above ground: no force (cheap exit)
+                continue
+            vel = pin.getFrameVelocity(pm, data, fid, LWA).linear
+            depth, rate = self.ground_z - z, -vel[2]
+            normal, tx = self.contact.force(depth, rate, vel[0] - self.belt_velocity)
+            out[i, 0], out[i, 2] = float(tx), float(normal)
+            if not self.planar:
+                out[i, 1] = float(self.contact.force(depth, rate, vel[1])[1])
+        return out
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the contact forces' generalised force (stored in ``last_forces``)."""
+        pm = self.model.pin_model
+        self.last_forces = self.forces(data)
+        for fid, force in zip(self._ids, self.last_forces, strict=True):
+            if force.any():
+                tau += pin.getFrameJacobian(pm, data, fid, LWA)[:3].T @ force
