@@ -36,7 +36,8 @@ def main() -> None:
     from predgait.dynamics.inverse_trial import bundled_inverse
     from predgait.problemfile import load_problem
     from predgait.problems import decomposition
-    from predgait.problems.decomposition import GaitSamples, bootstrap, fit_decomposition
+    from predgait.problems.decomposition import bootstrap, fit_decomposition
+    from predgait.problems.gait_samples import GaitSamples
     from predgait.workflows.decomposition import parse_decomposition
 
     spec = parse_decomposition(load_problem(PROBLEM))

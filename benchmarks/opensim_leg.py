@@ -24,6 +24,9 @@ import time
 import numpy as np
 import opensim as osim
 
+osim.Logger.removeFileSink()   # no opensim.log in the working folder
+osim.Logger.setLevelString("error")
+
 #: predgait (base_x, base_z, base_pitch, ankle, knee) -> OpenSim (rz, tx, ty, ankle, knee):
 #: a rotation about lab +Y is one about OpenSim -Z.
 ORDER, SIGN = [2, 0, 1, 3, 4], np.array([-1.0, 1.0, 1.0, -1.0, -1.0])

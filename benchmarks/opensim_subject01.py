@@ -23,6 +23,9 @@ from pathlib import Path
 
 import opensim as osim
 
+osim.Logger.removeFileSink()   # no opensim.log in the working folder
+osim.Logger.setLevelString("error")
+
 FILES = ("subject01_Setup_IK.xml", "subject01_Setup_InverseDynamics.xml",
          "subject01_walk1.trc", "subject01_walk1_grf.mot", "subject01_walk1_grf.xml",
          "subject01_walk1_ik.mot", "subject01_simbody.osim")
@@ -51,7 +54,6 @@ def main() -> None:
     if "ik" in tools:   # IK writes its own motion; ID then reads that one
         (work / "subject01_walk1_ik.mot").unlink()
     os.chdir(work)
-    osim.Logger.setLevelString("error")
 
     def ik():
         tool = osim.InverseKinematicsTool("subject01_Setup_IK.xml")

@@ -17,13 +17,8 @@ import numpy as np
 import pytest
 
 from predgait.errors import InputError
-from predgait.problems.decomposition import (
-    GaitSamples,
-    Settings,
-    bootstrap,
-    cycle_phase,
-    fit_decomposition,
-)
+from predgait.problems.decomposition import Settings, bootstrap, fit_decomposition
+from predgait.problems.gait_samples import GaitSamples, cycle_phase
 from predgait.problems.identifiability import Status, assess
 from predgait.problems.passive_model import build_model
 

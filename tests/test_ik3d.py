@@ -121,3 +121,21 @@ def test_frames_beyond_a_joint_limit_are_flagged_not_clipped(setup):
     assert result.at_limit[beyond, knee.idx_v].all()
     assert np.all(result.q[:, column] <= cut + 1e-12)
     assert result.rms[~beyond].max() < 1e-6
+
+
+def test_a_limit_margin_widens_the_range(setup):
+    """The same narrowed knee with a margin past the motion: nothing flagged, exact fit."""
+    from predgait.kinematics.ik3d import IKOptions
+
+    model, time, qs, frames, xyz, _ = setup
+    pm = pin.Model(model.pin_model)
+    column = pm.joints[pm.getJointId("knee_r_y")].idx_q
+    upper = pm.upperPositionLimit.copy()
+    upper[column] = float(np.median(qs[:, column]))
+    pm.upperPositionLimit = upper
+    narrow = type(model)(urdf=model.urdf, kind=model.kind, pin_model=pm, gravity=model.gravity,
+                         source="narrowed knee")
+    margin = float(qs[:, column].max() - upper[column]) + 0.05
+    result = solve_ik(narrow, time, xyz, frames, options=IKOptions(limit_margin=margin))
+    assert result.converged.all()
+    assert result.rms.max() < 1e-6

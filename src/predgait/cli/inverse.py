@@ -80,8 +80,8 @@ def register(commands: argparse._SubParsersAction) -> None:
                      help="leg: vertical force a contact must reach, N (default 10); it lasts "
                           "while the force stays above half of it")
     cmd.add_argument("--limit-margin", type=float, metavar="DEG",
-                     help="leg: widen every joint range of the model by DEG at both ends for "
-                          "the inverse kinematics (default 0)")
+                     help="widen every joint range of the model by DEG at both ends for the "
+                          "inverse kinematics (default 0)")
     add_output_options(cmd, overrides="options.cutoff=0")
     cmd.set_defaults(run=run)
 
@@ -154,7 +154,6 @@ def run_fullbody(args: argparse.Namespace) -> int:
     if args.mass is None or args.height is None:
         raise InputError("--model fullbody needs --mass (kg) and --height (m).")
     unused = [flag for flag, value in (("--threshold", args.threshold), ("--set", args.set),
-                                       ("--limit-margin", args.limit_margin),
                                        ("--markers", args.markers), ("--side", args.side))
               if value]
     if unused:
@@ -162,12 +161,15 @@ def run_fullbody(args: argparse.Namespace) -> int:
                          "names the markers, plates are assigned to both feet); drop them.")
     from predgait.dynamics.inverse_trial import parse_cutoff
 
+    if args.limit_margin is not None and not 0 <= args.limit_margin <= 180:
+        raise InputError(f"--limit-margin {args.limit_margin:g} deg is outside 0..180 deg.")
     cutoff = parse_cutoff(args.cutoff if args.cutoff is not None else 6.0, field="--cutoff")
     grf_cutoff = parse_cutoff(args.grf_cutoff or 0, field="--grf-cutoff")
     files = [args.input] + ([args.grf] if args.grf else [])
     summary = run_inverse_fullbody(files, args.marker_map, mass=args.mass, height=args.height,
                                    sex=args.sex, out_dir=args.out, static=args.static,
-                                   cutoff=cutoff, grf_cutoff=grf_cutoff, force=args.force)
+                                   cutoff=cutoff, grf_cutoff=grf_cutoff,
+                                   limit_margin=args.limit_margin or 0.0, force=args.force)
     from predgait.dynamics.inverse_trial import MOST_FRAMES
     from predgait.report.console import inverse3d_text
 

@@ -123,6 +123,9 @@ class BoundedSolver:
         self.model, self.options = model, options
         self.index, self.vlo, self.vhi = velocity_bounds(model, lower, upper)
         self.bounded = self.index >= 0
+        self._v = np.flatnonzero(self.bounded)           # bounded velocity coordinates
+        self._q = self.index[self._v]                    # their position coordinates
+        self._lo, self._hi = self.vlo[self._v], self.vhi[self._v]
 
     def project(self, q: np.ndarray) -> np.ndarray:
         """A start point inside the limits (only for a first guess, never after a step)."""
@@ -130,6 +133,18 @@ class BoundedSolver:
         qi = self.index[self.bounded]
         q[qi] = np.clip(q[qi], self.vlo[self.bounded], self.vhi[self.bounded])
         return q
+
+    def _step(self, jac: np.ndarray, r: np.ndarray, damping: float, q: np.ndarray
+              ) -> np.ndarray:
+        """The bounded increment at q (closed form when the free step stays inside)."""
+        if damping > 0:
+            step = np.linalg.solve(jac.T @ jac + damping * np.eye(jac.shape[1]), -jac.T @ r)
+        else:
+            step = np.linalg.lstsq(jac, -r, rcond=None)[0]
+        moved = q[self._q] + step[self._v]
+        if not ((moved < self._lo) | (moved > self._hi)).any():
+            return step
+        return bounded_step(jac, r, damping, *self._increment_bounds(q))
 
     def _increment_bounds(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = np.full(self.model.nv, -np.inf), np.full(self.model.nv, np.inf)
@@ -156,9 +171,8 @@ class BoundedSolver:
         cost = float(r @ r)
         converged, it = False, 0
         for it in range(1, cap + 1):  # noqa: B007 - the count is kept
-            lo, hi = self._increment_bounds(q)
             if opts.damping == 0:   # Gauss-Newton: every (bounded) step is taken
-                step = bounded_step(jac, r, 0.0, lo, hi)
+                step = self._step(jac, r, 0.0, q)
                 q = pin.integrate(self.model, q, step)
                 if np.linalg.norm(step) < opts.tolerance:
                     converged = True
@@ -166,7 +180,7 @@ class BoundedSolver:
                 r, jac = jacobian(q)
                 continue
             for _ in range(12):
-                step = bounded_step(jac, r, lam, lo, hi)
+                step = self._step(jac, r, lam, q)
                 trial = pin.integrate(self.model, q, step)
                 r_new = residual(trial)
                 cost_new = float(r_new @ r_new)
@@ -184,8 +198,12 @@ class BoundedSolver:
                 converged = True
                 break
             r, jac = jacobian(q)
-        r, jac = jacobian(q)
-        return FrameSolution(q, it, converged, self.limits_held(q, jac.T @ r))
+        at_limit = np.zeros(self.model.nv, dtype=bool)
+        near = (q[self._q] - self._lo < ON_LIMIT) | (self._hi - q[self._q] < ON_LIMIT)
+        if near.any():   # only then the gradient tells whether the data push outward
+            r, jac = jacobian(q)
+            at_limit = self.limits_held(q, jac.T @ r)
+        return FrameSolution(q, it, converged, at_limit)
 
     def limits_held(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
         """(nv,) coordinates on a limit whose cost gradient points out of the range."""

@@ -42,6 +42,7 @@ class IKOptions:
             creep for tens of iterations while the fit changes by micrometres.
         damping: Levenberg-Marquardt lambda, m^2 (regularises unobserved directions).
         flag_rms: m; frames whose marker RMS exceeds it are flagged too.
+        limit_margin: rad added to both ends of every joint range of the model.
     """
 
     max_iterations: int = 50
@@ -49,6 +50,7 @@ class IKOptions:
     damping: float = 1e-4
     flag_rms: float = 0.05
     cost_tolerance: float = 1e-4
+    limit_margin: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,10 +102,10 @@ def pelvis_cardan(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _limits(model: Model3D) -> tuple[np.ndarray, np.ndarray]:
+def _limits(model: Model3D, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     pm = model.pin_model
-    lower = np.array(pm.lowerPositionLimit, dtype=float)
-    upper = np.array(pm.upperPositionLimit, dtype=float)
+    lower = np.array(pm.lowerPositionLimit, dtype=float) - margin
+    upper = np.array(pm.upperPositionLimit, dtype=float) + margin
     lower[:7], upper[:7] = -np.inf, np.inf
     return lower, upper
 
@@ -150,7 +152,7 @@ class _Fitter:
                 start = pm.joints[s].idx_v
                 self.support[i, start:start + pm.joints[s].nv] = True
         self.w = np.repeat(np.sqrt(np.asarray(weights, dtype=float)), 3)
-        lower, upper = _limits(model)
+        lower, upper = _limits(model, options.limit_margin)
         self.solver = BoundedSolver(pm, lower, upper, SolverOptions(
             options.max_iterations, options.tolerance, options.cost_tolerance, options.damping))
 

@@ -24,116 +24,16 @@ from __future__ import annotations
 import functools
 import time as clock
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from predgait.errors import InputError, SolveFailed
+from predgait.problems.gait_samples import GaitSamples
 from predgait.problems.passive_model import PassiveModel, coefficients, features
 
 #: Time scale of the smoothness measure, s (second differences scaled to it).
 SMOOTH_TIME = 0.01
-ANGLE_NAMES = {"knee": "knee_flexion", "ankle": "ankle_dorsiflexion"}
-
-
-@dataclass(frozen=True, eq=False)
-class GaitSamples:
-    """Clinical angles, rates and moments of a trial, with the gait cycle of each sample.
-
-    Attributes:
-        time: (n,) s, uniform.
-        percent: (n,) % of the gait cycle (NaN where no cycle can be assigned).
-        cycle: (n,) int, gait cycle index (-1 where none).
-        angles: joint -> (n,) clinical angle, rad.
-        rates: joint -> (n,) rad/s.
-        moments: joint -> (n,) inverse-dynamics clinical moment, N m.
-        correlation_time: s, time over which samples are correlated (1 / (2 f_c)).
-        source: Provenance text.
-        timing: How the gait cycles were timed (see :func:`cycle_phase`).
-    """
-
-    time: np.ndarray
-    percent: np.ndarray
-    cycle: np.ndarray
-    angles: Mapping[str, np.ndarray]
-    rates: Mapping[str, np.ndarray]
-    moments: Mapping[str, np.ndarray]
-    correlation_time: float
-    source: str = ""
-    timing: str = ""
-
-    @classmethod
-    def from_inverse(cls, inverse) -> GaitSamples:
-        """From an :class:`~predgait.dynamics.inverse_trial.InverseResult` (all its cycles).
-
-        The knee flexion is the anatomical one (standing straight in the static trial = 0,
-        when there is one), so that the extension stop at 0 means full extension.
-        """
-        percent, cycle, how = cycle_phase(inverse.time, inverse.events.heel_strikes,
-                                          inverse.events.toe_offs,
-                                          where=inverse.provenance.get("trial", "the trial"))
-        angles, rates = inverse.anatomical_angles(), inverse.clinical_rates()
-        moments = inverse.clinical_moments()
-        cutoff = inverse.provenance.get("marker_cutoff_hz") or 6.0
-        return cls(time=inverse.time, percent=percent, cycle=cycle,
-                   angles={j: angles[a] for j, a in ANGLE_NAMES.items()},
-                   rates={j: rates[a] for j, a in ANGLE_NAMES.items()},
-                   moments={j: moments[f"{a}_moment"] for j, a in ANGLE_NAMES.items()},
-                   correlation_time=0.5 / float(cutoff),
-                   source=str(inverse.provenance.get("trial", "")), timing=how)
-
-    @property
-    def samples_per_correlation(self) -> float:
-        """Samples per correlation time, m >= 1."""
-        return max(1.0, self.correlation_time / float(np.median(np.diff(self.time))))
-
-    def in_phases(self, phases) -> np.ndarray:
-        """(n,) bool: samples whose % gait cycle lies in any [start, end) of ``phases``."""
-        pct = np.nan_to_num(self.percent, nan=-1.0)
-        inside = np.zeros(len(pct), dtype=bool)
-        for start, end in phases:
-            inside |= (pct >= start) & (pct < end)
-        return inside & (self.cycle >= 0)
-
-
-#: Stance as a fraction of the gait cycle at normal speed (Perry & Burnfield 2010, ch. 2),
-#: used for the cycle length when the trial has one heel strike only.
-STANCE_FRACTION = 0.62
-
-
-def cycle_phase(time, heel_strikes, toe_offs=(), *, where: str
-                ) -> tuple[np.ndarray, np.ndarray, str]:
-    """% gait cycle and cycle index of each sample, s -> (%, int), and how it was timed.
-
-    Full cycles run between consecutive heel strikes. Samples before the first (after
-    the last) heel strike belong to a partial cycle whose length is the mean full cycle.
-    With a single heel strike (one plate contact) the cycle length is the stance time
-    divided by :data:`STANCE_FRACTION`.
-
-    Raises:
-        InputError: No heel strike, or a single one without a following toe-off.
-    """
-    hs = np.asarray(heel_strikes, dtype=float)
-    to = np.asarray(toe_offs, dtype=float)
-    if hs.size >= 2:
-        period = float(np.mean(np.diff(hs)))
-        how = f"{hs.size - 1} full cycle(s) between heel strikes"
-    elif hs.size == 1 and np.any(to > hs[0]):
-        stance = float(to[to > hs[0]][0] - hs[0])
-        period = stance / STANCE_FRACTION
-        how = (f"one heel strike: cycle length {period:.3f} s = stance {stance:.3f} s / "
-               f"{STANCE_FRACTION}")
-    else:
-        raise InputError(f"{where}: the decomposition needs the gait cycle: two heel strikes, "
-                         f"or a heel strike and the next toe-off of the analysed foot; found "
-                         f"{hs.size} heel strike(s).")
-    starts = np.concatenate([[hs[0] - period], hs])
-    ends = np.concatenate([hs[1:], [hs[-1] + period]]) if hs.size >= 2 else hs + period
-    ends = np.concatenate([[hs[0]], ends])
-    index = np.clip(np.searchsorted(hs, time, side="right"), 0, len(starts) - 1)
-    percent = 100.0 * (time - starts[index]) / (ends[index] - starts[index])
-    valid = (percent >= 0.0) & (percent < 100.0)
-    return np.where(valid, percent, np.nan), np.where(valid, index, -1), how
 
 
 @dataclass(frozen=True)
@@ -180,7 +80,6 @@ class Decomposition:
     status: str
     iterations: int
     seconds: float
-    extra: dict = field(default_factory=dict)
 
 
 def _columns(model: PassiveModel, joint: str) -> tuple[str, ...]:

@@ -21,12 +21,12 @@ from predgait.dynamics.inverse_trial import InverseOptions, bundled_options, run
 from predgait.errors import InputError, SolveFailed
 from predgait.problemfile import Table, load_problem
 from predgait.problems.decomposition import (
-    GaitSamples,
     Settings,
     bootstrap,
     check_samples,
     fit_decomposition,
 )
+from predgait.problems.gait_samples import GaitSamples
 from predgait.problems.identifiability import Status, assess
 from predgait.problems.passive_model import JOINTS, PassiveModel, build_model
 from predgait.report.figures import plots_wanted

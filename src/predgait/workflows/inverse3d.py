@@ -335,6 +335,7 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "trial": source_name(markers.source), "marker_calibration": calibration,
         "marker_map": source_name(marker_map.source), "trimmed": trimmed,
         "unobserved_joints_held_at_zero": list(unobserved),
+        "joint_limit_margin_deg": float(np.degrees(options.limit_margin)),
         "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}"
                  + (", segment lengths scaled to the static trial" if scaling else ""),
         "scaling": None if scaling is None else {
@@ -494,8 +495,10 @@ def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Pa
                          out_dir: str | Path, static: str | Path | None = None,
                          window: tuple[float, float] | None = None,
                          cutoff: float | None = 6.0, grf_cutoff: float | None = None,
-                         force: bool = False) -> dict:
+                         limit_margin: float = 0.0, force: bool = False) -> dict:
     """Whole-body IK and ID of a trial, written to ``out_dir`` (see module docstring).
+
+    ``limit_margin`` (deg) widens every joint range of the model for the IK.
 
     Returns:
         The summary (also written as summary.json).
@@ -507,7 +510,8 @@ def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Pa
     mmap = read_marker_map(marker_map)
     result = inverse_fullbody(markers, plates, mmap, mass=mass, height=height, sex=sex,
                               static=static_markers, window=window, cutoff=cutoff,
-                              grf_cutoff=grf_cutoff)
+                              grf_cutoff=grf_cutoff,
+                              options=IKOptions(limit_margin=np.radians(limit_margin)))
     inputs = [*trial_files, marker_map] + ([static] if static else [])
     with staged_output(out_dir, force=force, inputs=inputs) as stage:
         info = write_outputs(result, stage)
