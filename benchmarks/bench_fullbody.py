@@ -105,9 +105,10 @@ def rows(repeat: int) -> list[Row]:
         return []
     files = [str(DATA / "subject01_walk1.trc"), "--grf", str(DATA / "subject01_walk1_grf.mot"),
              "--static", str(DATA / "subject01_static.trc")]
+    command = [sys.executable, "-m", "predgait", "inverse", *files, *FULLBODY_ARGS, "--force"]
     with tempfile.TemporaryDirectory() as tmp:
-        ours = time_process([sys.executable, "-m", "predgait", "inverse", *files,
-                             *FULLBODY_ARGS, "--out", f"{tmp}/out", "--force"], repeat)
+        ours = time_process([*command, "--out", f"{tmp}/out"], repeat)
+        bare = time_process([*command, "--out", f"{tmp}/bare", "--no-plots"], repeat)
     does = ("read TRC+MOT+static, scaling and calibration, 3D IK and ID of the 35-DOF body on "
             "all 151 frames, tables and plots")
     folder, python = gait2354_folder(), opensim_python()
@@ -120,24 +121,30 @@ def rows(repeat: int) -> list[Row]:
                "(goal: >= 10x)", ours, does, whole["id"],
                "Python + import opensim + ID tool on the shipped IK motion (23 DOF, 73 frames)",
                unit="s"),
+           Row("predgait inverse --model fullbody --no-plots vs OpenSim ID tool alone, whole "
+               "processes (goal: >= 10x)", bare, does.replace("tables and plots", "tables"),
+               whole["id"],
+               "Python + import opensim + ID tool on the shipped IK motion (23 DOF, 73 frames)",
+               unit="s"),
            Row("predgait inverse --model fullbody vs OpenSim IK + ID tools, whole processes",
                ours, does, whole["ik,id"],
                "Python + import opensim + IK tool + ID tool (23 DOF, 76 frames)", unit="s")]
     ours_in, peer_in = in_process(repeat, folder)
     out.append(Row("full body IK + ID in process, subject01 0.4-1.6 s", ours_in,
-                   "run_inverse_fullbody: read, calibrate, IK, filter, ID, files (73 frames, "
-                   "35 DOF)", peer_in, "IK tool + ID tool runs after import, model loading "
-                   "included (76 frames, 23 DOF)", unit="s"))
+                   "run_inverse_fullbody: read, calibrate, IK, filter, ID, tables, no plots "
+                   "(73 frames, 35 DOF)", peer_in, "IK tool + ID tool runs after import, "
+                   "model loading included (76 frames, 23 DOF)", unit="s"))
     return out
 
 
 def in_process(repeat: int, folder: str | None) -> tuple[Timing, Timing | None]:
     """predgait's whole full-body run in this process, and OpenSim's IK + ID tool runs."""
+    from predgait.report.figures import plots_off
     from predgait.workflows.inverse3d import run_inverse_fullbody
 
     files = [DATA / "subject01_walk1.trc", DATA / "subject01_walk1_grf.mot"]
     marker_map = REPO / "problems" / "markers_fullbody_subject01.toml"
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, plots_off():
         ours = time_call(lambda: run_inverse_fullbody(
             files, marker_map, mass=72.6, height=1.8034, out_dir=Path(tmp) / "o",
             static=DATA / "subject01_static.trc", window=(0.4, 1.6), force=True), repeat)

@@ -30,7 +30,8 @@ C3D = DATA / "opensim_walking5_c3d" / "walking5.c3d"
 SEED = 20261130
 LIMIT_S = 20  # a case still running after this accepted its bad input
 
-LEG_MARKERS = "hip=R.ASIS,knee=R.Knee.Lat,ankle=R.Ankle.Lat,heel=R.Heel,toe=R.Toe.Tip"
+#: Markers of the walk (not joint centres, but enough for the files to be read in full).
+LEG_MARKERS = "hip=R.ASIS,knee=R.Thigh.Rear,ankle=R.Shank.Rear,heel=R.Heel,toe=R.Toe.Tip"
 C3D_MARKERS = "hip=RHJC,knee=RKJC,ankle=RAJC,heel=RCAL,toe=RMT2"
 SEGMENTS = ("segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2\n"
             "foot,1.05,0.26,0.5,0.0044\nshank,3.37,0.43,0.433,0.0504\n"
@@ -148,7 +149,10 @@ def trc_mutations(text: str, rng: random.Random) -> list[tuple[str, bytes]]:
     fields = body[row].split("\t")
     fields[rng.randrange(2, len(fields) - 1)] = "abc"
     cut = rng.randrange(1, len(body) - 1)
+    huge = body[row].split("\t")
+    huge[rng.randrange(2, len(huge) - 1)] = "1e308"
     return [
+        ("huge_value", "".join(head + body[:row] + ["\t".join(huge)] + body[row + 1:]).encode()),
         ("latin1", "".join(head).encode() + "é".encode("latin-1") + "".join(body).encode()),
         ("empty", b""),
         ("header_only", "".join(head).encode()),
@@ -173,6 +177,8 @@ def storage_mutations(text: str, rng: random.Random) -> list[tuple[str, bytes]]:
     fields = body[row].split("\t")
     fields[rng.randrange(1, len(fields) - 1)] = "x1"
     constant = [f"{0.5}\t" + ln.split("\t", 1)[1] for ln in body]
+    huge = body[row].split("\t")
+    huge[1] = "-1e308"
     backwards = body[:]
     backwards[row], backwards[row - 1] = backwards[row - 1], backwards[row]
     return [
@@ -186,6 +192,8 @@ def storage_mutations(text: str, rng: random.Random) -> list[tuple[str, bytes]]:
         ("non_numeric", "".join(head + [labels] + body[:row] + ["\t".join(fields)]
                                 + body[row + 1:]).encode()),
         ("constant_time", "".join(head + [labels] + constant).encode()),
+        ("huge_force", "".join(head + [labels] + body[:row] + ["\t".join(huge)]
+                               + body[row + 1:]).encode()),
         ("time_backwards", "".join(head + [labels] + backwards).encode()),
         ("no_endheader", "".join(head[:-1] + [labels] + body).encode()),
     ]
@@ -366,9 +374,36 @@ def test_malformed_input_is_one_clear_error(case, pristine, tmp_path, capfd, mon
     assert status == 2, (status, captured.err[-2000:], captured.out[-500:])
     assert len(lines) == 1 and lines[0].startswith("predgait: error: "), captured.err[-2000:]
     assert "Traceback" not in captured.err
+    if case.content is not None:  # the message names the broken file, not something else
+        assert Path(case.target).name in lines[0], lines[0]
     assert _digest(work) == before, "an input was changed or a file was written"
     assert sorted(p.name for p in work.iterdir()) == sorted(pristine_names(pristine))
 
 
 def pristine_names(folder: Path) -> list[str]:
     return [p.name for p in folder.iterdir()]
+
+
+SUBPROCESS_CASES = ("leg.urdf:bad_joint_parent", "walking5.c3d:cut_100",
+                    "resynthesis.toml:latin1", "s01/subject01_walk1_grf.mot:huge_force")
+
+
+@pytest.mark.parametrize("name", SUBPROCESS_CASES)
+def test_malformed_input_in_a_real_process(name, pristine, tmp_path):
+    """The same promise from a real ``predgait`` process (C++ messages on file descriptor
+    2 included, exit status as the shell sees it)."""
+    import subprocess
+    import sys
+
+    case = next(c for c in CASES if c.name == name)
+    work = tmp_path / "work"
+    shutil.copytree(pristine, work)
+    (work / case.target).write_bytes(case.content)
+    before = _digest(work)
+    argv = [*case.argv, *([] if case.argv[0] == "model" else ["--out", "result"])]
+    result = subprocess.run([sys.executable, "-m", "predgait", *argv], cwd=work,
+                            capture_output=True, text=True, timeout=120)
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.returncode == 2, result.stderr
+    assert len(lines) == 1 and lines[0].startswith("predgait: error: "), result.stderr
+    assert _digest(work) == before
