@@ -122,11 +122,12 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
     if workers < 1:
         raise InputError(f"--workers = {workers}: give at least 1.")
     outcomes: dict[int, SweepOutcome] = {}
+    if scheduler is not None:  # connect first: a bad address is one error line, no bar
+        client = (_dask_client(scheduler, connect_timeout) if isinstance(scheduler, str)
+                  else scheduler)
     bar = tqdm(total=len(points), desc="sweep", unit="run", disable=not progress)
     try:
         if scheduler is not None:
-            client = (_dask_client(scheduler, connect_timeout) if isinstance(scheduler, str)
-                      else scheduler)
             futures = client.map(run_point, [task] * len(points), points, pure=False)
             from dask.distributed import as_completed as dask_completed
 
