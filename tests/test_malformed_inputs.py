@@ -285,6 +285,34 @@ def set_cases() -> list[tuple[str, str, list[str]]]:
     ]
 
 
+#: Bad command lines over intact inputs: (name, argv); argv with its own --out or -o.
+COMMAND_CASES = (
+    ("report_missing_folder", ("report", "nowhere", "-o", "r.html")),
+    ("report_a_file", ("report", "rod.toml", "-o", "r.html")),
+    ("report_no_results", ("report", "s01", "-o", "r.html")),
+    ("report_into_its_folder", ("report", "s01", "-o", "s01/r.html", "--force")),
+    ("demo_over_a_folder", ("demo", "--out", "s01")),
+    ("demo_over_a_file", ("demo", "--out", "rod.toml")),
+    ("build_into_missing_folder", ("model", "build", "leg", "-o", "nowhere/leg.urdf")),
+    ("build_over_its_segments", ("model", "build", "leg", "--segments", "segments.csv",
+                                 "-o", "segments.csv", "--force")),
+    ("build_over_an_existing_file", ("model", "build", "rod", "-o", "leg.urdf")),
+    ("inverse_out_is_the_problem", ("inverse", "inverse_subject01.toml", "--out",
+                                    "inverse_subject01.toml", "--force")),
+    ("simulate_out_is_cwd", ("simulate", "rod.toml", "--out", ".", "--force")),
+    ("scenario_out_holds_it", ("scenario", "s01/../scenario_stiff_knee.toml", "--out", "s01/..",
+                               "--force")),
+    ("sweep_no_workers", ("sweep", "sweep_knee_stiffness.toml", "--workers", "0", "--out", "r")),
+    ("sweep_bad_scheduler", ("sweep", "sweep_knee_stiffness.toml", "--scheduler",
+                             "not an address", "--out", "r")),
+    ("solve_out_is_a_file", ("solve", "knee_fit.toml", "--out", "rod.toml", "--force")),
+    ("inverse_missing_trial", ("inverse", "nowhere.trc", "--mass", "70", "--markers",
+                               LEG_MARKERS, "--out", "r")),
+    ("inverse_no_mass", ("inverse", "s01/subject01_walk1.trc", "--markers", LEG_MARKERS,
+                         "--out", "r")),
+)
+
+
 def build_cases() -> list[Case]:
     """Every case, from the real files, with one seeded generator."""
     rng = random.Random(SEED)
@@ -318,6 +346,8 @@ def build_cases() -> list[Case]:
         argv = PROBLEMS.get(problem, ["simulate", "{}"])
         cases.append(Case(f"--set:{how}", problem, None,
                           (*(a.replace("{}", problem) for a in argv), *extra)))
+    for how, argv in COMMAND_CASES:
+        cases.append(Case(f"command:{how}", "", None, argv))
     return cases
 
 
@@ -357,7 +387,7 @@ def test_malformed_input_is_one_clear_error(case, pristine, tmp_path, capfd, mon
     before = _digest(work)
     monkeypatch.chdir(work)
     argv = list(case.argv)
-    if argv[0] not in ("model",):
+    if argv[0] not in ("model", "report") and "--out" not in argv:
         argv += ["--out", "result"]
     def too_long(*_):
         raise TimeoutError(f"{case.name}: still running after {LIMIT_S} s: the bad input "
