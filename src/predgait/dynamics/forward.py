@@ -135,16 +135,23 @@ class LegSystem(PartitionedSystem):
 
     @staticmethod
     def _motion_function(drivers: LegDrivers, joints: list[int]):
+        last = [None, None]  # (t, q v a stacked) of the latest call: the correctors of a
+                             # modified-Euler step ask for the same t again and again
+
         def motion(t):
-            qva = np.zeros(15)  # one allocation: q, v, a are views of it
-            q, v, a = qva[:5], qva[5:10], qva[10:]
-            q[:3], v[:3] = drivers.prescribed_q(t), drivers.prescribed_qd(t)
-            a[:3] = drivers.prescribed_qdd(t)
-            if joints:
-                q[joints], v[joints] = drivers.reference_q(t)[joints], \
-                    drivers.reference_qd(t)[joints]
-                a[joints] = drivers.reference_qdd(t)[joints]
-            return q, v, a
+            if t == last[0]:
+                qva = last[1].copy()
+            else:
+                qva = np.zeros(15)
+                q, v, a = qva[:5], qva[5:10], qva[10:]
+                q[:3], v[:3] = drivers.prescribed_q(t), drivers.prescribed_qd(t)
+                a[:3] = drivers.prescribed_qdd(t)
+                if joints:
+                    q[joints], v[joints] = drivers.reference_q(t)[joints], \
+                        drivers.reference_qd(t)[joints]
+                    a[joints] = drivers.reference_qdd(t)[joints]
+                last[0], last[1] = t, qva.copy()
+            return qva[:5], qva[5:10], qva[10:]
 
         return motion
 
