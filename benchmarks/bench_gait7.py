@@ -17,7 +17,7 @@ from predgait.dynamics.contact_fit import fit_impact_to_meglan
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.simulations.gait7_motion import bundled_gait7_motion, gait7_model
-from predgait.simulations.gait7_sim import FallLimits, KneeMoment, kinematic_run, knee_run
+from predgait.simulations.gait7_sim import GAIT7_FALL, KneeMoment, kinematic_run, knee_run
 
 SPAN = (0.62, 1.62)
 
@@ -42,7 +42,7 @@ def main():
 
         def knee(o=options, k=kin):
             return knee_run(model, motion, k, contact, ground_z=-0.0075, sides=("left",),
-                            source=KneeMoment.MODEL, passive=passive, fall=FallLimits(),
+                            source=KneeMoment.MODEL, passive=passive, fall=GAIT7_FALL,
                             options=o, t_eval=t)
 
         run = knee()

@@ -11,6 +11,7 @@ only its translation free.
 """
 
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +27,7 @@ from predgait.dynamics.inverse3d import velocities
 from predgait.errors import InputError
 from predgait.models.loading3d import load_fullbody
 from predgait.simulations.forward3d import (
-    FallLimits,
+    FULLBODY_FALL,
     FullbodyDrive,
     GroundMode,
     JointMode,
@@ -110,7 +111,7 @@ def test_translation_only_pelvis_centre_of_mass_is_ballistic(synthetic):
     mode = Mode(pelvis=PelvisMode.TRANSLATION, joints=JointMode.KINEMATIC)
     system, history, _ = build_system(bare, mode)
     assert system.state_names()[:3] == ["pelvis_tx", "pelvis_ty", "pelvis_tz"]
-    run = simulate_fullbody(bare, mode, (0.01, 0.07), fall=FallLimits(pelvis_drop=1.0))
+    run = simulate_fullbody(bare, mode, (0.01, 0.07), fall=replace(FULLBODY_FALL, base_drop=1.0))
     q0, v0, _ = history(0.01)
     c0 = pin.centerOfMass(pm, data, q0, v0).copy()
     vc0 = data.vcom[0].copy()
@@ -163,9 +164,9 @@ def test_prescribed_pelvis_keeps_joints_in_band_longer(subject01):
     held, free = runs[PelvisMode.PRESCRIBED], runs[PelvisMode.FREE]
     assert held.deviation["joint_leaves_band_s"] > 1.5 * free.deviation["joint_leaves_band_s"]
     assert free.status == "event" and 0.0 < free.time_to_fall < 0.4
-    limits = FallLimits()  # the run stops at the first limit reached, none is passed
-    assert free.deviation["pelvis_angle_max_deg"] <= limits.pelvis_angle_deg + 1e-6
-    assert free.deviation["joint_max_deg"] <= limits.joint_deg + 1e-6
+    limits = FULLBODY_FALL  # the run stops at the first limit reached, none is passed
+    assert free.deviation["pelvis_angle_max_deg"] <= limits.base_angle_deg + 1e-6
+    assert free.deviation["joint_max_deg"] <= limits.joint_deviation_deg + 1e-6
     assert np.abs(held.q[:, 7:] - held.measured[:, 7:])[:, :6].max() > 0  # hips were free
     ankle = [i for i, n in enumerate(subject01.model.joint_names) if n.startswith("ankle")]
     assert np.abs(held.q[:, 7 + np.array(ankle)] - held.measured[:, 7 + np.array(ankle)]).max() \

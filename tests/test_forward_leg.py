@@ -115,7 +115,8 @@ def test_collapse_falls_and_reports_time_to_fall():
     # a stiff knee spring holds it up: no fall within 1 s
     stiff = LegDrivers.still(passive={"knee": PassiveJoint((LinearSpringDamper(2000, 50),)),
                                       "ankle": PassiveJoint((LinearSpringDamper(2000, 50),))})
-    held = simulate_leg(LEG, stiff, (0.0, 1.0), x0, options=opts, fall=FallLimit())
+    held = simulate_leg(LEG, stiff, (0.0, 1.0), x0, options=opts,
+                        fall=FallLimit(segment_angle_deg=60.0))
     assert held.status == "completed" and held.time_to_fall is None
 
 

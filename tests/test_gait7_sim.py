@@ -35,7 +35,7 @@ from predgait.simulations.gait7_motion import (
     gait7_model,
 )
 from predgait.simulations.gait7_sim import (
-    FallLimits,
+    GAIT7_FALL,
     KneeMoment,
     grf_comparison,
     initial_height,
@@ -223,7 +223,7 @@ def _knee(model, motion, kinematic, source, k, c):
     passive = PassiveJoint((LinearSpringDamper(k=k, c=c),))
     return knee_run(model, motion, kinematic, fit_impact_to_meglan().contact,
                     ground_z=-0.0075, sides=("left",), source=source, passive=passive,
-                    fall=FallLimits(), options=OPTIONS, t_eval=kinematic.run.t)
+                    fall=GAIT7_FALL, options=OPTIONS, t_eval=kinematic.run.t)
 
 
 def test_knee_driven_by_the_models_own_moment_stays_on_the_reference(model, motion,

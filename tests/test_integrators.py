@@ -322,16 +322,31 @@ def test_option_validation_names_the_field(field, value):
         IntegratorOptions(**{field: value})
 
 
-def test_options_from_mapping():
-    opts = IntegratorOptions.from_mapping({"method": "modified_euler", "step": 5e-4,
-                                           "iterations": 15})
+def _integrator_table(tmp_path, text):
+    from predgait.problemfile import load_problem
+
+    path = tmp_path / "p.toml"
+    path.write_text("[integrator]\n" + text)
+    return load_problem(path).table("integrator")
+
+
+def test_options_from_table(tmp_path):
+    """The one [integrator] parser: values, defaults, allowed keys, errors with key and line."""
+    opts = IntegratorOptions.from_table(_integrator_table(
+        tmp_path, 'method = "modified_euler"\nstep = 5e-4\niterations = 15\n'))
     assert opts == IntegratorOptions(Method.MODIFIED_EULER, 5e-4, 15)
-    with pytest.raises(InputError, match=r"simulate\.iteration: unknown key"):
-        IntegratorOptions.from_mapping({"iteration": 3}, where="simulate")
-    with pytest.raises(InputError, match=r"simulate.*'step'"):
-        IntegratorOptions.from_mapping({"step": 1.0}, where="simulate")
-    with pytest.raises(InputError, match=r"simulate\.method"):
-        IntegratorOptions.from_mapping({"method": "euler2"}, where="simulate")
+    default = IntegratorOptions(method=Method.RK4, step=2e-3)
+    assert IntegratorOptions.from_table(_integrator_table(tmp_path, ""), default=default) \
+        == default
+    with pytest.raises(InputError, match=r"iteration.*line 2"):
+        IntegratorOptions.from_table(_integrator_table(tmp_path, "iteration = 3\n"))
+    with pytest.raises(InputError, match=r"'step'.*line 2|line 2.*'step'"):
+        IntegratorOptions.from_table(_integrator_table(tmp_path, "step = 1.0\n"))
+    with pytest.raises(InputError, match="method"):
+        IntegratorOptions.from_table(_integrator_table(tmp_path, 'method = "euler2"\n'))
+    with pytest.raises(InputError, match="rtol"):
+        IntegratorOptions.from_table(_integrator_table(tmp_path, "rtol = 1e-3\n"),
+                                     keys=("method", "step"))
 
 
 @pytest.mark.parametrize("kwargs, match", [

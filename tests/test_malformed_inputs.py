@@ -30,7 +30,8 @@ C3D = DATA / "opensim_walking5_c3d" / "walking5.c3d"
 SEED = 20261130
 LIMIT_S = 20  # a case still running after this accepted its bad input
 
-LEG_MARKERS = "hip=R.ASIS,knee=R.Knee.Lat,ankle=R.Ankle.Lat,heel=R.Heel,toe=R.Toe.Tip"
+#: Markers of the walk (not joint centres, but enough for the files to be read in full).
+LEG_MARKERS = "hip=R.ASIS,knee=R.Thigh.Rear,ankle=R.Shank.Rear,heel=R.Heel,toe=R.Toe.Tip"
 C3D_MARKERS = "hip=RHJC,knee=RKJC,ankle=RAJC,heel=RCAL,toe=RMT2"
 SEGMENTS = ("segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2\n"
             "foot,1.05,0.26,0.5,0.0044\nshank,3.37,0.43,0.433,0.0504\n"
@@ -148,7 +149,10 @@ def trc_mutations(text: str, rng: random.Random) -> list[tuple[str, bytes]]:
     fields = body[row].split("\t")
     fields[rng.randrange(2, len(fields) - 1)] = "abc"
     cut = rng.randrange(1, len(body) - 1)
+    huge = body[row].split("\t")
+    huge[rng.randrange(2, len(huge) - 1)] = "1e308"
     return [
+        ("huge_value", "".join(head + body[:row] + ["\t".join(huge)] + body[row + 1:]).encode()),
         ("latin1", "".join(head).encode() + "é".encode("latin-1") + "".join(body).encode()),
         ("empty", b""),
         ("header_only", "".join(head).encode()),
@@ -173,6 +177,8 @@ def storage_mutations(text: str, rng: random.Random) -> list[tuple[str, bytes]]:
     fields = body[row].split("\t")
     fields[rng.randrange(1, len(fields) - 1)] = "x1"
     constant = [f"{0.5}\t" + ln.split("\t", 1)[1] for ln in body]
+    huge = body[row].split("\t")
+    huge[1] = "-1e308"
     backwards = body[:]
     backwards[row], backwards[row - 1] = backwards[row - 1], backwards[row]
     return [
@@ -186,6 +192,8 @@ def storage_mutations(text: str, rng: random.Random) -> list[tuple[str, bytes]]:
         ("non_numeric", "".join(head + [labels] + body[:row] + ["\t".join(fields)]
                                 + body[row + 1:]).encode()),
         ("constant_time", "".join(head + [labels] + constant).encode()),
+        ("huge_force", "".join(head + [labels] + body[:row] + ["\t".join(huge)]
+                               + body[row + 1:]).encode()),
         ("time_backwards", "".join(head + [labels] + backwards).encode()),
         ("no_endheader", "".join(head[:-1] + [labels] + body).encode()),
     ]
@@ -277,6 +285,34 @@ def set_cases() -> list[tuple[str, str, list[str]]]:
     ]
 
 
+#: Bad command lines over intact inputs: (name, argv); argv with its own --out or -o.
+COMMAND_CASES = (
+    ("report_missing_folder", ("report", "nowhere", "-o", "r.html")),
+    ("report_a_file", ("report", "rod.toml", "-o", "r.html")),
+    ("report_no_results", ("report", "s01", "-o", "r.html")),
+    ("report_into_its_folder", ("report", "s01", "-o", "s01/r.html", "--force")),
+    ("demo_over_a_folder", ("demo", "--out", "s01")),
+    ("demo_over_a_file", ("demo", "--out", "rod.toml")),
+    ("build_into_missing_folder", ("model", "build", "leg", "-o", "nowhere/leg.urdf")),
+    ("build_over_its_segments", ("model", "build", "leg", "--segments", "segments.csv",
+                                 "-o", "segments.csv", "--force")),
+    ("build_over_an_existing_file", ("model", "build", "rod", "-o", "leg.urdf")),
+    ("inverse_out_is_the_problem", ("inverse", "inverse_subject01.toml", "--out",
+                                    "inverse_subject01.toml", "--force")),
+    ("simulate_out_is_cwd", ("simulate", "rod.toml", "--out", ".", "--force")),
+    ("scenario_out_holds_it", ("scenario", "s01/../scenario_stiff_knee.toml", "--out", "s01/..",
+                               "--force")),
+    ("sweep_no_workers", ("sweep", "sweep_knee_stiffness.toml", "--workers", "0", "--out", "r")),
+    ("sweep_bad_scheduler", ("sweep", "sweep_knee_stiffness.toml", "--scheduler",
+                             "not an address", "--out", "r")),
+    ("solve_out_is_a_file", ("solve", "knee_fit.toml", "--out", "rod.toml", "--force")),
+    ("inverse_missing_trial", ("inverse", "nowhere.trc", "--mass", "70", "--markers",
+                               LEG_MARKERS, "--out", "r")),
+    ("inverse_no_mass", ("inverse", "s01/subject01_walk1.trc", "--markers", LEG_MARKERS,
+                         "--out", "r")),
+)
+
+
 def build_cases() -> list[Case]:
     """Every case, from the real files, with one seeded generator."""
     rng = random.Random(SEED)
@@ -310,6 +346,8 @@ def build_cases() -> list[Case]:
         argv = PROBLEMS.get(problem, ["simulate", "{}"])
         cases.append(Case(f"--set:{how}", problem, None,
                           (*(a.replace("{}", problem) for a in argv), *extra)))
+    for how, argv in COMMAND_CASES:
+        cases.append(Case(f"command:{how}", "", None, argv))
     return cases
 
 
@@ -349,7 +387,7 @@ def test_malformed_input_is_one_clear_error(case, pristine, tmp_path, capfd, mon
     before = _digest(work)
     monkeypatch.chdir(work)
     argv = list(case.argv)
-    if argv[0] not in ("model",):
+    if argv[0] not in ("model", "report") and "--out" not in argv:
         argv += ["--out", "result"]
     def too_long(*_):
         raise TimeoutError(f"{case.name}: still running after {LIMIT_S} s: the bad input "
@@ -366,9 +404,36 @@ def test_malformed_input_is_one_clear_error(case, pristine, tmp_path, capfd, mon
     assert status == 2, (status, captured.err[-2000:], captured.out[-500:])
     assert len(lines) == 1 and lines[0].startswith("predgait: error: "), captured.err[-2000:]
     assert "Traceback" not in captured.err
+    if case.content is not None:  # the message names the broken file, not something else
+        assert Path(case.target).name in lines[0], lines[0]
     assert _digest(work) == before, "an input was changed or a file was written"
     assert sorted(p.name for p in work.iterdir()) == sorted(pristine_names(pristine))
 
 
 def pristine_names(folder: Path) -> list[str]:
     return [p.name for p in folder.iterdir()]
+
+
+SUBPROCESS_CASES = ("leg.urdf:bad_joint_parent", "walking5.c3d:cut_100",
+                    "resynthesis.toml:latin1", "s01/subject01_walk1_grf.mot:huge_force")
+
+
+@pytest.mark.parametrize("name", SUBPROCESS_CASES)
+def test_malformed_input_in_a_real_process(name, pristine, tmp_path):
+    """The same promise from a real ``predgait`` process (C++ messages on file descriptor
+    2 included, exit status as the shell sees it)."""
+    import subprocess
+    import sys
+
+    case = next(c for c in CASES if c.name == name)
+    work = tmp_path / "work"
+    shutil.copytree(pristine, work)
+    (work / case.target).write_bytes(case.content)
+    before = _digest(work)
+    argv = [*case.argv, *([] if case.argv[0] == "model" else ["--out", "result"])]
+    result = subprocess.run([sys.executable, "-m", "predgait", *argv], cwd=work,
+                            capture_output=True, text=True, timeout=120)
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.returncode == 2, result.stderr
+    assert len(lines) == 1 and lines[0].startswith("predgait: error: "), result.stderr
+    assert _digest(work) == before

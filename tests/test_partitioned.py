@@ -14,8 +14,8 @@ from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.forces import GroundContact
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse3d import velocities
+from predgait.dynamics.motion import MotionHistory
 from predgait.dynamics.partitioned import (
-    MotionHistory,
     PartitionedSystem,
     simulate_partitioned,
 )

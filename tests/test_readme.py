@@ -12,3 +12,128 @@ def test_ci_runs_the_readme_test_command():
     assert len(ci_lines) == 1
     assert f"\n{ci_lines[0]}\n" in readme
     assert "predgait demo" in readme
+
+
+# --- README "Usage" as a user runs it --------------------------------------------------
+#
+# Every bash line of the Usage section is run in order, in a temporary copy of the
+# repository with ../shared beside it, as a new user would after the set-up command (the
+# environment activated as the README says). Commands that take minutes (whole-body
+# pipelines, optimisation, scenarios and sweeps, notebooks, benchmarks) are run only with
+# PREDGAIT_README_FULL=1, to keep CI within its time budget; without it their file
+# arguments and output folders are still checked to exist at that point of the sequence.
+
+import os  # noqa: E402
+import re  # noqa: E402
+import shlex  # noqa: E402
+import shutil  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+
+import pytest  # noqa: E402
+
+FULL = os.environ.get("PREDGAIT_README_FULL") == "1"
+#: Commands (by a fragment) that take minutes: run only with PREDGAIT_README_FULL=1.
+SLOW = ("--model fullbody", "gait7_contact.toml", "fullbody_resynthesis.toml",
+        "resynthesis.toml", "predgait scenario", "predgait sweep", "predgait solve",
+        "pytest notebooks", "benchmarks/")
+#: Commands that change the environment rather than use predgait: never run here.
+NOT_RUN = {"pip install": "installs packages (CI installs '.[test]', which has dask)"}
+
+
+def usage_commands(readme: str) -> list[str]:
+    """The bash lines of README's Usage section, continuation lines joined."""
+    usage = readme.split("\n## Usage", 1)[1].split("\n## ", 1)[0]
+    lines = []
+    for block in re.findall(r"```bash\n(.*?)```", usage, re.S):
+        lines += block.replace("\\\n", " ").splitlines()
+    return [line.strip() for line in lines if line.strip()]
+
+
+def _paths(command: str, variables: dict[str, str]) -> tuple[list[str], list[str]]:
+    """Input paths and output paths named by a predgait command."""
+    words = shlex.split(command, comments=True)
+    words = [re.sub(r"\$(\w+)", lambda m: variables.get(m.group(1), m.group(0)), w)
+             for w in words]
+    inputs, outputs = [], []
+    for i, word in enumerate(words):
+        if words[i - 1] in ("--out", "-o"):
+            outputs.append(word)
+        elif "/" in word and not word.startswith(("-", "tcp:", "hip=")):
+            inputs.append(word)
+    return inputs, outputs
+
+
+@pytest.fixture
+def fresh_clone(tmp_path) -> Path:
+    """A copy of the repository's tracked inputs with ../shared and the environment."""
+    clone = tmp_path / "predgait"
+    clone.mkdir()
+    for name in ("problems", "urdf", "benchmarks", "notebooks"):
+        shutil.copytree(REPO / name, clone / name, symlinks=True,
+                        ignore=shutil.ignore_patterns("__pycache__", ".ipynb_checkpoints"))
+    for name in ("README.md", "pyproject.toml"):
+        shutil.copy(REPO / name, clone / name)
+    (tmp_path / "shared").symlink_to(REPO.parent / "shared")
+    (clone / ".venv").symlink_to(Path(sys.prefix))
+    return clone
+
+
+def test_readme_usage_runs_as_written(fresh_clone):
+    commands = usage_commands(REPO.joinpath("README.md").read_text())
+    assert commands[0] == ". .venv/bin/activate" and commands[1] == "mkdir -p out"
+    prefix = ". .venv/bin/activate"
+    variables: dict[str, str] = {}
+    timings = []
+    for command in commands[1:]:
+        assignment = re.fullmatch(r"(\w+)=(\S+)", command)
+        if assignment:
+            variables[assignment.group(1)] = assignment.group(2)
+            prefix += f" && {command}"
+            continue
+        if any(fragment in command for fragment in NOT_RUN):
+            continue
+        if "--scheduler" in command and not FULL:
+            continue  # needs a running Dask cluster: started below in the full run
+        if not FULL and any(fragment in command for fragment in SLOW):
+            inputs, outputs = _paths(command, variables)
+            for path in inputs:
+                assert (fresh_clone / path).exists(), f"{command}: {path} does not exist"
+            for path in outputs:
+                assert (fresh_clone / path).parent.is_dir(), f"{command}: no folder for {path}"
+                assert not (fresh_clone / path).exists(), f"{command}: {path} already written"
+            continue
+        started = time.perf_counter()
+        with _dask_cluster(command):
+            result = subprocess.run(["bash", "-c", f"{prefix} && {command}"], cwd=fresh_clone,
+                                    capture_output=True, text=True, timeout=1800,
+                                    env={**os.environ, "MPLBACKEND": "Agg"})
+        timings.append((time.perf_counter() - started, command))
+        assert result.returncode == 0, f"{command}\n{result.stdout[-1500:]}{result.stderr[-3000:]}"
+        assert "Traceback" not in result.stderr, result.stderr[-3000:]
+        for path in _paths(command, variables)[1]:
+            assert (fresh_clone / path).exists(), f"{command} did not write {path}"
+    for seconds, command in sorted(timings, reverse=True)[:5]:
+        print(f"{seconds:7.1f} s  {command[:90]}")
+
+
+class _dask_cluster:
+    """A local Dask scheduler on the README's address for the --scheduler command."""
+
+    def __init__(self, command: str):
+        self.wanted = "--scheduler tcp://127.0.0.1:8786" in command
+        self.cluster = None
+
+    def __enter__(self):
+        if self.wanted:
+            from dask import distributed
+
+            self.cluster = distributed.LocalCluster(
+                n_workers=2, threads_per_worker=1, scheduler_port=8786,
+                dashboard_address=None)
+        return self
+
+    def __exit__(self, *exc):
+        if self.cluster is not None:
+            self.cluster.close()

@@ -139,3 +139,34 @@ def test_sweep_command_reports_failed_points(allow, tmp_path, monkeypatch, capsy
     rows = list(csv.DictReader((tmp_path / "res" / "results.csv").open()))
     assert [r["status"] for r in rows].count("diverged") == 3
     assert all(r["knee_rms_change_deg"] == "nan" for r in rows if r["status"] == "diverged")
+
+
+def slow_scenario_metrics(path, point) -> dict:
+    """Stands in for a scenario run of a few seconds."""
+    import time
+
+    time.sleep(3.0)
+    return {"knee_rms_change_deg": 1.0}
+
+
+def test_sigterm_stops_a_local_sweep_at_once(tmp_path, monkeypatch, capsys):
+    import os
+    import signal
+    import threading
+    import time
+    from pathlib import Path
+
+    from predgait.cli import main
+
+    monkeypatch.setattr("predgait.scenarios.run.scenario_metrics", slow_scenario_metrics)
+    problem = Path(__file__).resolve().parents[1] / "problems" / "sweep_knee_stiffness.toml"
+    monkeypatch.chdir(tmp_path)
+    timer = threading.Timer(1.5, os.kill, (os.getpid(), signal.SIGTERM))
+    started = time.perf_counter()
+    timer.start()
+    status = main(["sweep", str(problem), "--workers", "2", "--out", "res"])
+    seconds = time.perf_counter() - started
+    timer.join()
+    assert status == 130, capsys.readouterr().err
+    assert seconds < 3.0 + 2.0  # not 12 points x 3 s / 2 workers = 18 s
+    assert list(tmp_path.iterdir()) == []

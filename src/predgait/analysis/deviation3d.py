@@ -11,17 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from predgait.kinematics.ik3d import pelvis_cardan
-
-
-def pelvis_angle_error(simulated: np.ndarray, measured: np.ndarray) -> np.ndarray:
-    """Pelvis Cardan X, Y, Z of ``simulated`` minus ``measured``, wrapped to +-pi, rad.
-
-    Both are configuration rows (the simulated quaternion is renormalised).
-    """
-    sim = np.concatenate([simulated[:3], simulated[3:7] / np.linalg.norm(simulated[3:7])])
-    diff = pelvis_cardan(sim)[0] - pelvis_cardan(measured)[0]
-    return (diff + np.pi) % (2 * np.pi) - np.pi
+from predgait.dynamics.falls import pelvis_angle_error
 
 
 def deviations3d(t: np.ndarray, q: np.ndarray, measured: np.ndarray,

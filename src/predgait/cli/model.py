@@ -15,7 +15,9 @@ Generate a URDF from anthropometry (SI units).
   leg: foot, shank and thigh of the thesis (section 3.3, Table 3.3.2 = Winter 1990),
        from --mass (kg) and --height (m), or from --segments FILE.csv with columns
        segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2 (rows foot, shank, thigh;
-       foot length is heel to toe and its COM fraction is from the heel).
+       foot length is heel to toe and its COM fraction is from the heel); optional columns
+       gyration_fraction (instead of the inertia), foot_com = thesis|heel_toe|ankle_toe|
+       offset and com_x_m, com_z_m (foot COM from the ankle centre in the foot frame).
   rod: the thesis' uniform slender rod (section 3.2), from --mass (kg) and --length (m).
   gait7: planar two-leg model with HAT (thesis 2.3.1), from --mass and --height.
   fullbody: 3D 35-DOF body in the ADAMS/Android layout (thesis 2.3.2), segments by

@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     if args.every > 0:
         from types import SimpleNamespace
 
-        from predgait.problems.diagnostics import ipopt_lines
+        from predgait.report.diagnostics import ipopt_lines
 
         for line in ipopt_lines(SimpleNamespace(history=solution["ipopt_history"]),
                                 every=args.every):

@@ -50,6 +50,36 @@ def duplicate_labels(labels, *, source: str, what: str = "column") -> None:
         seen.add(label)
 
 
+#: Largest plausible magnitudes of measured gait data (a value beyond is a corrupt file).
+LIMITS = {"marker": (1e3, "m"), "force": (1e5, "N"), "cop": (1e3, "m"), "moment": (1e5, "N m")}
+
+
+def check_magnitude(values, time, kind: str, *, source: str, names=None) -> None:
+    """Refuse a value beyond the plausible limit of ``kind`` (NaN = missing is allowed).
+
+    Args:
+        values: (n, ...) array, SI units, first axis = frames.
+        time: (n,) s of the frames, for the message.
+        kind: a key of :data:`LIMITS`.
+        source: file name for the message.
+        names: optional labels of the second axis (markers, plates).
+    """
+    import numpy as np
+
+    limit, unit = LIMITS[kind]
+    values = np.asarray(values, dtype=float)
+    with np.errstate(invalid="ignore"):
+        bad = np.argwhere(np.abs(values) > limit)
+    if bad.size:
+        frame = int(bad[0][0])
+        label = ""
+        if names is not None and values.ndim > 1:
+            label = f" ({names[int(bad[0][1])]})"
+        raise InputError(f"{source}: a {kind} value{label} at t = {time[frame]:.4g} s is "
+                         f"{values[tuple(bad[0])]:.4g} {unit}, beyond any gait measurement "
+                         f"(|value| <= {limit:g} {unit}); the file is corrupt or in other units.")
+
+
 def check_output(path) -> Path:
     """Refuse to write over a file that was read as an input in this session."""
     path = Path(path)

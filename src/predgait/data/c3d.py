@@ -23,7 +23,7 @@ import struct
 
 import numpy as np
 
-from predgait.data._io import duplicate_labels, length_factor, open_input
+from predgait.data._io import check_magnitude, duplicate_labels, length_factor, open_input
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_trial
 from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.errors import InputError
@@ -125,6 +125,7 @@ def _plates(params, analogs: np.ndarray, rate: float, point_factor: float,
         rotation = plate_axes(c_file)
         cop_p, free_p = plate_wrench_to_cop(raw[:, :3], raw[:, 3:] * m_factor, origin)
         centre = c_file.mean(axis=0)
+        check_magnitude(raw[:, :3], time, "force", source=f"{source} (plate {p + 1})")
         plates.append(ForcePlate(
             time=time, force=raw[:, :3] @ rotation.T, cop=centre + cop_p @ rotation.T,
             free_moment=free_p @ rotation.T, name=str(p + 1), corners=c_file,
@@ -195,6 +196,8 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     xyz = np.transpose(points, (2, 1, 0)) * factor
     residuals = c3d["data"]["meta_points"]["residuals"][0].T  # (n, m)
     xyz[residuals < 0] = np.nan
+    check_magnitude(xyz, np.arange(xyz.shape[0]) / rate, "marker", source=str(path),
+                    names=labels)
     markers = Markers(time=np.arange(xyz.shape[0]) / rate, names=tuple(labels[: xyz.shape[1]]),
                       xyz=xyz, rate=rate, source=str(path))
     plate_list = []

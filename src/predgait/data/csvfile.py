@@ -7,7 +7,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from predgait.data._io import duplicate_labels, length_factor, read_input
+from predgait.data._io import check_magnitude, duplicate_labels, length_factor, read_input
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers
 from predgait.data.trial import Markers, uniform_time
 from predgait.errors import InputError
@@ -80,6 +80,7 @@ def read_markers_csv(path, columns: Mapping[str, tuple[str, str, str]], *,
         rate = float(1.0 / np.median(np.diff(time)))
     time = uniform_time(time, rate, source=str(path))
     xyz = data[:, 1:].reshape(len(time), len(columns), 3) * factor
+    check_magnitude(xyz, time, "marker", source=str(path), names=list(columns))
     rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
     markers = Markers(time=time, names=tuple(columns), xyz=xyz, rate=rate, source=str(path))
     return rotate_markers(markers, rotation)

@@ -52,6 +52,15 @@ class Events:
         return [(float(a), float(b)) for a, b in zip(hs[:-1], hs[1:], strict=True)]
 
 
+def runs_of(mask: np.ndarray) -> list[slice]:
+    """Runs of consecutive True samples of a boolean array (e.g. a plate contact), as slices.
+
+    The one run detector: contacts (force above a threshold), stances, flagged frames.
+    """
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(mask).astype(int), [0]])))
+    return [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
 def _crossings(time: np.ndarray, signal: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray]:
     """Times of upward and downward crossings of ``level``, linearly interpolated."""
     above = signal >= level

@@ -17,6 +17,7 @@ import numpy as np
 
 from predgait.data._io import (
     atomic_write_text,
+    check_magnitude,
     duplicate_labels,
     length_factor,
     open_input,
@@ -185,6 +186,9 @@ def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
             time=time, force=stack(_FORCE), cop=stack(_POINT) * factor,
             free_moment=torque, name=names.get(prefix, prefix.rstrip("_") or "0"),
         )
+        for kind, values in (("force", plate.force), ("cop", plate.cop),
+                             ("moment", plate.free_moment)):
+            check_magnitude(values, time, kind, source=f"{path} (plate {plate.name})")
         plates.append(rotate_plate(plate, rotation))
     return tuple(plates)
 

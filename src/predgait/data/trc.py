@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 
-from predgait.data._io import duplicate_labels, length_factor, read_input
+from predgait.data._io import check_magnitude, duplicate_labels, length_factor, read_input
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers
 from predgait.data.trial import Markers, uniform_time
 from predgait.errors import InputError
@@ -97,6 +97,7 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
         raise InputError(f"{path}: data row {frame} has no time value.")
     time = uniform_time(data[:, 1], rate, source=str(path))
     xyz = data[:, 2:].reshape(len(rows), n_markers, 3) * factor
+    check_magnitude(xyz, time, "marker", source=str(path), names=names)
     rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
     markers = Markers(time=time, names=tuple(names), xyz=xyz, rate=rate, source=str(path))
     return rotate_markers(markers, rotation)

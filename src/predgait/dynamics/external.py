@@ -8,7 +8,7 @@ does that conversion, once, for every algorithm.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,3 +74,50 @@ def generalized_load(model: Model, data: pin.Data, loads: Sequence[Load]) -> np.
         local = joint_forces(model, data, [load])[joint]
         tau += jac.T @ local.vector
     return tau
+
+
+# ------------------------------------------------------------- plates to feet
+def distance_to_foot(point: np.ndarray, heel: np.ndarray, toe: np.ndarray) -> np.ndarray:
+    """Horizontal distance (n,) from points (n, 3) to each frame's heel-toe segment, m."""
+    p, a, b = point[:, :2], heel[:, :2], toe[:, :2]
+    ab = b - a
+    u = np.clip(np.sum((p - a) * ab, axis=1) / np.sum(ab * ab, axis=1), 0.0, 1.0)
+    return np.linalg.norm(p - (a + u[:, None] * ab), axis=1)
+
+
+@dataclass(frozen=True)
+class PlateContact:
+    """One contact of a plate (a run of loaded samples) and the foot it loads.
+
+    Attributes:
+        samples: The run's samples (a slice of the plate's rows).
+        foot: Key of the nearest foot in ``feet``, or None when none is within reach.
+        distance: m, median horizontal COP distance to that foot's heel-toe segment.
+    """
+
+    samples: slice
+    foot: str | None
+    distance: float
+
+
+def assign_contacts(cop: np.ndarray, loaded: np.ndarray,
+                    feet: Mapping[str, tuple[np.ndarray, np.ndarray]], *, reach: float
+                    ) -> list[PlateContact]:
+    """THE plate-to-foot assigner: each contact of a plate goes to the nearest foot.
+
+    Args:
+        cop: (n, 3) the plate's COP, lab frame, m, at the feet's sample times.
+        loaded: (n,) True where the plate is loaded (its contacts are the runs).
+        feet: foot name -> (heel (n, 3), toe (n, 3)) lab positions, m.
+        reach: m; a contact whose COP is farther (median) from every foot loads none.
+    """
+    from predgait.data.events import runs_of
+
+    distances = {name: distance_to_foot(cop, heel, toe) for name, (heel, toe) in feet.items()}
+    out = []
+    for run in runs_of(loaded):
+        median = {name: float(np.median(d[run])) for name, d in distances.items()}
+        nearest = min(median, key=median.get)
+        out.append(PlateContact(run, nearest if median[nearest] <= reach else None,
+                                median[nearest]))
+    return out

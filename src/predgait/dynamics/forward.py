@@ -31,6 +31,7 @@ import pinocchio as pin
 
 from predgait.dynamics.drivers import LegDrivers, is_zero
 from predgait.dynamics.external import Load, generalized_load
+from predgait.dynamics.falls import FallLimit
 from predgait.dynamics.forces import (
     Force,
     FrameLoad,
@@ -48,12 +49,15 @@ from predgait.dynamics.partitioned import (
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import Model
 
-__all__ = ["LEG_FREE", "ForceFrame", "LegSystem", "FallLimit", "SimulationResult", "simulate_leg",
-           "RodForces", "simulate_rod", "rod_system", "reduce_to_cop"]
+__all__ = ["LEG_FREE", "LEG_FALL", "ForceFrame", "LegSystem", "FallLimit", "SimulationResult",
+           "simulate_leg", "RodForces", "simulate_rod", "rod_system", "reduce_to_cop"]
 
 #: The leg's free coordinates (the foot is prescribed), for the engine and the CasADi
 #: problems alike.
 LEG_FREE = ("ankle", "knee")
+#: The leg's default fall: the shank or thigh 60 deg from upright (problem key
+#: segment_angle_deg).
+LEG_FALL = FallLimit(segment_angle_deg=60.0)
 #: Vertical ground force below which no COP is reported (set to 0), N.
 COP_THRESHOLD = 20.0
 
@@ -85,20 +89,6 @@ def reduce_to_cop(force_x, force_z, moment_heel, heel_x, heel_z, *, ground_z=0.0
     safe = np.where(np.abs(fz) >= threshold, fz, 1.0)
     cop = heel_x - (moment_heel + (heel_z - ground_z) * np.asarray(force_x)) / safe
     return np.where(np.abs(fz) >= threshold, cop, 0.0)
-
-
-@dataclass(frozen=True)
-class FallLimit:
-    """When the leg has fallen (a terminal event; its time is the time to fall).
-
-    Attributes:
-        segment_angle_deg: |absolute pitch| of the shank or thigh above this, deg
-            (None: not used).
-        hip_height: Height of ``hip_center`` below this, m (None: not used).
-    """
-
-    segment_angle_deg: float | None = 60.0
-    hip_height: float | None = None
 
 
 class LegSystem(PartitionedSystem):
@@ -178,30 +168,6 @@ class LegSystem(PartitionedSystem):
         cop = np.array([cop_x, 0.0, ground_z if abs(fz) >= COP_THRESHOLD else 0.0])
         return np.array([fx, 0.0, fz]), cop, float(m_heel)
 
-    def fall_events(self, limit: FallLimit | None) -> list[Event]:
-        """Terminal events for a fall (names start with "fall")."""
-        if limit is None:
-            return []
-        events = []
-        if limit.segment_angle_deg is not None:
-            lim = np.radians(limit.segment_angle_deg)
-
-            def angle(t, x):
-                q, _, _ = self.full_state(t, x)
-                return max(abs(q[2] + q[3]), abs(q[2] + q[3] + q[4])) - lim
-
-            events.append(Event("fall: segment angle", angle, 1))
-        if limit.hip_height is not None:
-            data = self.pm.createData()
-
-            def height(t, x):
-                q, _, _ = self.full_state(t, x)
-                pin.framesForwardKinematics(self.pm, data, q)
-                return data.oMf[self.hip_frame].translation[2] - limit.hip_height
-
-            events.append(Event("fall: hip height", height, -1))
-        return events
-
 
 def simulate_leg(model: Model, drivers: LegDrivers, t_span: tuple[float, float], x0=None, *,
                  feedback: JointFeedback | None = None, options: IntegratorOptions,
@@ -251,7 +217,7 @@ def simulate_leg(model: Model, drivers: LegDrivers, t_span: tuple[float, float],
                          f"{', '.join(free)} needs {2 * system.nf} (angles, then rates).")
     try:
         sim = simulate_partitioned(system, (t0, t1), x0, options=options,
-                                   events=[*system.fall_events(fall), *events],
+                                   events=[*(fall.events(system) if fall else ()), *events],
                                    progress=progress, t_eval=t_eval)
         error = None
     except SimulationDiverged as exc:

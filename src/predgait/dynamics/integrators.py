@@ -28,7 +28,7 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -82,6 +82,10 @@ class Direction(enum.IntEnum):
     EITHER = 0
 
 
+#: Keys of a problem file's [integrator] table.
+OPTION_KEYS = ("method", "step", "iterations", "rtol", "atol", "max_step")
+
+
 @dataclass(frozen=True)
 class IntegratorOptions:
     """Options of :func:`integrate`.
@@ -118,23 +122,33 @@ class IntegratorOptions:
             _check_number("max_step", self.max_step, 1e-9, math.inf, " s")
 
     @classmethod
-    def from_mapping(cls, table: dict, *, where: str = "integrator") -> IntegratorOptions:
-        """Options from a TOML-like table ``{"method": "modified_euler", "step": 1e-3, ...}``.
+    def from_table(cls, table, *, default: IntegratorOptions | None = None,
+                   keys: Sequence[str] = OPTION_KEYS) -> IntegratorOptions:
+        """Options from a problem file's ``[integrator]`` table: THE integrator parser.
+
+        Args:
+            table: A :class:`predgait.problemfile.Table` (e.g. ``problem.table("integrator")``).
+            default: Values of the keys the table leaves out (default: the class defaults).
+            keys: The keys this kind of problem accepts (others are refused).
 
         Raises:
-            InputError: Naming ``where.key`` for unknown keys, wrong types or bad values.
+            InputError: Naming the file, key and line: unknown key, wrong type, or a value
+                outside the bounds checked by the options themselves.
         """
-        allowed = ("method", "step", "iterations", "rtol", "atol", "max_step")
-        values = dict(table)
-        for key in values:
-            if key not in allowed:
-                raise InputError(f"{where}.{key}: unknown key; allowed: {', '.join(allowed)}.")
-        if "method" in values:
-            values["method"] = Method.parse(values["method"], field=f"{where}.method")
+        table.check_keys(tuple(keys))
+        values = {}
+        if table.has("method"):
+            values["method"] = table.choice("method", Method)
+        for key in ("step", "rtol", "atol", "max_step"):
+            if table.has(key):
+                values[key] = table.number(key)
+        if table.has("iterations"):
+            values["iterations"] = table.get("iterations", int)
         try:
-            return cls(**values)
-        except InputError as error:
-            raise InputError(f"{where}: {error}") from None
+            return replace(default or cls(), **values)
+        except InputError as exc:
+            bad = next((k for k in values if f"'{k}'" in str(exc)), next(iter(values), "method"))
+            raise table.error(bad, str(exc)) from None
 
 
 def _check_number(name, value, low, high, unit):

@@ -21,29 +21,30 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.data.trial import ForcePlate
-from predgait.dynamics.external import Load, joint_forces
+from predgait.dynamics.external import Load, assign_contacts, joint_forces
 from predgait.errors import InputError
 from predgait.models.loading3d import Model3D
 
 FEET = ("r", "l")
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
-    return list(zip(edges[::2], edges[1::2], strict=True))
+def foot_points(model: Model3D, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Lab positions of each foot's sole heel and toe per frame, side -> ((n, 3), (n, 3)) m."""
+    pm, data = model.pin_model, model.pin_model.createData()
+    ids = {s: (model.frame_id(f"heel_contact_{s}"), model.frame_id(f"toe_contact_{s}"))
+           for s in FEET}
+    out = {s: (np.empty((q.shape[0], 3)), np.empty((q.shape[0], 3))) for s in FEET}
+    for k, row in enumerate(q):
+        pin.framesForwardKinematics(pm, data, row)
+        for s, (heel, toe) in ids.items():
+            out[s][0][k] = data.oMf[heel].translation
+            out[s][1][k] = data.oMf[toe].translation
+    return out
 
 
 def sole_points(model: Model3D, q: np.ndarray) -> dict[str, np.ndarray]:
     """Lab position of each foot's sole mid-point per frame, side -> (n, 3) m."""
-    pm, data = model.pin_model, model.pin_model.createData()
-    ids = {s: (model.frame_id(f"heel_contact_{s}"), model.frame_id(f"toe_contact_{s}"))
-           for s in FEET}
-    out = {s: np.empty((q.shape[0], 3)) for s in FEET}
-    for k, row in enumerate(q):
-        pin.framesForwardKinematics(pm, data, row)
-        for s, (heel, toe) in ids.items():
-            out[s][k] = 0.5 * (data.oMf[heel].translation + data.oMf[toe].translation)
-    return out
+    return {s: 0.5 * (heel + toe) for s, (heel, toe) in foot_points(model, q).items()}
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ class Stance:
         plate: plate name.
         side: ``r`` or ``l``.
         start, stop: s (first and last loaded sample).
-        distance: m, mean horizontal COP-to-sole distance of the chosen foot.
+        distance: m, median horizontal COP distance to the chosen foot's heel-toe segment.
     """
 
     plate: str
@@ -67,7 +68,7 @@ class Stance:
 def assign_plates(model: Model3D, q: np.ndarray, plates: Sequence[ForcePlate], *,
                   threshold: float = 20.0, max_distance: float = 0.25
                   ) -> tuple[np.ndarray, list[Stance]]:
-    """Assign each plate's stances to a foot by COP proximity.
+    """Assign each plate's stances to a foot by COP proximity (:func:`assign_contacts`).
 
     Args:
         model: whole-body model.
@@ -82,27 +83,26 @@ def assign_plates(model: Model3D, q: np.ndarray, plates: Sequence[ForcePlate], *
     Raises:
         InputError: a plate is loaded while no foot is near its COP.
     """
-    soles = sole_points(model, q)
+    feet = foot_points(model, q)
     sides = np.full((len(plates), q.shape[0]), "", dtype="<U1")
     stances = []
     for p, plate in enumerate(plates):
         if plate.time.shape[0] != q.shape[0]:
             raise InputError(f"plate {plate.name!r} has {plate.time.shape[0]} samples but "
                              f"there are {q.shape[0]} poses; resample it to the marker times.")
-        for start, stop in _runs(plate.force[:, 2] > threshold):
-            cop = plate.cop[start:stop, :2]
-            dist = {s: float(np.mean(np.linalg.norm(soles[s][start:stop, :2] - cop, axis=1)))
-                    for s in FEET}
-            side = min(dist, key=dist.get)
-            t0, t1 = plate.time[start], plate.time[stop - 1]
-            if dist[side] > max_distance:
+        for contact in assign_contacts(plate.cop, plate.force[:, 2] > threshold, feet,
+                                       reach=max_distance):
+            run = contact.samples
+            t0, t1 = plate.time[run.start], plate.time[run.stop - 1]
+            if contact.foot is None:
                 raise InputError(
                     f"plate {plate.name!r} is loaded from t = {t0:.3f} to {t1:.3f} s but no "
-                    f"foot is near its COP (nearest: {side} foot, {dist[side]:.2f} m > "
+                    f"foot is near its COP (nearest: {contact.distance:.2f} m > "
                     f"{max_distance} m). Check the marker map, the plate corners or the lab "
                     "frame.")
-            sides[p, start:stop] = side
-            stances.append(Stance(plate.name, side, float(t0), float(t1), dist[side]))
+            sides[p, run] = contact.foot
+            stances.append(Stance(plate.name, contact.foot, float(t0), float(t1),
+                                  contact.distance))
     return sides, stances
 
 

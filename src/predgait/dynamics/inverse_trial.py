@@ -40,6 +40,7 @@ from predgait.data.events import Events
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers, rotate_trial
 from predgait.data.resample import RELEASE_FRACTION, hold_nearest
 from predgait.data.trial import ForcePlate, Markers, Trial
+from predgait.dynamics.external import assign_contacts
 from predgait.dynamics.inverse import LegInverse, LoadHistory, leg_inverse_dynamics
 from predgait.errors import InputError
 from predgait.kinematics import clinical
@@ -53,6 +54,8 @@ from predgait.textfile import source_name
 
 log = logging.getLogger(__name__)
 POINT_NAMES = ("hip", "knee", "ankle", "heel", "toe")
+#: The bundled trial's name in problem files (``[trial] source``).
+BUNDLED = "bundled:subject01"
 #: Largest median horizontal distance (m) of a contact's COP from the foot's heel-toe
 #: segment for the contact to load that foot.
 NEAR_FOOT = 0.1
@@ -350,19 +353,6 @@ def _build_model(options: InverseOptions, calibration: dict[str, np.ndarray]
     return model, params
 
 
-def _distance_to_foot(point: np.ndarray, heel: np.ndarray, toe: np.ndarray) -> np.ndarray:
-    """Horizontal distance (n,) from points to the heel-toe segment of the foot, m."""
-    p, a, b = point[:, :2], heel[:, :2], toe[:, :2]
-    ab = b - a
-    u = np.clip(np.sum((p - a) * ab, axis=1) / np.sum(ab * ab, axis=1), 0.0, 1.0)
-    return np.linalg.norm(p - (a + u[:, None] * ab), axis=1)
-
-
-def _contacts(loaded: np.ndarray) -> list[slice]:
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], loaded.astype(int), [0]])))
-    return [slice(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
 def _foot_grf(plates: tuple[ForcePlate, ...], time: np.ndarray, heel: np.ndarray,
               toe: np.ndarray, options: InverseOptions, grf_cutoff: float | None
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -389,10 +379,10 @@ def _foot_grf(plates: tuple[ForcePlate, ...], time: np.ndarray, heel: np.ndarray
         plate = resample_plate(plate, time, threshold=options.threshold,
                                release=options.release)
         use = np.zeros(len(time), dtype=bool)
-        distance = _distance_to_foot(plate.cop, heel, toe)
-        for contact in _contacts(plate.force[:, 2] != 0.0):
-            if named or np.median(distance[contact]) < NEAR_FOOT:
-                use[contact] = True
+        for contact in assign_contacts(plate.cop, plate.force[:, 2] != 0.0,
+                                       {"foot": (heel, toe)}, reach=NEAR_FOOT):
+            if named or contact.foot is not None:
+                use[contact.samples] = True
         force[use] += plate.force[use]
         free[use] += plate.free_moment[use]
         moment_o[use] += np.cross(plate.cop[use], plate.force[use])
@@ -554,6 +544,21 @@ def subject01_points(side: Side | str = Side.RIGHT) -> dict[str, PointSource]:
         "heel": f"{s}.Heel",
         "toe": f"{s}.Toe.Tip",
     }
+
+
+def bundled_source(table, key: str = "source") -> str:
+    """The trial source a problem table names at ``key``: the bundled trial (the default).
+
+    The one check of a problem file's trial source (leg, gait7, scenarios).
+
+    Raises:
+        InputError: Naming the file, key and line, and what to write instead.
+    """
+    source = table.get(key, str, BUNDLED)
+    if source != BUNDLED:
+        raise table.error(key, f"{source!r} is not a known trial: use \"{BUNDLED}\" (leg "
+                               "problems also take inverse_problem = FILE.toml).")
+    return source
 
 
 def bundled_options(side: Side | str = Side.RIGHT) -> InverseOptions:

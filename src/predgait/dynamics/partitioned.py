@@ -39,7 +39,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.forces import Force, Kinematics, as_force
 from predgait.dynamics.integrators import (
     Event,
@@ -50,54 +49,8 @@ from predgait.dynamics.integrators import (
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.loading import RigidBodyModel
 
-__all__ = ["MotionHistory", "PartitionedSystem", "SimulationResult", "Status",
+__all__ = ["PartitionedSystem", "SimulationResult", "Status",
            "simulate_partitioned"]
-
-
-# ---------------------------------------------------------------- prescribed motion
-class MotionHistory:
-    """Sampled motion of every coordinate as splines: t -> (q (nq,), v (nv,), a (nv,)).
-
-    Joint angles and the root position are cubic splines of the samples; a free-flyer
-    orientation is splined as the rotation vector log3(R_0^T R) relative to the first
-    sample and mapped back with exp3 (fine for the small pelvis rotations of walking).
-    v and a are splines of the given velocity and acceleration samples (e.g. those
-    :func:`predgait.dynamics.inverse3d.velocities` fed to inverse dynamics), so a
-    prescribed coordinate moves exactly as inverse dynamics assumed at the samples.
-
-    Args:
-        model: The model (decides whether rows 3:7 are a quaternion).
-        time: (n,) s. q: (n, nq). v, a: (n, nv).
-    """
-
-    def __init__(self, model: RigidBodyModel, time, q, v, a):
-        pm = model.pin_model
-        q, v, a = (np.asarray(x, dtype=float) for x in (q, v, a))
-        if q.shape[1:] != (pm.nq,) or v.shape[1:] != (pm.nv,) or a.shape[1:] != (pm.nv,):
-            raise InputError(f"motion history: expected q (n, {pm.nq}), v and a (n, {pm.nv}); "
-                             f"got {q.shape}, {v.shape}, {a.shape}.")
-        self.free_flyer = pm.nq != pm.nv
-        self.time_range = (float(time[0]), float(time[-1]))
-        if self.free_flyer:
-            self._r0 = pin.Quaternion(q[0, 6], *q[0, 3:6]).normalized().toRotationMatrix()
-            logs = np.array([pin.log3(self._r0.T @ pin.Quaternion(r[6], *r[3:6])
-                                      .normalized().toRotationMatrix()) for r in q])
-            samples = np.hstack([q[:, :3], logs, q[:, 7:]])
-        else:
-            samples = q
-        self._q = SampledHistory(time, samples, name="prescribed coordinates")
-        self._v = SampledHistory(time, v, name="prescribed velocities")
-        self._a = SampledHistory(time, a, name="prescribed accelerations")
-
-    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(q, v, a) at t (s), new arrays."""
-        row = self._q(t)
-        if self.free_flyer:
-            quat = pin.Quaternion(self._r0 @ pin.exp3(row[3:6])).coeffs()
-            q = np.concatenate([row[:3], quat, row[6:]])
-        else:
-            q = row.copy()
-        return q, self._v(t).copy(), self._a(t).copy()
 
 
 # ------------------------------------------------------------------------ system
@@ -151,7 +104,7 @@ class PartitionedSystem:
         free: Velocity indices integrated (for a free-flyer root: all of 0..5, only the
             translation 0..2, or none).
         motion: t -> (q, v, a) full vectors; the prescribed entries are used (e.g.
-            :class:`MotionHistory`). The free entries are ignored.
+            :class:`~predgait.dynamics.motion.MotionHistory`). The free entries are ignored.
         forces: Applied forces (:mod:`predgait.dynamics.forces`; a plain function
             ``(t, q, v, data) -> (nv,)`` is accepted too).
     """
@@ -213,7 +166,9 @@ class PartitionedSystem:
                 return None
         chain = pin.buildReducedModel(pm, [1], pin.neutral(pm))
         children = [pm.joints[j].idx_v - 3 for j in range(2, pm.njoints) if pm.parents[j] == 1]
-        if children == list(range(children[0], children[-1] + 1)):
+        if len(children) == 1:  # the leg: one scalar index is cheapest
+            children = children[0]
+        elif children == list(range(children[0], children[-1] + 1)):
             children = slice(children[0], children[-1] + 1)
         gravity = np.array(pm.gravity.linear)
         return chain, chain.createData(), children, gravity, gravity.copy()
@@ -308,13 +263,15 @@ class PartitionedSystem:
             return pin.aba(pm, data, q, v, tau).copy()
         if self._pivot is not None:
             chain, chain_data, children, gravity, shifted = self._pivot
-            shifted[0], shifted[2] = gravity[0] - a[0], gravity[2] - a[1]
-            chain.gravity.linear = shifted
+            ax, az, pitch, rate, alpha = a[0], a[1], q[2], v[2], a[2]
+            if shifted[0] != gravity[0] - ax or shifted[2] != gravity[2] - az:
+                shifted[0], shifted[2] = gravity[0] - ax, gravity[2] - az
+                chain.gravity.linear = shifted
             q_chain, v_chain = q[3:].copy(), v[3:].copy()
-            q_chain[children] += q[2]
-            v_chain[children] += v[2]
+            q_chain[children] += pitch
+            v_chain[children] += rate
             a_free = pin.aba(chain, chain_data, q_chain, v_chain, tau[3:]).copy()
-            a_free[children] -= a[2]
+            a_free[children] -= alpha
             return a_free
         b = pin.rnea(pm, data, q, v, a)
         m = pin.crba(pm, data, q)

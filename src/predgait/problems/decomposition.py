@@ -281,7 +281,8 @@ class Bootstrap:
     Attributes:
         values: (B, f) fitted parameter values (SI), one row per replicate.
         unit: ``gait cycle`` or ``block of S s``: what was resampled.
-        n_units: Number of resampling units.
+        n_units: Number of resampling units that hold quiet samples (the ones that carry
+            information on the parameters; it sets the small-sample correction).
         failed: Replicates where Ipopt failed (left out).
     """
 
@@ -331,4 +332,6 @@ def bootstrap(samples: GaitSamples, model: PassiveModel, fit: Decomposition,
             failed += 1
             continue
         rows.append(lower + span * z)
-    return Bootstrap(np.array(rows).reshape(-1, len(fitted)), kind, int(labels.size), failed)
+    informative = np.unique(units[(units >= 0) & fit.quiet])
+    return Bootstrap(np.array(rows).reshape(-1, len(fitted)), kind, int(informative.size),
+                     failed)

@@ -26,7 +26,7 @@ from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, SimulationResult, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
-from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
+from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse, bundled_source
 from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError, SimulationDiverged
 from predgait.kinematics.clinical import JOINT_SIGN
@@ -98,9 +98,7 @@ class ScenarioResult:
 def parse_scenario(table: Table) -> ScenarioSpec:
     """ScenarioSpec from a TOML table (errors name file, key and line)."""
     table.check_keys(("name", "trial", "side", "window", "control", "integrator", "edit"))
-    trial = table.get("trial", str, "bundled:subject01")
-    if trial != "bundled:subject01":
-        raise table.error("trial", "only 'bundled:subject01' is supported in scenarios so far.")
+    bundled_source(table, "trial")
     side = table.get("side", str, "right")
     if side not in ("right", "left"):
         raise table.error("side", f"'{side}' is not one of: right, left.")
@@ -109,10 +107,9 @@ def parse_scenario(table: Table) -> ScenarioSpec:
         raise table.error("window", "give [start, end] in s from heel strike, start < end.")
     control = table.table("control")
     control.check_keys(("kp", "kd", "torques", "gains", "reoptimize"))
-    integrator = table.table("integrator")
-    integrator.check_keys(("method", "step"))
-    options = IntegratorOptions(method=integrator.choice("method", Method, "rk4"),
-                                step=integrator.number("step", 2e-3, low=1e-5, high=0.02))
+    options = IntegratorOptions.from_table(
+        table.table("integrator"), keys=("method", "step"),
+        default=IntegratorOptions(method=Method.RK4, step=2e-3))
     edits = []
     for edit in table.tables("edit"):
         edits.append(parse_edit(edit))

@@ -122,11 +122,12 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
     if workers < 1:
         raise InputError(f"--workers = {workers}: give at least 1.")
     outcomes: dict[int, SweepOutcome] = {}
+    if scheduler is not None:  # connect first: a bad address is one error line, no bar
+        client = (_dask_client(scheduler, connect_timeout) if isinstance(scheduler, str)
+                  else scheduler)
     bar = tqdm(total=len(points), desc="sweep", unit="run", disable=not progress)
     try:
         if scheduler is not None:
-            client = (_dask_client(scheduler, connect_timeout) if isinstance(scheduler, str)
-                      else scheduler)
             futures = client.map(run_point, [task] * len(points), points, pure=False)
             from dask.distributed import as_completed as dask_completed
 
@@ -145,6 +146,14 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
     return [outcomes[point.index] for point in points]
 
 
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel the points not started and end the worker processes running the others."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # no public API
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.kill()
+
+
 def _run_local(task, points, workers: int, outcomes: dict, bar, *, retries: int = 2) -> None:
     """Run the points in local processes, surviving a worker process that dies.
 
@@ -157,14 +166,18 @@ def _run_local(task, points, workers: int, outcomes: dict, bar, *, retries: int 
         broken = []
         with ProcessPoolExecutor(max_workers=workers) as pool:
             futures = {pool.submit(run_point, task, point): point for point in pending}
-            for future in as_completed(futures):
-                try:
-                    outcome = future.result()
-                except BrokenProcessPool:
-                    broken.append(futures[future])
-                    continue
-                outcomes[outcome.point.index] = outcome
-                bar.update()
+            try:
+                for future in as_completed(futures):
+                    try:
+                        outcome = future.result()
+                    except BrokenProcessPool:
+                        broken.append(futures[future])
+                        continue
+                    outcomes[outcome.point.index] = outcome
+                    bar.update()
+            except BaseException:  # Ctrl-C / SIGTERM: stop now, not after every point
+                _stop(pool)
+                raise
         pending = sorted(broken, key=lambda p: p.index)
         if not pending:
             return

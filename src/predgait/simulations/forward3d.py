@@ -29,14 +29,16 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from predgait.analysis.deviation3d import deviations3d, pelvis_angle_error
+from predgait.analysis.deviation3d import deviations3d
 from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.external import Load
+from predgait.dynamics.falls import FallLimit
 from predgait.dynamics.forces import GroundContact, JointFeedback, JointTorques, MeasuredLoads
-from predgait.dynamics.integrators import Direction, Event, IntegratorOptions, Status
+from predgait.dynamics.integrators import IntegratorOptions, Status
 from predgait.dynamics.inverse3d import FEET, sole_points
-from predgait.dynamics.partitioned import MotionHistory, PartitionedSystem, simulate_partitioned
+from predgait.dynamics.motion import MotionHistory
+from predgait.dynamics.partitioned import PartitionedSystem, simulate_partitioned
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.fullbody import CONTACTS
 from predgait.models.loading3d import Model3D
@@ -91,19 +93,12 @@ class Mode:
     feedback_damping_ratio: float = 1.0
 
 
-@dataclass(frozen=True)
-class FallLimits:
-    """Terminal events, all relative to the measured motion at the same time.
-
-    Attributes:
-        pelvis_drop: m, pelvis origin this far below its measured height = fall.
-        pelvis_angle_deg: deg, a pelvis Cardan angle this far from the measured one.
-        joint_deg: deg, a joint angle this far from the measured one (None: no limit).
-    """
-
-    pelvis_drop: float = 0.1
-    pelvis_angle_deg: float = 30.0
-    joint_deg: float | None = 45.0
+#: Default fall criteria: the pelvis 0.1 m below or a pelvis Cardan angle 30 deg from the
+#: measured motion, or a joint 45 deg from it (problem keys pelvis_drop, pelvis_angle_deg,
+#: joint_deg).
+FULLBODY_FALL = FallLimit(base_drop=0.1, base_angle_deg=30.0, joint_deviation_deg=45.0)
+#: Names of the fall events in the whole body's results.
+_CRITERIA = {"base height": "pelvis height", "joint deviation": "joint angle"}
 
 
 @dataclass(frozen=True)
@@ -277,34 +272,6 @@ def fastest_growth(system: PartitionedSystem, t: float, x: np.ndarray, *,
     return float(values[k].real), system.state_names()[lead]
 
 
-def fall_events(system: PartitionedSystem, history: MotionHistory,
-                limits: FallLimits) -> list[Event]:
-    """Terminal fall events for the free coordinates of ``system`` (g < 0 = fallen)."""
-    events = []
-    root = system.root_q  # free pelvis entries at the start of x: 0, 3 or 7
-    if root:
-        def height(t, x):
-            return x[2] - history(t)[0][2] + limits.pelvis_drop
-
-        events.append(Event("fall: pelvis height", height, Direction.FALLING))
-    if system.root_free:
-        tilt = np.radians(limits.pelvis_angle_deg)
-        for axis, name in enumerate(PELVIS_ANGLES):
-            def angle(t, x, axis=axis):
-                return tilt - abs(pelvis_angle_error(x[:7], history(t)[0])[axis])
-
-            events.append(Event(f"fall: {name}", angle, Direction.FALLING))
-    joints = system.q_free[root:]
-    if limits.joint_deg is not None and joints.size:
-        bend = np.radians(limits.joint_deg)
-
-        def joint(t, x):
-            return bend - np.max(np.abs(x[root:system.nqf] - history(t)[0][joints]))
-
-        events.append(Event("fall: joint angle", joint, Direction.FALLING))
-    return events
-
-
 @dataclass(frozen=True, eq=False)
 class Forward3DRun:
     """One simulated mode.
@@ -337,7 +304,7 @@ class Forward3DRun:
 
 def simulate_fullbody(drive: FullbodyDrive, mode: Mode, t_span: tuple[float, float], *,
                       options: IntegratorOptions | None = None,
-                      fall: FallLimits = FallLimits(), contact: ContactSettings | None = None,
+                      fall: FallLimit = FULLBODY_FALL, contact: ContactSettings | None = None,
                       band_deg: float = 5.0, band_m: float = 0.05,
                       progress: bool = False) -> Forward3DRun:
     """Simulate ``mode`` over ``t_span`` (s, trial time) from the measured state.
@@ -356,14 +323,15 @@ def simulate_fullbody(drive: FullbodyDrive, mode: Mode, t_span: tuple[float, flo
     growth = fastest_growth(system, t0, x0)
     try:
         run = simulate_partitioned(system, (t0, t1), x0, options=options,
-                                   events=fall_events(system, history, fall),
+                                   events=fall.events(system, lambda t: history(t)[0]),
                                    progress=progress)
     except SimulationDiverged as exc:
         run = exc.partial
     measured = np.array([history(t)[0] for t in run.t])
     criterion, fall_time = None, run.time_to_fall
     if run.status is Status.EVENT:
-        criterion = run.event.removeprefix("fall: ")
+        criterion = _CRITERIA.get(run.event.removeprefix("fall: "),
+                                  run.event.removeprefix("fall: "))
         if criterion == "joint angle":
             worst = np.argmax(np.abs(run.q[-1, 7:] - measured[-1, 7:]))
             criterion = f"joint angle {drive.model.joint_names[worst]}"

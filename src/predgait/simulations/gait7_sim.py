@@ -30,16 +30,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+from predgait.data.events import runs_of
 from predgait.dynamics.drivers import SampledHistory
+from predgait.dynamics.falls import FallLimit, worst_joint
 from predgait.dynamics.forces import (
     GroundContact,
     JointTorques,
     PassiveTorques,
     passive_generalized,
 )
-from predgait.dynamics.integrators import Direction, Event, IntegratorOptions
+from predgait.dynamics.integrators import IntegratorOptions
+from predgait.dynamics.motion import MotionHistory
 from predgait.dynamics.partitioned import (
-    MotionHistory,
     PartitionedSystem,
     SimulationResult,
     Status,
@@ -61,12 +63,11 @@ class KneeMoment(enum.Enum):
     MEASURED = "measured"
 
 
-@dataclass(frozen=True)
-class FallLimits:
-    """Fall criteria: knee deviation (deg) from, and HAT drop (m) below, the kinematic run."""
-
-    knee_deviation_deg: float = 30.0
-    hat_drop: float = 0.1
+#: Default fall criteria of the knee-driven runs: a driven knee 30 deg from, or the HAT
+#: 0.1 m below, the kinematic run (problem keys knee_deviation_deg, hat_drop).
+GAIT7_FALL = FallLimit(joint_deviation_deg=30.0, base_drop=0.1)
+#: Names of the fall events in gait7's results.
+_CAUSES = {"base height": "HAT drop"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,12 +105,17 @@ def _contact_forces(system: PartitionedSystem, contact: GroundContact,
 
 
 def _simulate(system, contact, t_span, x0, *, options, events=(), t_eval=None,
-              progress=False) -> Gait7Result:
+              progress=False, reference=None) -> Gait7Result:
     try:
         run = simulate_partitioned(system, t_span, x0, options=options, events=events,
                                    t_eval=t_eval, progress=progress)
         status, fall = run.status, run.time_to_fall
         cause = None if run.event is None else run.event.removeprefix("fall: ")
+        if cause == "joint deviation" and reference is not None:  # name the knee
+            knee = worst_joint(system, run.q[-1], reference(float(run.t[-1])))
+            side = {"r": "right", "l": "left"}[knee[-1]]
+            cause = f"{side} knee deviation"
+        cause = _CAUSES.get(cause, cause)
     except SimulationDiverged as exc:
         run, status, cause = exc.partial, Status.DIVERGED, str(exc)
         fall = float(run.t[-1] - t_span[0])
@@ -182,7 +188,7 @@ def knee_moment_history(model: Model, motion: Gait7Motion, kinematic: Gait7Resul
 
 def knee_run(model: Model, motion: Gait7Motion, kinematic: Gait7Result, contact, *,
              ground_z: float, sides, source: KneeMoment, passive: PassiveJoint,
-             fall: FallLimits, options: IntegratorOptions, t_eval=None,
+             fall: FallLimit, options: IntegratorOptions, t_eval=None,
              progress: bool = False) -> Gait7Result:
     """As :func:`kinematic_run` with the knees of ``sides`` driven by a moment + passive."""
     sides = tuple(sides)
@@ -197,28 +203,12 @@ def knee_run(model: Model, motion: Gait7Motion, kinematic: Gait7Result, contact,
     spring = PassiveTorques.on(model, {f"knee_{s[0]}": passive for s in sides})
     system = PartitionedSystem(model, [z, *rows], history, [ground, drive, spring])
     ref = kinematic.run
-    z_ref = SampledHistory(ref.t, ref.q[:, z], name="kinematic HAT height")
-    knee_ref = SampledHistory(ref.t, ref.q[:, rows], name="kinematic knee angles")
-    limit = np.radians(fall.knee_deviation_deg)
-    iz = list(system.q_free).index(z)
-    ik = [list(system.q_free).index(r) for r in rows]
-    events = [Event("fall: HAT drop", lambda t, x: z_ref(t)[0] - x[iz] - fall.hat_drop,
-                    Direction.RISING)]
-    for side, i, j in zip(sides, ik, range(len(rows)), strict=True):
-        events.append(Event(f"fall: {side} knee deviation",
-                            lambda t, x, i=i, j=j: abs(x[i] - knee_ref(t)[j]) - limit,
-                            Direction.RISING))
+    reference = SampledHistory(ref.t, ref.q, name="kinematic run")
+    events = fall.events(system, reference)
     t0 = float(ref.t[0])
     x0 = system.state(ref.q[0], ref.v[0])
     return _simulate(system, ground, (t0, float(ref.t[-1])), x0, options=options,
-                     events=events, t_eval=t_eval, progress=progress)
-
-
-def stances(fz: np.ndarray, threshold: float = 20.0) -> list[slice]:
-    """Runs of samples with fz > threshold (N)."""
-    on = np.concatenate([[0], (fz > threshold).astype(int), [0]])
-    edges = np.flatnonzero(np.diff(on))
-    return [slice(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+                     events=events, t_eval=t_eval, progress=progress, reference=reference)
 
 
 def grf_comparison(t: np.ndarray, simulated: np.ndarray, measured: np.ndarray) -> dict:
@@ -228,7 +218,7 @@ def grf_comparison(t: np.ndarray, simulated: np.ndarray, measured: np.ndarray) -
     window (force above 40 N at its first or last sample) has ``complete = False``.
     """
     rows = []
-    for s in stances(measured):
+    for s in runs_of(measured > 20.0):
         edges = max(measured[s.start], measured[s.stop - 1])
         rows.append({"start_s": float(t[s.start]), "end_s": float(t[s.stop - 1]),
                      "complete": bool(edges < 40.0),

@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from predgait.data import write_storage
-from predgait.dynamics.inverse_trial import InverseOptions, bundled_options, run_inverse
+from predgait.dynamics.inverse_trial import InverseOptions, run_inverse
 from predgait.errors import InputError, SolveFailed
-from predgait.problemfile import Table, load_problem
+from predgait.problemfile import Table
 from predgait.problems.decomposition import (
     Settings,
     bootstrap,
@@ -31,8 +31,8 @@ from predgait.problems.identifiability import Status, assess
 from predgait.problems.passive_model import JOINTS, PassiveModel, build_model
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
-from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
+from predgait.workflows.trials import LegTrial, leg_trial
 
 METHOD = ("decomposition of the inverse-dynamics moment, tau_ID = tau_active + "
           "tau_passive(theta, theta'; p), with tau_active ~ 0 in the quiet phases (no "
@@ -81,16 +81,7 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
         checked.append((float(phase[0]), float(phase[1])))
     if not checked:
         raise table.error("quiet_phases", "give at least one [start, end] phase.")
-    trial = table.table("trial")
-    trial.check_keys(("source", "side", "inverse_problem"))
-    source = trial.get("source", str, "bundled:subject01")
-    if source != "bundled:subject01":
-        raise trial.error("source", "use 'bundled:subject01' or set inverse_problem.")
-    side = trial.get("side", str, "right")
-    if side not in ("right", "left"):
-        raise trial.error("side", f"'{side}' is not one of: right, left.")
-    inverse_problem = trial.path_value("inverse_problem") if trial.has("inverse_problem") \
-        else None
+    trial = leg_trial(table.table("trial"))
     filt = table.table("filter")
     filt.check_keys(("marker_cutoff", "sensitivity_hz"))
     cutoff = filt.get("marker_cutoff", (str, float), "residual")
@@ -107,7 +98,7 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
                         smoothness_weight=table.number("smoothness_weight", 0.01, low=0.0),
                         max_iter=int(solver.number("max_iter", 200, low=1, high=10000)))
     return DecompositionSpec(
-        source=table.path, inverse_problem=inverse_problem, side=side,
+        source=table.path, inverse_problem=trial.inverse_problem, side=trial.side,
         model=_passive_model(table.table("passive"), joints), settings=settings,
         cutoff=None if isinstance(cutoff, str) else cutoff,
         sensitivity_hz=filt.numbers("sensitivity_hz", [4.0, 6.0, 8.0, 12.0, 20.0], low=0.5,
@@ -146,9 +137,7 @@ def _passive_model(passive: Table, joints) -> PassiveModel:
 
 
 def _options(spec: DecompositionSpec) -> InverseOptions:
-    if spec.inverse_problem is not None:
-        return options_from_problem(load_problem(spec.inverse_problem))
-    return bundled_options(spec.side)
+    return LegTrial(spec.side, spec.inverse_problem).options()
 
 
 def residual_cutoff(options: InverseOptions) -> float:

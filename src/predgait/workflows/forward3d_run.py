@@ -18,12 +18,12 @@ import numpy as np
 
 from predgait import __version__
 from predgait.data import read_trc, write_storage
-from predgait.data.bundled import bundled_path, subject_info
 from predgait.errors import InputError
 from predgait.kinematics.ik3d import pelvis_cardan
 from predgait.report.tidy import write_summary
 from predgait.simulations.forward3d import Forward3DRun, FullbodyDrive, simulate_fullbody
 from predgait.workflows.forward3d_spec import FullbodySpec, TrialSpec
+from predgait.workflows.trials import bundled_fullbody_files
 
 
 def inverse_for(trial: TrialSpec):
@@ -31,11 +31,8 @@ def inverse_for(trial: TrialSpec):
     from predgait.workflows.inverse3d import inverse_fullbody, read_marker_map, read_trial
 
     if trial.files is None:
-        folder = bundled_path("subject01_walk1")
-        info = subject_info("subject01_walk1")
-        files = (folder / "subject01_walk1.trc", folder / "subject01_walk1_grf.mot")
-        static = trial.static or folder / "subject01_static.trc"
-        mass, height = trial.mass or info["mass"], trial.height or info["height"]
+        files, static, mass, height = bundled_fullbody_files(trial.static)
+        mass, height = trial.mass or mass, trial.height or height
     else:
         files, static, mass, height = trial.files, trial.static, trial.mass, trial.height
     markers, plates = read_trial(files)

@@ -15,20 +15,20 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from predgait.dynamics.contact import ImpactContact
+from predgait.dynamics.falls import FallLimit
 from predgait.dynamics.integrators import IntegratorOptions
+from predgait.dynamics.inverse_trial import BUNDLED
 from predgait.models.fullbody import CONTACTS
 from predgait.problemfile import Table
 from predgait.simulations.forward3d import (
     DEFAULT_CONTACT,
+    FULLBODY_FALL,
     ContactSettings,
-    FallLimits,
     GroundMode,
     JointMode,
     Mode,
     PelvisMode,
 )
-
-BUNDLED = "bundled:subject01"
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,7 @@ class FullbodySpec:
     duration: float = 1.0
     band_deg: float = 5.0
     band_m: float = 0.05
-    fall: FallLimits = FallLimits()
+    fall: FallLimit = FULLBODY_FALL
     contact: ContactSettings = ContactSettings()
     source: str = ""
 
@@ -161,9 +161,10 @@ def parse_fullbody(table: Table, integrator: IntegratorOptions, source: str) -> 
         duration=sim.number("duration", 1.0, low=0.001, high=30, unit="s"),
         band_deg=sim.number("band_deg", 5.0, low=0.01, high=90, unit="deg"),
         band_m=sim.number("band_m", 0.05, low=1e-4, high=2, unit="m"),
-        fall=FallLimits(
-            pelvis_drop=fall.number("pelvis_drop", 0.1, low=1e-3, high=2, unit="m"),
-            pelvis_angle_deg=fall.number("pelvis_angle_deg", 30.0, low=0.1, high=180,
-                                         unit="deg"),
-            joint_deg=fall.number("joint_deg", 45.0, low=0.1, high=360, unit="deg")),
+        fall=FallLimit(
+            base_drop=fall.number("pelvis_drop", 0.1, low=1e-3, high=2, unit="m"),
+            base_angle_deg=fall.number("pelvis_angle_deg", 30.0, low=0.1, high=180,
+                                       unit="deg"),
+            joint_deviation_deg=fall.number("joint_deg", 45.0, low=0.1, high=360,
+                                            unit="deg")),
         contact=_contact(table), source=source)

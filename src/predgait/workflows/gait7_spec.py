@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 
 from predgait.dynamics.contact import ImpactContact, MeglanContact
 from predgait.dynamics.contact_fit import ImpactFit, fit_impact_to_meglan
+from predgait.dynamics.falls import FallLimit
 from predgait.dynamics.integrators import IntegratorOptions
+from predgait.dynamics.inverse_trial import BUNDLED, bundled_source
 from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.problemfile import Table
 from predgait.simulations.gait7_motion import SIDES
-from predgait.simulations.gait7_sim import FallLimits, KneeMoment
-
-TRIALS = ("bundled:subject01",)
+from predgait.simulations.gait7_sim import GAIT7_FALL, KneeMoment
 
 
 class ContactKind(enum.Enum):
@@ -76,7 +76,7 @@ class Gait7Spec:
 
     integrator: IntegratorOptions
     contact: ContactSpec
-    trial: str = "bundled:subject01"
+    trial: str = BUNDLED
     start: float = 0.62
     duration: float = 1.23
     mass: float = 72.6
@@ -84,7 +84,7 @@ class Gait7Spec:
     ground_z: float = -0.0075
     knee: KneeSpec = KneeSpec()
     passive: PassiveJoint = field(default_factory=PassiveJoint)
-    fall: FallLimits = FallLimits()
+    fall: FallLimit = GAIT7_FALL
     variants: tuple[Gait7Variant, ...] = ()
     stick_interval: float = 0.1
     source: str = ""
@@ -154,10 +154,7 @@ def parse_gait7(table: Table, integrator: IntegratorOptions, source: str) -> Gai
                       "fall", "output", "variants"))
     trial = table.table("trial")
     trial.check_keys(("source", "start", "duration"))
-    name = trial.get("source", str, TRIALS[0])
-    if name not in TRIALS:
-        raise trial.error("source", f"{name!r}: only {', '.join(TRIALS)} is mapped onto "
-                                    "gait7 so far.")
+    name = bundled_source(trial)
     model = table.table("model")
     model.check_keys(("mass", "height", "ground_z"))
     fall = table.table("fall")
@@ -172,10 +169,10 @@ def parse_gait7(table: Table, integrator: IntegratorOptions, source: str) -> Gai
         height=model.number("height", 1.8034, low=0.3, high=3.0, unit="m"),
         ground_z=model.number("ground_z", -0.0075, low=-1.0, high=1.0, unit="m"),
         knee=parse_knee(table.table("knee")), passive=_passive_knee(table),
-        fall=FallLimits(
-            knee_deviation_deg=fall.number("knee_deviation_deg", 30.0, low=0.1, high=180.0,
+        fall=FallLimit(
+            joint_deviation_deg=fall.number("knee_deviation_deg", 30.0, low=0.1, high=180.0,
                                            unit="deg"),
-            hat_drop=fall.number("hat_drop", 0.1, low=1e-3, high=2.0, unit="m")),
+            base_drop=fall.number("hat_drop", 0.1, low=1e-3, high=2.0, unit="m")),
         variants=_variants(table),
         stick_interval=out.number("stick_interval", 0.1, low=0.001, high=1.0, unit="s"),
         source=source)

@@ -9,6 +9,7 @@ import numpy as np
 from predgait import __version__
 from predgait.data import Side, write_csv, write_storage
 from predgait.data.bundled import bundled_path
+from predgait.data.events import runs_of
 from predgait.dynamics.inverse_trial import (
     POINT_NAMES,
     RELEASE_FRACTION,
@@ -166,9 +167,7 @@ def _finite(reduce, values: np.ndarray) -> float | None:
 
 def _runs(time: np.ndarray, flags: np.ndarray) -> list[list[float]]:
     """[start, end] times (s) of each run of flagged frames."""
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], flags.astype(int), [0]])))
-    return [[float(time[a]), float(time[b - 1])] for a, b in zip(edges[::2], edges[1::2],
-                                                                   strict=True)]
+    return [[float(time[run.start]), float(time[run.stop - 1])] for run in runs_of(flags)]
 
 
 def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool = False,

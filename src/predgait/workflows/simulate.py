@@ -21,15 +21,14 @@ Strings become enums here; unknown keys are refused with their line.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from predgait.dynamics.forward import FallLimit, ForceFrame
-from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.forward import LEG_FALL, FallLimit, ForceFrame
+from predgait.dynamics.integrators import IntegratorOptions
 from predgait.dynamics.passive import PassiveJoint, parse_passive
-from predgait.errors import InputError
 from predgait.problemfile import Table, load_problem
+from predgait.workflows.trials import leg_trial
 
 KINDS = ("rod", "collapse", "resynthesis", "gait7", "fullbody")
 
@@ -66,7 +65,7 @@ class CollapseSpec:
     foot_deg: float = 0.0
     shank_deg: float = 5.0
     thigh_deg: float = -5.0
-    fall: FallLimit = FallLimit()
+    fall: FallLimit = LEG_FALL
     passive: dict[str, PassiveJoint] = field(default_factory=dict)
     compare: tuple[Variant, ...] = ()
     stick_interval: float = 0.05
@@ -78,13 +77,12 @@ class ResynthesisSpec:
     """Re-synthesis of a measured trial (bundled subject01 or an inverse problem file)."""
 
     integrator: IntegratorOptions
-    trial: str = "bundled:subject01"
     side: str = "right"
     inverse_problem: Path | None = None
     start: float = 0.0
     duration: float | None = None
     threshold_deg: float = 5.0
-    fall: FallLimit = FallLimit()
+    fall: FallLimit = LEG_FALL
     passive: dict[str, PassiveJoint] = field(default_factory=dict)
     variants: tuple[Variant, ...] = ()
     stability_times: tuple[float, ...] = (0.05, 0.2, 0.4)
@@ -96,22 +94,7 @@ Spec = RodSpec | CollapseSpec | ResynthesisSpec
 
 
 def _integrator(table: Table) -> IntegratorOptions:
-    sub = table.table("integrator")
-    sub.check_keys(("method", "step", "iterations", "rtol", "atol", "max_step"))
-    values = {}
-    if sub.has("method"):
-        values["method"] = sub.choice("method", Method)
-    for key in ("step", "rtol", "atol", "max_step"):
-        if sub.has(key):
-            values[key] = sub.number(key)
-    if sub.has("iterations"):
-        values["iterations"] = sub.get("iterations", int)
-    try:
-        return IntegratorOptions(**values)
-    except InputError as exc:
-        named = re.search(r"option '(\w+)'", str(exc))
-        key = named.group(1) if named and named.group(1) in values else "method"
-        raise sub.error(key, str(exc)) from None
+    return IntegratorOptions.from_table(table.table("integrator"))
 
 
 def _passive(table: Table, key: str = "passive") -> dict[str, PassiveJoint]:
@@ -207,18 +190,13 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
             source=source)
     table.check_keys(("kind", "integrator", "trial", "simulation", "fall", "passive",
                       "variants", "stability"))
-    trial = table.table("trial")
-    trial.check_keys(("source", "side", "inverse_problem"))
+    trial = leg_trial(table.table("trial"))
     sim = table.table("simulation")
     sim.check_keys(("start", "duration", "threshold_deg", "stick_interval"))
     stab = table.table("stability")
     stab.check_keys(("times",))
-    side = trial.get("side", str, "right")
-    if side not in ("right", "left"):
-        raise trial.error("side", f"{side!r} is not right or left.")
     return ResynthesisSpec(
-        integrator=integrator, trial=trial.get("source", str, "bundled:subject01"), side=side,
-        inverse_problem=trial.path_value("inverse_problem", None),
+        integrator=integrator, side=trial.side, inverse_problem=trial.inverse_problem,
         start=sim.number("start", 0.0, unit="s"),
         duration=sim.number("duration", None, low=0.01, high=30, unit="s"),
         threshold_deg=sim.number("threshold_deg", 5.0, low=0.01, high=90, unit="deg"),

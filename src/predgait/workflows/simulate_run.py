@@ -29,6 +29,7 @@ from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.textfile import source_name
 from predgait.workflows.simulate import CollapseSpec, ResynthesisSpec, RodSpec, Variant
+from predgait.workflows.trials import LegTrial
 
 
 def _options_dict(o) -> dict:
@@ -227,21 +228,6 @@ def _eig(lin) -> dict:
 
 
 # -------------------------------------------------------------------- resynthesis
-def _inverse(spec: ResynthesisSpec):
-    if spec.inverse_problem is not None:
-        from predgait.dynamics.inverse_trial import run_inverse
-        from predgait.problemfile import load_problem
-        from predgait.workflows.inverse_io import options_from_problem
-
-        return run_inverse(options_from_problem(load_problem(spec.inverse_problem)))
-    if spec.trial != "bundled:subject01":
-        raise InputError(f"{spec.source}: trial.source {spec.trial!r}: use "
-                         "\"bundled:subject01\" or give trial.inverse_problem = FILE.toml.")
-    from predgait.dynamics.inverse_trial import bundled_inverse
-
-    return bundled_inverse(spec.side)
-
-
 def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dict:
     from predgait.report.simulation_plots import (
         plot_contributions,
@@ -252,7 +238,7 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     from predgait.report.stick import plot_stick
     from predgait.report.viewer import write_motion
 
-    inv = _inverse(spec)
+    inv = LegTrial(spec.side, spec.inverse_problem).inverse()
     model = inv.model
     drivers = LegDrivers.from_inverse(inv)
     t0 = spec.start

@@ -23,18 +23,18 @@ from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
-from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse, run_inverse
+from predgait.dynamics.inverse_trial import InverseResult
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import SimulationDiverged
-from predgait.problemfile import Table, load_problem
+from predgait.problemfile import Table
 from predgait.problems.collocation import NodeData, Transcription
-from predgait.problems.diagnostics import save_diagnostics
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
+from predgait.report.diagnostics import save_diagnostics
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.textfile import source_name
-from predgait.workflows.inverse_io import options_from_problem
 from predgait.workflows.output import staged_output
+from predgait.workflows.trials import LegTrial, leg_trial
 
 
 class Kind(enum.Enum):
@@ -74,17 +74,7 @@ def parse_solve(table: Table) -> SolveSpec:
     table.check_keys(("kind", "trial", "window", "nodes", "transcription", "weights", "check",
                       "solver"))
     kind = table.choice("kind", Kind)
-    trial = table.table("trial")
-    trial.check_keys(("source", "side", "inverse_problem"))
-    source = trial.get("source", str, "bundled:subject01")
-    inverse_problem = None
-    if source != "bundled:subject01":
-        raise trial.error("source", "use 'bundled:subject01' or set inverse_problem.")
-    if trial.has("inverse_problem"):
-        inverse_problem = trial.path_value("inverse_problem")
-    side = trial.get("side", str, "right")
-    if side not in ("right", "left"):
-        raise trial.error("side", f"'{side}' is not one of: right, left.")
+    trial = leg_trial(table.table("trial"))
     window = table.get("window", list, [0.0, 1.0])
     if len(window) != 2 or not all(isinstance(v, int | float) for v in window) \
             or window[0] >= window[1]:
@@ -96,7 +86,7 @@ def parse_solve(table: Table) -> SolveSpec:
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
     return SolveSpec(
-        kind=kind, source=table.path, inverse_problem=inverse_problem, side=side,
+        kind=kind, source=table.path, inverse_problem=trial.inverse_problem, side=trial.side,
         window=(float(window[0]), float(window[1])),
         nodes=int(table.number("nodes", 100, low=10, high=2000)),
         transcription=table.choice("transcription", Transcription,
@@ -109,9 +99,7 @@ def parse_solve(table: Table) -> SolveSpec:
 
 
 def _inverse(spec: SolveSpec) -> InverseResult:
-    if spec.inverse_problem is not None:
-        return run_inverse(options_from_problem(load_problem(spec.inverse_problem)))
-    return bundled_inverse(spec.side)
+    return LegTrial(spec.side, spec.inverse_problem).inverse()
 
 
 def solve_problem(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers) -> FitResult:

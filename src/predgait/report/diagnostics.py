@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from predgait.kinematics.clinical import JOINT_SIGN
 from predgait.report.figures import new_figure, save_figure
 
-#: Free joint -> (column in the full coordinates, column in the free state, clinical sign).
-JOINTS = {"ankle": (3, 0, 1.0), "knee": (4, 1, -1.0)}
+#: Free joint -> (column in the full coordinates, column in the free state, clinical sign
+#: from the joint-sign table).
+JOINTS = {"ankle": (3, 0, JOINT_SIGN["ankle"]), "knee": (4, 1, JOINT_SIGN["knee"])}
 CLINICAL = {"ankle": "ankle dorsiflexion", "knee": "knee flexion"}
 
 

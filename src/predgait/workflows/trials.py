@@ -1,0 +1,71 @@
+"""Where a problem's measured trial comes from: THE trial-source resolver.
+
+A problem file's ``[trial]`` names ``source = "bundled:subject01"`` (the OpenSim subject01
+walk shipped with predgait, :mod:`predgait.data.bundled`), optionally the analysed
+``side`` and, for the leg, ``inverse_problem = FILE.toml`` (an ``inverse`` problem file
+whose trial and options are used instead). Every kind of problem resolves its trial here:
+the leg (re-synthesis, solve, passive decomposition), gait7 and the whole body.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from predgait.dynamics.inverse_trial import InverseOptions, InverseResult, bundled_source
+from predgait.problemfile import Table
+
+SIDES = ("right", "left")
+
+
+@dataclass(frozen=True)
+class LegTrial:
+    """The leg's measured trial: the bundled one or an inverse problem file's.
+
+    Attributes:
+        side: "right" or "left".
+        inverse_problem: Path of an ``inverse`` problem file, or None (bundled subject01).
+    """
+
+    side: str = "right"
+    inverse_problem: Path | None = None
+
+    def options(self) -> InverseOptions:
+        """Inverse-dynamics options of this trial."""
+        if self.inverse_problem is None:
+            from predgait.dynamics.inverse_trial import bundled_options
+
+            return bundled_options(self.side)
+        from predgait.problemfile import load_problem
+        from predgait.workflows.inverse_io import options_from_problem
+
+        return options_from_problem(load_problem(self.inverse_problem))
+
+    def inverse(self) -> InverseResult:
+        """Inverse dynamics of this trial (the bundled one cached)."""
+        from predgait.dynamics.inverse_trial import bundled_inverse, run_inverse
+
+        if self.inverse_problem is None:
+            return bundled_inverse(self.side)
+        return run_inverse(self.options())
+
+
+def leg_trial(table: Table) -> LegTrial:
+    """The :class:`LegTrial` of a ``[trial]`` table (keys source, side, inverse_problem)."""
+    table.check_keys(("source", "side", "inverse_problem"))
+    bundled_source(table)
+    side = table.get("side", str, "right")
+    if side not in SIDES:
+        raise table.error("side", f"'{side}' is not one of: {', '.join(SIDES)}.")
+    return LegTrial(side=side, inverse_problem=table.path_value("inverse_problem", None))
+
+
+def bundled_fullbody_files(static: Path | None = None) -> tuple[tuple[Path, Path], Path, float,
+                                                               float]:
+    """The bundled walk for the whole body: (TRC, MOT), static TRC, mass kg, height m."""
+    from predgait.data.bundled import bundled_path, subject_info
+
+    folder = bundled_path("subject01_walk1")
+    info = subject_info("subject01_walk1")
+    return ((folder / "subject01_walk1.trc", folder / "subject01_walk1_grf.mot"),
+            static or folder / "subject01_static.trc", info["mass"], info["height"])
