@@ -166,7 +166,9 @@ class PartitionedSystem:
                 return None
         chain = pin.buildReducedModel(pm, [1], pin.neutral(pm))
         children = [pm.joints[j].idx_v - 3 for j in range(2, pm.njoints) if pm.parents[j] == 1]
-        if children == list(range(children[0], children[-1] + 1)):
+        if len(children) == 1:  # the leg: one scalar index is cheapest
+            children = children[0]
+        elif children == list(range(children[0], children[-1] + 1)):
             children = slice(children[0], children[-1] + 1)
         gravity = np.array(pm.gravity.linear)
         return chain, chain.createData(), children, gravity, gravity.copy()
@@ -261,13 +263,15 @@ class PartitionedSystem:
             return pin.aba(pm, data, q, v, tau).copy()
         if self._pivot is not None:
             chain, chain_data, children, gravity, shifted = self._pivot
-            shifted[0], shifted[2] = gravity[0] - a[0], gravity[2] - a[1]
-            chain.gravity.linear = shifted
+            ax, az, pitch, rate, alpha = a[0], a[1], q[2], v[2], a[2]
+            if shifted[0] != gravity[0] - ax or shifted[2] != gravity[2] - az:
+                shifted[0], shifted[2] = gravity[0] - ax, gravity[2] - az
+                chain.gravity.linear = shifted
             q_chain, v_chain = q[3:].copy(), v[3:].copy()
-            q_chain[children] += q[2]
-            v_chain[children] += v[2]
+            q_chain[children] += pitch
+            v_chain[children] += rate
             a_free = pin.aba(chain, chain_data, q_chain, v_chain, tau[3:]).copy()
-            a_free[children] -= a[2]
+            a_free[children] -= alpha
             return a_free
         b = pin.rnea(pm, data, q, v, a)
         m = pin.crba(pm, data, q)
