@@ -1,6 +1,6 @@
 """gait7 contact simulation speed: 1 s of the subject01 walk (thesis 2.3.1, 2.4).
 
-Runs (wall time, best of 3), HAT height free on four fitted IMPACT contacts, all other
+Runs (min / median of 3, wall and CPU), HAT height free on four fitted IMPACT contacts, all other
 coordinates prescribed (``kinematic``), then also the left knee free and moment-driven
 (``knee``); trial time 0.62..1.62 s, output at the 600 Hz plate samples:
   * LSODA (rtol 1e-6, atol 1e-8), the problem file's default;
@@ -11,7 +11,7 @@ Run:  .venv/bin/python benchmarks/bench_gait7.py
 
 from __future__ import annotations
 
-from bench_forward import best  # (seconds, result) of the fastest of `repeat` runs
+from timing import time_call
 
 from predgait.dynamics.contact_fit import fit_impact_to_meglan
 from predgait.dynamics.integrators import IntegratorOptions, Method
@@ -32,16 +32,22 @@ def main():
     passive = PassiveJoint((LinearSpringDamper(k=1.0, c=0.1),))
     for label, options in (("LSODA 1e-6", IntegratorOptions(method=Method.LSODA)),
                            ("RK4 h=0.2 ms", IntegratorOptions(method=Method.RK4, step=2e-4))):
-        wall, kin = best(lambda o=options: kinematic_run(
-            model, motion, contact, ground_z=-0.0075, t_span=SPAN, options=o, t_eval=t))
-        print(f"gait7 kinematic (HAT height free), 1 s, {label}: {wall * 1e3:.0f} ms, "
-              f"{kin.run.n_rhs_evaluations} right-hand sides")
-        wall, run = best(lambda o=options, k=kin: knee_run(
-            model, motion, k, contact, ground_z=-0.0075, sides=("left",),
-            source=KneeMoment.MODEL, passive=passive, fall=GAIT7_FALL, options=o,
-            t_eval=t))
-        print(f"gait7 left knee moment-driven, 1 s, {label}: {wall * 1e3:.0f} ms, "
-              f"{run.run.n_rhs_evaluations} right-hand sides ({run.status})")
+        def kinematic(o=options):
+            return kinematic_run(model, motion, contact, ground_z=-0.0075, t_span=SPAN,
+                                 options=o, t_eval=t)
+
+        kin = kinematic()
+        print(f"gait7 kinematic (HAT height free), 1 s, {label}: "
+              f"{time_call(kinematic, 3).describe()}, {kin.run.n_rhs_evaluations} rhs")
+
+        def knee(o=options, k=kin):
+            return knee_run(model, motion, k, contact, ground_z=-0.0075, sides=("left",),
+                            source=KneeMoment.MODEL, passive=passive, fall=GAIT7_FALL,
+                            options=o, t_eval=t)
+
+        run = knee()
+        print(f"gait7 left knee moment-driven, 1 s, {label}: {time_call(knee, 3).describe()}, "
+              f"{run.run.n_rhs_evaluations} rhs ({run.status}); OpenSim: peer not available")
 
 
 if __name__ == "__main__":

@@ -162,3 +162,17 @@ def test_provenance_names_bundled_files_and_user_paths(tmp_path, monkeypatch, ca
     assert "bundled:subject01_walk1/subject01_walk1.trc" in joined
     assert "site-packages" not in joined and ".predgait-" not in joined
     assert str(REPO / "src") not in joined
+
+
+def test_solve_out_holding_the_inverse_problem_is_refused(tmp_path, capsys, monkeypatch):
+    (tmp_path / "inv").mkdir()
+    shutil.copy(PROBLEMS / "inverse_subject01.toml", tmp_path / "inv" / "inverse.toml")
+    problem = (PROBLEMS / "knee_fit.toml").read_text().replace(
+        'source = "bundled:subject01"', 'inverse_problem = "inv/inverse.toml"')
+    (tmp_path / "fit.toml").write_text(problem)
+    monkeypatch.chdir(tmp_path)
+    started = time.perf_counter()
+    status = main(["solve", "fit.toml", "--out", "inv", "--force"])
+    _one_error(capsys, status, "inverse.toml")
+    assert time.perf_counter() - started < 5.0  # refused before the solve
+    assert (tmp_path / "inv" / "inverse.toml").is_file()

@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
         return _run_decomposition(table, args)
 
     spec = parse_solve(table)
+    check_out(args.out, force=args.force, inputs=[args.problem, spec.inverse_problem])
     try:
         solution = run_solve(spec, args.out, force=args.force)
     except SolveFailed as exc:
