@@ -227,8 +227,8 @@ class JointFeedback(Force):
 class FrameLoad(Force):
     """A world-frame force and moment at the origin of one frame (e.g. the hip load).
 
-    tau += J^T (f, m), J the frame Jacobian (LOCAL_WORLD_ALIGNED), computed only when the
-    load is not zero.
+    tau += J^T (f, m), J the frame Jacobian (LOCAL_WORLD_ALIGNED). A load that is zero at
+    all times is not added to a system at all (no Jacobian).
 
     Attributes:
         model: The model. frame: frame name. force, moment: t -> (3,) N, N m (lab frame).
@@ -240,17 +240,17 @@ class FrameLoad(Force):
     moment: Callable[[float], np.ndarray]
     name: str = "load"
     _id: int = field(init=False, repr=False)
+    _wrench: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
         object.__setattr__(self, "_id", self.model.frame_id(self.frame))
+        object.__setattr__(self, "_wrench", np.zeros(6))
 
     def add(self, tau, t, q, v, data) -> None:
         """Add J^T w at t."""
-        f, m = self.force(t), self.moment(t)
-        if not (f.any() or m.any()):
-            return
-        jac = pin.computeFrameJacobian(self.model.pin_model, data, q, self._id, LWA)
-        tau += jac[:3].T @ f + jac[3:].T @ m
+        wrench = self._wrench
+        wrench[:3], wrench[3:] = self.force(t), self.moment(t)
+        tau += pin.computeFrameJacobian(self.model.pin_model, data, q, self._id, LWA).T @ wrench
 
 
 @dataclass(frozen=True, eq=False)
