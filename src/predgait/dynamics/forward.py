@@ -163,17 +163,23 @@ class LegSystem(PartitionedSystem):
         """
         q, v, a = self.full_state(t, x)
         lam = self.solve(t, q, v, a)[1]
-        return self._grf(q, lam, ground_z)
+        grf, cop, m_heel = self._grf(q[None], lam[None], ground_z)
+        return grf[0], cop[0], float(m_heel[0])
 
-    def _grf(self, q, lam, ground_z):
-        pin.framesForwardKinematics(self.pm, self.data, q)
-        heel = self.data.oMf[self.heel_frame].translation
-        fx, fz, m_ankle = lam[0], lam[1], lam[2]
-        d = np.array([q[0], q[1]]) - heel[[0, 2]]        # ankle (base origin) - heel
-        m_heel = m_ankle + d[1] * fx - d[0] * fz
-        cop_x = float(reduce_to_cop(fx, fz, m_heel, heel[0], heel[2], ground_z=ground_z))
-        cop = np.array([cop_x, 0.0, ground_z if abs(fz) >= COP_THRESHOLD else 0.0])
-        return np.array([fx, 0.0, fz]), cop, float(m_heel)
+    def _grf(self, q: np.ndarray, lam: np.ndarray, ground_z: float):
+        """(grf (n, 3), cop (n, 3), moment about the heel (n,)) from q (n, 5), lam (n, 3)."""
+        heel = np.empty((len(q), 3))
+        for k, qk in enumerate(q):
+            pin.framesForwardKinematics(self.pm, self.data, qk)
+            heel[k] = self.data.oMf[self.heel_frame].translation
+        fx, fz, m_ankle = lam[:, 0], lam[:, 1], lam[:, 2]
+        d = q[:, :2] - heel[:, [0, 2]]        # ankle (base origin) - heel
+        m_heel = m_ankle + d[:, 1] * fx - d[:, 0] * fz
+        zeros = np.zeros(len(q))
+        cop = np.column_stack([
+            reduce_to_cop(fx, fz, m_heel, heel[:, 0], heel[:, 2], ground_z=ground_z), zeros,
+            np.where(np.abs(fz) >= COP_THRESHOLD, ground_z, 0.0)])
+        return np.column_stack([fx, zeros, fz]), cop, m_heel
 
 
 def simulate_leg(model: Model, drivers: LegDrivers, t_span: tuple[float, float], x0=None, *,
@@ -242,9 +248,8 @@ def _with_ground_reaction(system: LegSystem, sim: SimulationResult, ground_z: fl
         return sim
     n = len(sim.t)
     grf, cop = np.zeros((n, 3)), np.zeros((n, 3))
-    for k in range(n):
-        if np.all(np.isfinite(sim.q[k])):
-            grf[k], cop[k], _ = system._grf(sim.q[k], sim.reaction[k], ground_z)
+    finite = np.all(np.isfinite(sim.q), axis=1)
+    grf[finite], cop[finite], _ = system._grf(sim.q[finite], sim.reaction[finite], ground_z)
     return replace(sim, grf=grf, cop=cop)
 
 
