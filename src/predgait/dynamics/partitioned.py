@@ -344,7 +344,7 @@ class PartitionedSystem:
             for force in self._stateful:
                 force.add(tau, t, q, v, self.data)
         out = np.empty(self.nx)
-        out[:nqf] = self.configuration_rate(q, v)
+        out[:nqf] = x[nqf:] if not self.root_q else self.configuration_rate(q, v)
         out[nqf:] = self.accelerations(t, q, v, a, tau)
         return out
 
