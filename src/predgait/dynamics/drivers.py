@@ -1,11 +1,12 @@
 """Inputs of forward synthesis: time histories of prescribed motion, torques and loads.
 
 Measured histories (from inverse dynamics, a file or a function) are interpolated with
-natural-boundary-free cubic splines (:class:`scipy.interpolate.CubicSpline`, "not-a-knot"
-ends), which pass through every sample and are C2, so a variable integration step can
-ask for inputs between the measured frames. The thesis (3.3.4) used Newton's divided
-difference formula for the same purpose; a spline avoids the oscillation of high-degree
-divided-difference polynomials and has the same accuracy near the samples.
+cubic splines with "not-a-knot" ends (:class:`predgait.dynamics.spline.CubicSpline`,
+SciPy's default CubicSpline in NumPy), which pass through every sample and are C2, so a
+variable integration step can ask for inputs between the measured frames. The thesis
+(3.3.4) used Newton's divided difference formula for the same purpose; a spline avoids the
+oscillation of high-degree divided-difference polynomials and has the same accuracy near
+the samples.
 
 Outside the sampled time range the histories are held constant at the end values
 (no extrapolation); simulations check their time span against ``time_range``.
@@ -17,8 +18,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
+from predgait.dynamics.spline import CubicSpline
 from predgait.errors import InputError
 
 TimeFunction = Callable[[float], np.ndarray]
@@ -48,7 +49,7 @@ class SampledHistory:
                              f"shape {values.shape} (NaN/Inf present or wrong length).")
         self.name = name
         self.t0, self.t1 = float(time[0]), float(time[-1])
-        self._spline = CubicSpline(time, values, axis=0) if time.size > 2 else None
+        self._spline = CubicSpline(time, values) if time.size > 2 else None
         self._time, self._values = time, values
         self._last_t = None
         self._last = None

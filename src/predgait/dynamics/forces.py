@@ -43,6 +43,7 @@ class Force:
 
     name = "applied"
     needs = Kinematics.NONE
+    time_only = False  # True: depends on t alone (the engine adds it once per time)
 
     def add(self, tau: np.ndarray, t: float, q: np.ndarray, v: np.ndarray,
             data: pin.Data) -> None:
@@ -85,6 +86,7 @@ class JointTorques(Force):
     rows: np.ndarray | slice
     history: Callable[[float], np.ndarray]
     name: str = "active"
+    time_only = True
 
     def add(self, tau, t, q, v, data) -> None:
         """Add the torques at t."""
@@ -228,7 +230,8 @@ class FrameLoad(Force):
     """A world-frame force and moment at the origin of one frame (e.g. the hip load).
 
     tau += J^T (f, m), J the frame Jacobian (LOCAL_WORLD_ALIGNED). A load that is zero at
-    all times is not added to a system at all (no Jacobian).
+    all times is not added to a system at all (no Jacobian). The wrench is read once per
+    time (the modified-Euler correctors ask for the same t again and again).
 
     Attributes:
         model: The model. frame: frame name. force, moment: t -> (3,) N, N m (lab frame).
@@ -241,16 +244,21 @@ class FrameLoad(Force):
     name: str = "load"
     _id: int = field(init=False, repr=False)
     _wrench: np.ndarray = field(init=False, repr=False)
+    _time: list = field(init=False, repr=False)  # [t] of the wrench held in _wrench
 
     def __post_init__(self):
         object.__setattr__(self, "_id", self.model.frame_id(self.frame))
         object.__setattr__(self, "_wrench", np.zeros(6))
+        object.__setattr__(self, "_time", [None])
 
     def add(self, tau, t, q, v, data) -> None:
         """Add J^T w at t."""
         wrench = self._wrench
-        wrench[:3], wrench[3:] = self.force(t), self.moment(t)
-        tau += pin.computeFrameJacobian(self.model.pin_model, data, q, self._id, LWA).T @ wrench
+        if t != self._time[0]:
+            wrench[:3], wrench[3:] = self.force(t), self.moment(t)
+            self._time[0] = t
+        tau += wrench.dot(pin.computeFrameJacobian(self.model.pin_model, data, q, self._id,
+                                                   LWA))
 
 
 @dataclass(frozen=True, eq=False)

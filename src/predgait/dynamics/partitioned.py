@@ -142,6 +142,9 @@ class PartitionedSystem:
             self._ff = (self._fs, self._fs)
         self._qs = self._fs if not self.free_flyer else self.q_free
         self._pivot = self._pivot_model()
+        self._timed = tuple(f for f in self.forces if f.time_only)
+        self._stateful = tuple(f for f in self.forces if not f.time_only)
+        self._time = None  # (t, q, v, a, tau of the time-only forces) of the latest call
 
     def _pivot_model(self):
         """Fast path: planar base prescribed, every joint free, hinged at the base origin.
@@ -263,13 +266,13 @@ class PartitionedSystem:
             return pin.aba(pm, data, q, v, tau).copy()
         if self._pivot is not None:
             chain, chain_data, children, gravity, shifted = self._pivot
-            ax, az, pitch, rate, alpha = a[0], a[1], q[2], v[2], a[2]
+            ax, az, alpha = a[:3].tolist()
             if shifted[0] != gravity[0] - ax or shifted[2] != gravity[2] - az:
                 shifted[0], shifted[2] = gravity[0] - ax, gravity[2] - az
                 chain.gravity.linear = shifted
             q_chain, v_chain = q[3:].copy(), v[3:].copy()
-            q_chain[children] += pitch
-            v_chain[children] += rate
+            q_chain[children] += q[2]
+            v_chain[children] += v[2]
             a_free = pin.aba(chain, chain_data, q_chain, v_chain, tau[3:]).copy()
             a_free[children] -= alpha
             return a_free
@@ -311,12 +314,38 @@ class PartitionedSystem:
         rate[self.root_q:] = v[self.free[self.root_v:]]
         return rate
 
+    def _at_time(self, t: float) -> tuple:
+        """(t, q, v, a, tau_t): the motion and time-only forces at t, computed once per t.
+
+        q, v, a: the prescribed motion (free entries of a zero); tau_t: the sum of the
+        time-only forces. The correctors of a modified-Euler step ask for the same t
+        again and again.
+        """
+        q, v, a = (np.array(u, dtype=float) for u in self.motion(t))
+        a[self._fs] = 0.0
+        tau = np.zeros(self.pm.nv)
+        for force in self._timed:
+            force.add(tau, t, q, v, self.data)
+        self._time = (t, q, v, a, tau)
+        return self._time
+
     def __call__(self, t: float, x: np.ndarray) -> np.ndarray:
         """State derivative [q_f', a_f] at t."""
-        q, v, a = self.full_state(t, x)
+        at = self._time
+        _, q, v, a, tau = at if at is not None and at[0] == t else self._at_time(t)
+        nqf = self.nqf
+        q[self._qs] = x[:nqf]  # the free entries of the time's buffers: set on every call
+        if self.root_free:
+            q[3:7] /= np.linalg.norm(q[3:7])
+        v[self._fs] = x[nqf:]
+        tau = tau.copy()
+        if self._stateful:
+            self._kinematics(q, v)
+            for force in self._stateful:
+                force.add(tau, t, q, v, self.data)
         out = np.empty(self.nx)
-        out[: self.nqf] = self.configuration_rate(q, v)
-        out[self.nqf:] = self.accelerations(t, q, v, a)
+        out[:nqf] = self.configuration_rate(q, v)
+        out[nqf:] = self.accelerations(t, q, v, a, tau)
         return out
 
 
