@@ -158,3 +158,21 @@ def test_bad_input_is_one_clear_message(tmp_path, setting, key):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("predgait: error:") and key in lines[0]
     assert not out.exists()
+
+
+def test_open_loop_correction_as_feedforward(tmp_path):
+    out = tmp_path / "corrected"
+    result = subprocess.run([sys.executable, "-m", "predgait", "solve",
+                             str(REPO / "problems" / "torque_feedback.toml"), "--set",
+                             "feedforward=\"corrected\"", "--no-plots", "--out", str(out)],
+                            capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    solution = json.loads((out / "solution.json").read_text())
+    assert solution["feedforward"] == "corrected" and solution["holds_within_threshold"]
+    unc = solution["inverse_dynamics_uncertainty"]
+    for joint in ("ankle", "knee"):
+        correction = solution["torque_rms_n_m"]["feedforward_correction"][joint]
+        assert 0.0 < correction < unc["half_range_rms_n_m"][joint]
+    # the thesis' open-loop correction holds longer than the measured moments, not a cycle
+    opened = solution["without_feedback"]["time_to_threshold_s"]
+    assert 0.25 < opened < 0.6
