@@ -47,6 +47,7 @@ PROBLEMS = {
     "knee_fit.toml": ["solve", "{}"],
     "torque_correction.toml": ["solve", "{}"],
     "feedback_gains.toml": ["solve", "{}"],
+    "torque_feedback.toml": ["solve", "{}"],
     "scenario_stiff_knee.toml": ["scenario", "{}"],
     "scenario_cast_afo.toml": ["scenario", "{}"],
     "scenario_knee_arthrodesis.toml": ["scenario", "{}"],

@@ -14,6 +14,10 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
   knee_fit           k (N m/rad), c (N m s/rad), theta0 of a passive knee spring-damper
   torque_correction  smallest smooth changes of the ankle and knee moments (N m)
   feedback_gains     PD gains on the tracking error that reject a perturbed start
+  torque_feedback    measured (or corrected) moments plus time-varying LQR feedback
+                     around the measured motion, re-simulated over the first gait
+                     cycle (problems/torque_feedback.toml): feedforward vs feedback
+                     torque against the inverse-dynamics uncertainty (cut-offs 4-8 Hz)
   passive_decomposition  passive knee/ankle moments split from the measured moments
                      (no simulation; problems/passive_decomposition.toml), with
                      bootstrap intervals or "not identifiable"
@@ -49,6 +53,8 @@ def run(args: argparse.Namespace) -> int:
     table = load_problem(args.problem, args.set)
     if table.data.get("kind") == "passive_decomposition":   # no collocation, lighter imports
         return _run_decomposition(table, args)
+    if table.data.get("kind") == "torque_feedback":
+        return _run_torque_feedback(table, args)
 
     spec = parse_solve(table)
     check_out(args.out, force=args.force, inputs=[args.problem, spec.inverse_problem])
@@ -105,3 +111,17 @@ def _run_decomposition(table, args) -> int:
         print(line)
     print(f"  wrote {args.out}/ (solution.json, passive_moments.sto, active_passive.png)")
     return 0
+
+
+def _run_torque_feedback(table, args) -> int:
+    from predgait.workflows.output import check_out
+    from predgait.workflows.torque_feedback import parse_feedback, run_feedback, summary_lines
+
+    spec = parse_feedback(table)
+    check_out(args.out, force=args.force, inputs=[args.problem, spec.trial.inverse_problem])
+    solution = run_feedback(spec, args.out, force=args.force)
+    for line in summary_lines(solution):
+        print(line)
+    print(f"  wrote {args.out}/ (solution.json, corrected_moments.sto, feedback_gains.sto, "
+          "torque_feedback.png)")
+    return 0 if solution["holds_within_threshold"] else 3

@@ -226,6 +226,24 @@ def _solve(s: dict) -> Headline:
     return Headline(title, trial_name(s["provenance"]), s["status"], numbers, sentence, note)
 
 
+def _torque_feedback(s: dict) -> Headline:
+    closed, opened = s["with_feedback"], s["without_feedback"]
+    threshold = _deg(s["threshold_deg"])
+    rms, unc = s["torque_rms_n_m"], s["inverse_dynamics_uncertainty"]
+    worst = max(closed["max_deviation_deg"].values())
+    numbers = [("max deviation with feedback", _deg(worst)),
+               (f"without feedback beyond {threshold} at", _t(opened["time_to_threshold_s"]))]
+    numbers += [(f"{j} feedback RMS", f"{rms['feedback'][j]:.3f} N m "
+                 f"(ID spread +-{unc['half_range_rms_n_m'][j]:.2f} N m)") for j in rms["feedback"]]
+    window = s["window_s"][1] - s["window_s"][0]
+    sentence = (f"With {s['feedforward'].replace('_', ' ')} torques plus time-varying LQR "
+                f"feedback the re-simulated leg stays within {_deg(worst)} of the measured "
+                f"motion over {window:.2f} s; without the feedback it leaves {threshold} at "
+                f"{_t(opened['time_to_threshold_s'])}.")
+    return Headline("Torques with feedback", trial_name(s["provenance"]), s["status"],
+                    numbers, sentence)
+
+
 def _decomposition(s: dict) -> Headline:
     fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
     numbers = []
@@ -321,7 +339,7 @@ def _kind(s: dict) -> str | None:
 BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynthesis,
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
             "solve": _solve, "scenario": _scenario, "sweep": _sweep,
-            "passive_decomposition": _decomposition}
+            "passive_decomposition": _decomposition, "torque_feedback": _torque_feedback}
 
 
 def summary_file(folder: Path) -> Path | None:
