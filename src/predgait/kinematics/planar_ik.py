@@ -122,17 +122,19 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
         rows.append([pitch_weight * (q[2] - frame["pitch"])])
         return np.concatenate(rows)
 
+    plane = [0, 2]  # the sagittal X, Z rows
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    jac_rows = np.vstack([np.zeros((2 * len(names), pm.nv)), pitch_row])  # pitch row fixed
+
     def jacobian(q):
         pin.computeJointJacobians(pm, data, q)
         pin.updateFramePlacements(pm, data)
-        rows, jac = [], []
-        for w, fid, t in zip(weight, ids, frame["targets"], strict=True):
-            rows.append(w * (data.oMf[fid].translation[[0, 2]] - t))
-            full = pin.getFrameJacobian(pm, data, fid, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-            jac.append(w * full[[0, 2], :])
-        rows.append([pitch_weight * (q[2] - frame["pitch"])])
-        jac.append(pitch_row)
-        return np.concatenate(rows), np.vstack(jac)
+        rows, jac = np.empty(2 * len(names) + 1), jac_rows.copy()
+        for i, (w, fid, t) in enumerate(zip(weight, ids, frame["targets"], strict=True)):
+            rows[2 * i: 2 * i + 2] = w * (data.oMf[fid].translation[plane] - t)
+            jac[2 * i: 2 * i + 2] = w * pin.getFrameJacobian(pm, data, fid, lwa)[plane]
+        rows[-1] = pitch_weight * (q[2] - frame["pitch"])
+        return rows, jac
 
     lower, upper = joint_limits(model, margin=limit_margin)
     settings = SolverOptions(max_iterations=max_iterations, tolerance=tolerance,
