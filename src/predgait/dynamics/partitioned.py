@@ -329,8 +329,8 @@ class PartitionedSystem:
         self._time = (t, q, v, a, tau)
         return self._time
 
-    def __call__(self, t: float, x: np.ndarray) -> np.ndarray:
-        """State derivative [q_f', a_f] at t."""
+    def _evaluate(self, t: float, x: np.ndarray) -> tuple:
+        """(q, v, a, tau, a_f) at (t, x); q, v, a are the time's buffers (not copies)."""
         at = self._time
         _, q, v, a, tau = at if at is not None and at[0] == t else self._at_time(t)
         nqf = self.nqf
@@ -343,9 +343,15 @@ class PartitionedSystem:
             self._kinematics(q, v)
             for force in self._stateful:
                 force.add(tau, t, q, v, self.data)
+        return q, v, a, tau, self.accelerations(t, q, v, a, tau)
+
+    def __call__(self, t: float, x: np.ndarray) -> np.ndarray:
+        """State derivative [q_f', a_f] at t."""
+        q, v, _, _, a_free = self._evaluate(t, x)
+        nqf = self.nqf
         out = np.empty(self.nx)
         out[:nqf] = x[nqf:] if not self.root_q else self.configuration_rate(q, v)
-        out[nqf:] = self.accelerations(t, q, v, a, tau)
+        out[nqf:] = a_free
         return out
 
 
@@ -426,9 +432,12 @@ def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
     q, v, a = np.zeros((n, pm.nq)), np.zeros((n, pm.nv)), np.zeros((n, pm.nv))
     reaction = np.zeros((n, system.pres.size))
     for k, (t, x) in enumerate(zip(run.t, run.x, strict=True)):
-        q[k], v[k], a[k] = system.full_state(t, x)
-        if np.all(np.isfinite(x)):
-            a[k, system.free], reaction[k] = system.solve(t, q[k], v[k], a[k])
+        if not np.all(np.isfinite(x)):
+            q[k], v[k], a[k] = system.full_state(t, x)
+            continue
+        q[k], v[k], a[k], tau, a[k, system.free] = system._evaluate(t, x)
+        if system.pres.size:
+            reaction[k] = system.reaction(t, q[k], v[k], a[k], tau)
     names = tuple(system.velocity_names())
     fall = (run.event_time - float(t_span[0])
             if (run.event_name or "").startswith("fall") else None)
