@@ -122,7 +122,7 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
         rows.append([pitch_weight * (q[2] - frame["pitch"])])
         return np.concatenate(rows)
 
-    plane = [0, 2]  # the sagittal X, Z rows
+    plane = slice(0, 3, 2)  # the sagittal X, Z rows (a view, not a fancy-index copy)
     lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
     jac_rows = np.vstack([np.zeros((2 * len(names), pm.nv)), pitch_row])  # pitch row fixed
 
@@ -147,13 +147,14 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
     iterations = np.zeros(n_frames, dtype=int)
     converged = np.zeros(n_frames, dtype=bool)
     at_limit = np.zeros((n_frames, pm.nv), dtype=bool)
+    sagittal = [np.asarray(points[n])[:, plane] for n in names]  # (n, 2) per point
     for k in range(n_frames):
-        frame["targets"] = [points[n][k][[0, 2]] for n in names]
+        frame["targets"] = [target[k] for target in sagittal]
         frame["pitch"] = foot_pitch[k]
         fit = solver.solve(q, residual, jacobian)
         q = fit.q
         pin.framesForwardKinematics(pm, data, q)
-        resid[k] = [np.linalg.norm(data.oMf[fid].translation[[0, 2]] - t)
+        resid[k] = [np.linalg.norm(data.oMf[fid].translation[plane] - t)
                     for fid, t in zip(ids, frame["targets"], strict=True)]
         pitch_res[k] = q[2] - foot_pitch[k]
         iterations[k], converged[k], at_limit[k] = fit.iterations, fit.converged, fit.at_limit
