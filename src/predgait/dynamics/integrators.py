@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from predgait.dynamics.roots import brentq
 from predgait.errors import InputError, SimulationDiverged
 
 Rhs = Callable[[float, np.ndarray], np.ndarray]
@@ -458,10 +459,9 @@ def _output(grid, X, F, t_eval, *, end=None, x_end=None):
 def _event_hit(events, g_prev, t_old, t_new, x_new, interpolant):
     """Earliest event triggered over [t_old, t_new] as (name, t), or None; updates g_prev.
 
-    The root of g(t, interpolant(t)) is found with Brent's method (as ``solve_ivp``).
+    The root of g(t, interpolant(t)) is found with Brent's method (as ``solve_ivp``;
+    :func:`predgait.dynamics.roots.brentq`, the same iterates as SciPy's).
     """
-    from scipy.optimize import brentq
-
     hit = None
     for j, event in enumerate(events):
         g_old, g_new = g_prev[j], float(event.function(t_new, x_new))
