@@ -28,7 +28,6 @@ import enum
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from predgait.data.events import runs_of
 from predgait.dynamics.drivers import SampledHistory
@@ -48,6 +47,7 @@ from predgait.dynamics.partitioned import (
     simulate_partitioned,
 )
 from predgait.dynamics.passive import PassiveJoint
+from predgait.dynamics.roots import brentq
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model

@@ -275,16 +275,17 @@ def summary_lines(solution: dict) -> list[str]:
 
     def when(result):
         hit = result["time_to_threshold_s"]
-        return "never" if hit is None else f"{hit:.3f} s"
+        limit = f"{solution['threshold_deg']:g} deg"
+        return f"stays within {limit}" if hit is None else f"leaves {limit} at {hit:.3f} s"
 
     unc = solution["inverse_dynamics_uncertainty"]
     rms = solution["torque_rms_n_m"]
     verdict = "holds" if solution["holds_within_threshold"] else "does not hold"
     lines = [f"torque_feedback ({solution['feedforward']} + time-varying LQR): {verdict} "
              f"over {solution['window_s'][0]:.3f}...{solution['window_s'][1]:.3f} s",
-             f"  with feedback: > {solution['threshold_deg']:g} deg at {when(closed)}; max "
+             f"  with feedback: {when(closed)}; max "
              + ", ".join(f"{j} {v:.2f} deg" for j, v in closed["max_deviation_deg"].items()),
-             f"  without feedback: > {solution['threshold_deg']:g} deg at {when(opened)}"]
+             f"  without feedback: {when(opened)}"]
     for joint in JOINTS:
         lines.append(
             f"  {joint}: torque RMS {rms['total'][joint]:.2f} N m = feedforward "
