@@ -29,6 +29,7 @@ from predgait.problems.predictive import (
     Cycle,
     Guess,
     PredictedGait,
+    Start,
     Weights,
     problem_for,
 )
@@ -49,7 +50,7 @@ class PredictSpec:
     mass: float = 72.6
     height: float = 1.8034
     ground_z: float = -0.0075
-    nodes: int = 50
+    nodes: int = 40
     cycle: Cycle = Cycle.HALF
     speed: float | None = None          # m/s; None: the measured speed
     stride_time: float | None = None    # s; None: the measured stride time
@@ -167,7 +168,9 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
         _check_solved(first, "tracking stage")
         stages.append(first.solved)
         guess = Guess(first.q, first.v, first.a)
-    gait = problem.solve(guess or measured.guess, measured.reference, spec.weights, **kw)
+    start = Start.MEASURED if guess is None else Start.SOLUTION
+    gait = problem.solve(guess or measured.guess, measured.reference, spec.weights,
+                         start=start, **kw)
     _check_solved(gait, "solve")
     residuals = node_residuals(model, gait, spec.contact, spec.ground_z, springs)
     stride = full_stride(model, gait)
