@@ -18,6 +18,9 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
                      around the measured motion, re-simulated over the first gait
                      cycle (problems/torque_feedback.toml): feedforward vs feedback
                      torque against the inverse-dynamics uncertainty (cut-offs 4-8 Hz)
+  fullbody_tracking  the 35-DOF body with its pelvis free made dynamically consistent
+                     (corrected kinematics, joint torques, sole contact forces) and
+                     held by time-varying LQR feedback (problems/fullbody_tracking.toml)
   passive_decomposition  passive knee/ankle moments split from the measured moments
                      (no simulation; problems/passive_decomposition.toml), with
                      bootstrap intervals or "not identifiable"
@@ -55,6 +58,10 @@ def run(args: argparse.Namespace) -> int:
         return _run_decomposition(table, args)
     if table.data.get("kind") == "torque_feedback":
         return _run_torque_feedback(table, args)
+    if table.data.get("kind") == "fullbody_tracking":
+        from predgait.workflows.fullbody_tracking_run import run_cli
+
+        return run_cli(table, args)
 
     spec = parse_solve(table)
     check_out(args.out, force=args.force, inputs=[args.problem, spec.inverse_problem])
