@@ -28,7 +28,7 @@ from predgait.dynamics.forward import LEG_FALL, FallLimit, ForceFrame
 from predgait.dynamics.integrators import IntegratorOptions
 from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.problemfile import Table, load_problem
-from predgait.workflows.trials import leg_trial
+from predgait.workflows.trials import LegTrial, leg_trial
 
 KINDS = ("rod", "collapse", "resynthesis", "gait7", "fullbody")
 
@@ -90,6 +90,7 @@ class ResynthesisSpec:
     stability_times: tuple[float, ...] = (0.05, 0.2, 0.4)
     stick_interval: float = 0.05
     source: str = ""
+    trial: LegTrial | None = None
 
 
 Spec = RodSpec | CollapseSpec | ResynthesisSpec
@@ -220,4 +221,4 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
         stick_interval=sim.number("stick_interval", 0.05, low=0.001, high=1, unit="s"),
         fall=_fall(table), passive=_passive(table), hip_in_thigh_frame=_hip_in_thigh(sim),
         variants=_variants(table, "variants"), stability_times=_stability_times(stab, sim),
-        source=source)
+        source=source, trial=trial)

@@ -238,7 +238,7 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     from predgait.report.stick import plot_stick
     from predgait.report.viewer import write_motion
 
-    inv = LegTrial(spec.side, spec.inverse_problem).inverse()
+    inv = (spec.trial or LegTrial(spec.side, spec.inverse_problem)).inverse()
     model = inv.model
     drivers = LegDrivers.from_inverse(inv)
     t0 = spec.start
