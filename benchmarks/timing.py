@@ -71,9 +71,15 @@ def time_process(argv: Sequence[str], repeat: int = 5, *, cwd: Path | str = REPO
                  env: dict | None = None) -> Timing:
     """Wall and CPU (user + system of the child) of ``repeat`` whole processes.
 
+    The child may write and read cached bytecode (PYTHONDONTWRITEBYTECODE is dropped from
+    the environment), as an installed package does: otherwise every run of an editable
+    install recompiles its modules, which no user's run does.
+
     Raises:
         RuntimeError: the command failed (its last stderr line).
     """
+    env = dict(os.environ if env is None else env)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     wall, cpu = [], []
     for _ in range(repeat):
         before = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -1,10 +1,15 @@
 """Shared fixtures: the real-data folder beside the checkout, and the shipped models."""
 
 import json
+import os
 import re
 from pathlib import Path
 
 import pytest
+
+# Solvers are built in memory in tests (no compiling into the user's cache folder);
+# tests/test_solver_cache.py turns the cache on in a temporary folder.
+os.environ.setdefault("PREDGAIT_SOLVER_CACHE", "off")
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"

@@ -92,3 +92,26 @@ def test_grf_cutoff_is_applied_and_recorded(tmp_path):
     assert smooth["provenance"]["grf_cutoff_hz"] == 6.0
     a, b = (r["peak_joint_moments_Nm"]["ankle_r_y"] for r in (raw, smooth))
     assert a != b and abs(a - b) < 0.1 * a
+
+
+def test_problem_file_gives_the_full_body_its_trial(tmp_path):
+    """`inverse PROBLEM.toml --model fullbody`: files, mass and height from its [trial]."""
+    from predgait.cli import main
+
+    problem = REPO / "problems" / "inverse_subject01.toml"
+    code = main(["inverse", str(problem), "--model", "fullbody", "--marker-map", str(MAP),
+                 "--no-plots", "--out", str(tmp_path / "cli")])
+    assert code == 0
+    run_inverse_fullbody(TRIAL, MAP, mass=72.6, height=1.8034, sex="male",
+                         out_dir=tmp_path / "direct", static=DATA / "subject01_static.trc")
+    from_file = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    direct = json.loads((tmp_path / "direct" / "summary.json").read_text())
+    assert from_file["peak_joint_moments_Nm"] == pytest.approx(direct["peak_joint_moments_Nm"],
+                                                               rel=1e-9)
+    assert from_file["pelvis_residual_force_N"] == pytest.approx(direct["pelvis_residual_force_N"])
+    # A flag still wins over the file's key: 7.4 kg more body weight than the plates carry.
+    code = main(["inverse", str(problem), "--model", "fullbody", "--marker-map", str(MAP),
+                 "--mass", "80", "--no-plots", "--out", str(tmp_path / "heavier")])
+    heavier = json.loads((tmp_path / "heavier" / "summary.json").read_text())
+    assert (heavier["pelvis_residual_force_N"]["rms"]
+            > direct["pelvis_residual_force_N"]["rms"] + 30)

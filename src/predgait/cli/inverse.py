@@ -62,7 +62,8 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("--model", type=Path, metavar="LEG.urdf|fullbody",
                      help="leg from 'predgait model build leg' (e.g. custom segments), or "
                           "'fullbody' for 3D inverse kinematics and dynamics of the 35-DOF body "
-                          "(needs --marker-map)")
+                          "(needs --marker-map; a problem file's [trial] gives the files, mass "
+                          "and height)")
     cmd.add_argument("--marker-map", type=Path, metavar="FILE.toml",
                      help="fullbody: model frames -> trial markers, segment markers, weights, "
                           "[scaling] (problems/markers_fullbody_subject01.toml, "
@@ -144,6 +145,22 @@ def options_from_args(args: argparse.Namespace):
     return InverseOptions(markers=args.input, points=_parse_markers(args.markers), **flags)
 
 
+def _trial_from_problem(args: argparse.Namespace) -> None:
+    """Fill the full-body run's files, mass and height from a problem file's ``[trial]``.
+
+    Flags given on the command line win; the leg's ``[points]`` are not used (the marker
+    map names the full-body markers).
+    """
+    from predgait.problemfile import load_problem
+    from predgait.workflows.inverse_io import options_from_problem
+
+    options = options_from_problem(load_problem(args.input, overrides=args.set))
+    args.input = options.markers
+    for name in ("grf", "static", "mass", "height"):
+        if getattr(args, name) is None:
+            setattr(args, name, getattr(options, name))
+
+
 def run_fullbody(args: argparse.Namespace) -> int:
     """3D inverse kinematics and dynamics of the whole body (35 DOF)."""
     from predgait.workflows.inverse3d import run_inverse_fullbody
@@ -151,14 +168,19 @@ def run_fullbody(args: argparse.Namespace) -> int:
     if args.marker_map is None:
         raise InputError("--model fullbody needs --marker-map FILE.toml (see "
                          "problems/markers_fullbody_subject01.toml).")
-    if args.mass is None or args.height is None:
-        raise InputError("--model fullbody needs --mass (kg) and --height (m).")
-    unused = [flag for flag, value in (("--threshold", args.threshold), ("--set", args.set),
-                                       ("--markers", args.markers), ("--side", args.side))
-              if value]
+    unused = [flag for flag, value in (("--threshold", args.threshold), ("--markers", args.markers),
+                                       ("--side", args.side)) if value]
     if unused:
         raise InputError(f"{', '.join(unused)}: not used by --model fullbody (the marker map "
                          "names the markers, plates are assigned to both feet); drop them.")
+    if args.input.suffix.lower() == ".toml":
+        _trial_from_problem(args)
+    elif args.set:
+        raise InputError("--set KEY=VALUE changes a problem file's key; give a PROBLEM.toml "
+                         "or use the options directly.")
+    if args.mass is None or args.height is None:
+        raise InputError("--model fullbody needs --mass (kg) and --height (m), on the command "
+                         "line or in a problem file's [trial] table.")
     from predgait.dynamics.inverse_trial import parse_cutoff
 
     if args.limit_margin is not None and not 0 <= args.limit_margin <= 180:

@@ -24,6 +24,9 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
   passive_decomposition  passive knee/ankle moments split from the measured moments
                      (no simulation; problems/passive_decomposition.toml), with
                      bootstrap intervals or "not identifiable"
+  passive_shooting   stabilising spring-dampers added to the measured moments, fitted
+                     by multiple shooting over intervals shorter than the unstable time
+                     constant (problems/passive_shooting.toml), beside the decomposition
 Writes solution.json (status, iterations, solve time, objective, constraint violation,
 parameters with 95 % intervals, re-simulation check), states.sto, resimulated_states.sto,
 corrected_moments.sto (torque correction) and plots into --out. A solve that does not
@@ -58,6 +61,8 @@ def run(args: argparse.Namespace) -> int:
         return _run_decomposition(table, args)
     if table.data.get("kind") == "torque_feedback":
         return _run_torque_feedback(table, args)
+    if table.data.get("kind") == "passive_shooting":
+        return _run_shooting(table, args)
     if table.data.get("kind") == "fullbody_tracking":
         from predgait.workflows.fullbody_tracking_run import run_cli
 
@@ -132,3 +137,23 @@ def _run_torque_feedback(table, args) -> int:
     print(f"  wrote {args.out}/ (solution.json, corrected_moments.sto, feedback_gains.sto, "
           "torque_feedback.png)")
     return 0 if solution["holds_within_threshold"] else 3
+
+
+def _run_shooting(table, args) -> int:
+    import sys
+
+    from predgait.errors import SolveFailed
+    from predgait.workflows.output import check_out
+    from predgait.workflows.shooting import parse_shooting, run_shooting, summary_lines
+
+    spec = parse_shooting(table)
+    check_out(args.out, force=args.force, inputs=[args.problem, spec.trial.inverse_problem])
+    try:
+        solution = run_shooting(spec, args.out, force=args.force)
+    except SolveFailed as exc:
+        print(f"predgait: solve failed: {exc}", file=sys.stderr)
+        return 3
+    for line in summary_lines(solution):
+        print(line)
+    print(f"  wrote {args.out}/ (solution.json, passive_moments.sto, active_passive.png)")
+    return 0

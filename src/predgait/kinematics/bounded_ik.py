@@ -205,6 +205,54 @@ class BoundedSolver:
             at_limit = self.limits_held(q, jac.T @ r)
         return FrameSolution(q, it, converged, at_limit)
 
+    def solve_frames(self, q: np.ndarray,
+                     jacobian: Callable[[int, np.ndarray], tuple[np.ndarray, np.ndarray]]
+                     ) -> list[FrameSolution]:
+        """Bounded Gauss-Newton (damping 0) on independent frames, iterated together.
+
+        Each frame takes the steps :meth:`solve` takes with damping 0 from its own start;
+        the free steps of all frames still iterating are solved as one batch of normal
+        equations (J^T J dv = -J^T r), a step that would leave the joint ranges by the
+        bounded subproblem of that frame.
+
+        Args:
+            q: (n, nq) feasible starts, one per frame.
+            jacobian: (frame index, q) -> ((m,) residual, (m, nv) its Jacobian).
+        """
+        if self.options.damping != 0:
+            raise ValueError("solve_frames is Gauss-Newton: SolverOptions.damping must be 0")
+        q = np.array(q, dtype=float)
+        n = len(q)
+        iterations = np.zeros(n, dtype=int)
+        converged = np.zeros(n, dtype=bool)
+        active = np.arange(n)
+        for it in range(1, self.options.max_iterations + 1):
+            if not active.size:
+                break
+            pairs = [jacobian(k, q[k]) for k in active]
+            r = np.stack([pair[0] for pair in pairs])
+            jac = np.stack([pair[1] for pair in pairs])
+            jac_t = np.swapaxes(jac, 1, 2)
+            step = -np.linalg.solve(jac_t @ jac, (jac_t @ r[:, :, None]))[:, :, 0]
+            moved = q[active][:, self._q] + step[:, self._v]
+            for i in np.flatnonzero(((moved < self._lo) | (moved > self._hi)).any(axis=1)):
+                step[i] = bounded_step(jac[i], r[i], 0.0, *self._increment_bounds(q[active[i]]))
+            for i, k in enumerate(active):
+                q[k] = pin.integrate(self.model, q[k], step[i])
+            iterations[active] = it
+            done = np.linalg.norm(step, axis=1) < self.options.tolerance
+            converged[active[done]] = True
+            active = active[~done]
+        out = []
+        for k in range(n):
+            at_limit = np.zeros(self.model.nv, dtype=bool)
+            near = (q[k, self._q] - self._lo < ON_LIMIT) | (self._hi - q[k, self._q] < ON_LIMIT)
+            if near.any():
+                r, jac = jacobian(k, q[k])
+                at_limit = self.limits_held(q[k], jac.T @ r)
+            out.append(FrameSolution(q[k], int(iterations[k]), bool(converged[k]), at_limit))
+        return out
+
     def limits_held(self, q: np.ndarray, gradient: np.ndarray) -> np.ndarray:
         """(nv,) coordinates on a limit whose cost gradient points out of the range."""
         lo, hi = self._increment_bounds(q)

@@ -3,7 +3,8 @@
 Each frame solves min_q sum_i w_i |p_i(q) - m_i|^2 + w_f (pitch(q) - pitch_m)^2 over the
 leg coordinates (ankle position, foot pitch, ankle, knee) within the joint ranges, by
 bounded Gauss-Newton steps (:mod:`predgait.kinematics.bounded_ik`, damping 0) with the
-Pinocchio frame Jacobians, warm-started from the previous frame. The points are the
+Pinocchio frame Jacobians, each frame started from its segment directions
+(:func:`initial_guess`), all frames iterated together. The points are the
 model's joint-centre frames (``ankle_center``, ``knee_center``, ``hip_center``) in the
 sagittal (X, Z) plane; the foot pitch comes from the heel-toe marker line. The result is
 hinge-consistent by construction (the thesis' "hinge constraints imposed before the
@@ -110,54 +111,41 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
     names = [n for n in POINTS if n in points]
     weight = np.array([(weights or {}).get(n, 1.0) for n in names])
     ids = [model.frame_id(n) for n in names]
-    n_frames = len(foot_pitch)
+    plane = slice(0, 3, 2)  # the sagittal X, Z rows (a view, not a fancy-index copy)
+    sagittal = [np.asarray(points[n])[:, plane] for n in names]  # (n, 2) per point
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
     pitch_row = np.zeros((1, pm.nv))
     pitch_row[0, 2] = pitch_weight
-    frame = {"targets": None, "pitch": 0.0}
-
-    def residual(q):
-        pin.framesForwardKinematics(pm, data, q)
-        rows = [w * (data.oMf[fid].translation[[0, 2]] - t)
-                for w, fid, t in zip(weight, ids, frame["targets"], strict=True)]
-        rows.append([pitch_weight * (q[2] - frame["pitch"])])
-        return np.concatenate(rows)
-
-    plane = slice(0, 3, 2)  # the sagittal X, Z rows (a view, not a fancy-index copy)
-    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
     jac_rows = np.vstack([np.zeros((2 * len(names), pm.nv)), pitch_row])  # pitch row fixed
 
-    def jacobian(q):
+    def jacobian(k: int, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted residual and its Jacobian of frame k at q."""
         pin.computeJointJacobians(pm, data, q)
         pin.updateFramePlacements(pm, data)
         rows, jac = np.empty(2 * len(names) + 1), jac_rows.copy()
-        for i, (w, fid, t) in enumerate(zip(weight, ids, frame["targets"], strict=True)):
-            rows[2 * i: 2 * i + 2] = w * (data.oMf[fid].translation[plane] - t)
+        for i, (w, fid, target) in enumerate(zip(weight, ids, sagittal, strict=True)):
+            rows[2 * i: 2 * i + 2] = w * (data.oMf[fid].translation[plane] - target[k])
             jac[2 * i: 2 * i + 2] = w * pin.getFrameJacobian(pm, data, fid, lwa)[plane]
-        rows[-1] = pitch_weight * (q[2] - frame["pitch"])
+        rows[-1] = pitch_weight * (q[2] - foot_pitch[k])
         return rows, jac
 
     lower, upper = joint_limits(model, margin=limit_margin)
     settings = SolverOptions(max_iterations=max_iterations, tolerance=tolerance,
                              cost_tolerance=0.0, damping=0.0)
     solver = BoundedSolver(pm, lower, upper, settings)
-    q = solver.project(initial_guess(model, {n: points[n][0] for n in POINTS}, foot_pitch[0]))
-    out = np.zeros((n_frames, pm.nq))
-    resid = np.zeros((n_frames, len(names)))
-    pitch_res = np.zeros(n_frames)
-    iterations = np.zeros(n_frames, dtype=int)
-    converged = np.zeros(n_frames, dtype=bool)
-    at_limit = np.zeros((n_frames, pm.nv), dtype=bool)
-    sagittal = [np.asarray(points[n])[:, plane] for n in names]  # (n, 2) per point
-    for k in range(n_frames):
-        frame["targets"] = [target[k] for target in sagittal]
-        frame["pitch"] = foot_pitch[k]
-        fit = solver.solve(q, residual, jacobian)
-        q = fit.q
+    starts = np.array([solver.project(initial_guess(model, {n: points[n][k] for n in POINTS},
+                                                    foot_pitch[k]))
+                       for k in range(len(foot_pitch))])
+    fits = solver.solve_frames(starts, jacobian)
+    out = np.array([fit.q for fit in fits])
+    resid = np.zeros((len(fits), len(names)))
+    for k, q in enumerate(out):
         pin.framesForwardKinematics(pm, data, q)
-        resid[k] = [np.linalg.norm(data.oMf[fid].translation[plane] - t)
-                    for fid, t in zip(ids, frame["targets"], strict=True)]
-        pitch_res[k] = q[2] - foot_pitch[k]
-        iterations[k], converged[k], at_limit[k] = fit.iterations, fit.converged, fit.at_limit
-        out[k] = q
-    return IKResult(out, {n: resid[:, i] for i, n in enumerate(names)}, pitch_res, iterations,
-                    converged, at_limit, tuple(model.coordinate_names))
+        resid[k] = [np.linalg.norm(data.oMf[fid].translation[plane] - target[k])
+                    for fid, target in zip(ids, sagittal, strict=True)]
+    return IKResult(out, {n: resid[:, i] for i, n in enumerate(names)},
+                    out[:, 2] - np.asarray(foot_pitch),
+                    np.array([fit.iterations for fit in fits]),
+                    np.array([fit.converged for fit in fits]),
+                    np.array([fit.at_limit for fit in fits]).reshape(len(fits), pm.nv),
+                    tuple(model.coordinate_names))

@@ -47,6 +47,7 @@ from predgait.errors import InputError
 from predgait.kinematics.clinical import clinical_joint
 from predgait.models.loading import Model
 from predgait.models.symbolic import symbolic_model
+from predgait.problems import solver_cache
 
 N_STATES = 4
 
@@ -169,10 +170,10 @@ class LegCollocation:
         transcription: Trapezoidal or Hermite-Simpson defects.
     """
 
-    #: Symbol type of the NLP. SX inlines the mapped SX dynamics: slow to build (HS, 100
-    #: intervals: ~0.7 s), fast to solve (knee fit ~35 ms). MX keeps the map as one call
-    #: node: ~4x faster to build, ~3.5x slower per solve. Solvers are cached, so SX.
-    SYM = cs.SX
+    #: Symbol type of the NLP: ``solver_cache.symbol_type()``. MX keeps the mapped node
+    #: dynamics one call node: ~4-10x faster to build than SX (which inlines every node),
+    #: slower to solve in CasADi's virtual machine, so MX problems are compiled and cached
+    #: on disk (:mod:`predgait.problems.solver_cache`); with the cache off, SX.
 
     #: Node data as NLP parameters: name -> rows per node (qb, vb, ab, tau, hip, x_ref).
     DATA = (("qb", 3), ("vb", 3), ("ab", 3), ("tau", 2), ("hip", 3), ("x_ref", 4),
@@ -184,10 +185,11 @@ class LegCollocation:
             raise InputError(f"Hermite-Simpson needs an even number of grid steps, not {n}.")
         self.model, self.n, self.h, self.n_params = model, n, h, n_params
         self.transcription = transcription
-        self.w = self.SYM.sym("w", N_STATES * (n + 1) + n_params)
+        sym = solver_cache.symbol_type()
+        self.w = sym.sym("w", N_STATES * (n + 1) + n_params)
         self.x, self.p = self.unpack(self.w)
         rows = sum(r for _, r in self.DATA)
-        self.data = self.SYM.sym("data", rows, n + 1)
+        self.data = sym.sym("data", rows, n + 1)
         offset, self.node = 0, {}
         for name, r in self.DATA:
             self.node[name] = self.data[offset:offset + r, :]
@@ -256,7 +258,7 @@ class LegCollocation:
         opts = {"ipopt": {"print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": 1e-8,
                           "linear_solver": "mumps", "hessian_approximation": "exact"},
                 "print_time": False}
-        return cs.nlpsol("leg_collocation", "ipopt", nlp, opts)
+        return solver_cache.ipopt_solver("leg_collocation", nlp, opts)
 
     def solve(self, solver, nodes: NodeData, *, p0, p_bounds) -> Solved:
         """Solve on ``nodes``, warm-started from the measured motion."""

@@ -1,6 +1,7 @@
 """Which fitted passive parameters the data identify, and their 95 % intervals.
 
-Two independent views of one fit (:mod:`predgait.problems.decomposition`):
+Two independent views of one fit (:mod:`predgait.problems.decomposition` or
+:mod:`predgait.problems.shooting`; any fit with ``values`` and ``information``):
 
 * Fisher information F (Hessian / 2 of the fit's negative log-likelihood objective, in
   effectively independent samples): standard errors sqrt(diag F^-1) and the correlation
@@ -31,6 +32,7 @@ import numpy as np
 
 from predgait.problems.decomposition import Bootstrap, Decomposition
 from predgait.problems.passive_model import PassiveModel
+from predgait.problems.shooting import ShootingFit
 
 #: |correlation| at or above which two parameters are called confounded.
 CONFOUNDED = 0.99
@@ -93,7 +95,7 @@ def fisher(information: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return se, np.nan_to_num(correlation)
 
 
-def assess(model: PassiveModel, fit: Decomposition, boot: Bootstrap | None
+def assess(model: PassiveModel, fit: Decomposition | ShootingFit, boot: Bootstrap | None
            ) -> tuple[list[ParameterReport], np.ndarray]:
     """Reports for every parameter (fixed ones too) and the fitted ones' correlation."""
     fitted = model.fitted
@@ -130,7 +132,7 @@ def _report(p, fit, keys, se, correlation, spread) -> ParameterReport:
     span = p.upper - p.lower
     reasons = []
     if 1.96 * se[i] >= BOUND_FRACTION * span:
-        reasons.append(f"the quiet-phase moments constrain it no better than its bounds "
+        reasons.append(f"the data constrain it no better than its bounds "
                        f"(Fisher 95 % half-width {1.96 * se[i]:.3g} {p.unit} vs bounds "
                        f"[{p.lower:g}, {p.upper:g}])")
     half = 1.96 * se[i] if spread is None else max(spread[i], 1.96 * se[i])

@@ -9,7 +9,8 @@ import numpy as np
 TITLES = {"knee": "knee flexion moment", "ankle": "ankle dorsiflexion moment"}
 
 
-def plot_active_passive(samples, fit, joints, quiet_phases, path: Path) -> Path:
+def plot_active_passive(samples, fit, joints, quiet_phases, path: Path, *,
+                        stabilising=None) -> Path:
     """One panel per joint: measured, passive and active moment (N m) vs % gait cycle.
 
     Every gait cycle of the trial is drawn (a line per cycle); the quiet phases, where the
@@ -21,6 +22,9 @@ def plot_active_passive(samples, fit, joints, quiet_phases, path: Path) -> Path:
         joints: Joints to draw.
         quiet_phases: [start, end) pairs, % gait cycle.
         path: PNG to write.
+        stabilising: Optional joint -> (n,) moment of stabilising elements fitted by
+            multiple shooting (:mod:`predgait.problems.shooting`) along the measured
+            motion, N m, drawn beside the split.
 
     Returns:
         ``path``.
@@ -36,6 +40,8 @@ def plot_active_passive(samples, fit, joints, quiet_phases, path: Path) -> Path:
         series = (("inverse dynamics", samples.moments[joint], "k"),
                   ("passive (fitted)", fit.passive[joint], "C0"),
                   ("active = ID - passive", fit.active[joint], "C3"))
+        if stabilising is not None:
+            series += (("stabilising elements (shooting fit)", stabilising[joint], "C2"),)
         for label, values, colour in series:
             for i, cycle in enumerate(cycles):
                 use = samples.cycle == cycle

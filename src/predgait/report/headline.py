@@ -294,6 +294,31 @@ def _decomposition(s: dict) -> Headline:
                     s["status"], numbers, sentence)
 
 
+def _shooting(s: dict) -> Headline:
+    fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
+    numbers = []
+    for key, r in list(fitted.items())[:4]:
+        value = f"{r['value']:.4g} {r['unit']}"
+        if r["status"] == "not identifiable":
+            value += ", not identifiable"
+        elif r.get("interval95"):
+            value += f" [{r['interval95'][0]:.3g}, {r['interval95'][1]:.3g}]"
+        numbers.append((f"{key} (stabilising)", value))
+    rms = s["interval_end_rms_deg"]
+    numbers += [("interval-end RMS, knee (with / without)",
+                 f"{rms['with_elements']['knee']:.4f} / "
+                 f"{rms['without_elements']['knee']:.4f} deg"),
+                ("shooting intervals", f"{s['shooting_intervals']} of "
+                 f"{s['interval_s'] * 1e3:.1f} ms")]
+    zero = [k for k, r in fitted.items() if r.get("note", "").startswith("consistent with 0")]
+    sentence = (f"Over {s['shooting_intervals']} shooting intervals re-started from the "
+                f"measured state, {len(zero)} of {len(fitted)} stabilising parameters are "
+                "consistent with zero; the decomposition of the same moments is shown beside "
+                "them.")
+    return Headline("Stabilising elements (multiple shooting)", trial_name(s["provenance"]),
+                    s["status"], numbers, sentence, f"These are {s['what']}.")
+
+
 #: How a scenario edit kind reads in a sentence.
 EDIT_WORDS = {"passive": "a passive spring-damper", "scale_mass": "a scaled mass",
               "scale_length": "a scaled length", "move_com": "a moved centre of mass",
@@ -368,7 +393,7 @@ BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynt
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
             "solve": _solve, "scenario": _scenario, "sweep": _sweep,
             "passive_decomposition": _decomposition, "torque_feedback": _torque_feedback,
-            "fullbody_tracking": _fullbody_tracking}
+            "passive_shooting": _shooting, "fullbody_tracking": _fullbody_tracking}
 
 
 def summary_file(folder: Path) -> Path | None:

@@ -117,9 +117,7 @@ def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
         fps: Frames per second.
         size: Figure size, inches (None: from the extent of the motion).
     """
-    from PIL import Image
-
-    from predgait.report.figures import new_figure
+    from predgait.report.raster import MARGINS, TEXT, Axes, Canvas
 
     allpts = np.concatenate([p.reshape(-1, 2) for p in [*lines, *reference_lines]])
     allpts = allpts[np.all(np.isfinite(allpts), axis=1)]
@@ -127,35 +125,25 @@ def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
     if size is None:  # about 4.5 inches high, as wide as the motion needs
         aspect = np.clip((hi[0] - lo[0]) / max(hi[1] - min(lo[1], -0.05), 1e-3), 0.5, 2.5)
         size = (1.2 + 3.6 * aspect, 4.5)
-    fig, ax = new_figure(figsize=size)
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(min(lo[1], -0.05), hi[1])
-    ax.set_aspect("equal")
-    ax.axhline(0.0, color="k", lw=0.5)
-    ax.set_xlabel("X (m)")
-    ax.set_ylabel("Z (m)")
-    ref_artists = [ax.plot([], [], "-", color="0.7", lw=2, animated=True)[0]
-                   for _ in reference_lines]
-    sim_artists = [ax.plot([], [], "-o", color="C0", ms=3, animated=True)[0] for _ in lines]
-    title = ax.set_title("", animated=True)
-    canvas = fig.canvas
-    canvas.draw()  # the static parts once; each frame draws only the moving artists
-    background = canvas.copy_from_bbox(fig.bbox)
+    # Palette frames drawn at the final size: no per-frame colour quantisation.
+    palette = ("white", TEXT, "#e4e4e4", "#b3b3b3", "#1f77b4")
+    background = Canvas(size, scale=1, palette=palette)
+    left, right, bottom, top = (m * 110 for m in MARGINS)
+    axes = Axes(background, (left, top, background.width - right, background.height - bottom),
+                (lo[0], hi[0]), (min(lo[1], -0.05), hi[1]), equal=True)
+    axes.frame(xlabel="X (m)", ylabel="Z (m)")
+    axes.polyline(axes.xlim, (0.0, 0.0), color=TEXT, width=0.5)
     frames = []
     for j, time in enumerate(times):
-        canvas.restore_region(background)
-        for artist, pts in zip([*ref_artists, *sim_artists], [*reference_lines, *lines],
-                               strict=True):
-            artist.set_data(pts[j, :, 0], pts[j, :, 1])
-            ax.draw_artist(artist)
-        title.set_text(f"t = {time:.2f} s")
-        fig.draw_artist(title)
-        rgb = np.asarray(canvas.buffer_rgba())[:, :, :3]
-        image = Image.fromarray(rgb)
-        palette = frames[0] if frames else image.quantize(colors=64,
-                                                          method=Image.Quantize.FASTOCTREE)
-        frames.append(image.quantize(palette=palette, dither=Image.Dither.NONE))
-    fig.clear()
+        canvas = background.copy()
+        view = axes.on(canvas)
+        for pts in reference_lines:
+            view.polyline(pts[j, :, 0], pts[j, :, 1], color="#b3b3b3", width=2.0)
+        for pts in lines:
+            view.polyline(pts[j, :, 0], pts[j, :, 1], color="#1f77b4", width=1.5, dots=3.0)
+        canvas.text(((axes.box[0] + axes.box[2]) / 2, axes.box[1] - canvas.px(4.0)),
+                    f"t = {time:.2f} s", size=12.0, anchor="md")
+        frames.append(canvas.image)
     path = Path(path)
     frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(1000 / fps),
                    loop=0, optimize=False)

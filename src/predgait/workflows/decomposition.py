@@ -58,18 +58,22 @@ class DecompositionSpec:
     noise_repeats: int = 0
     noise_marker_mm: float = 1.0
     noise_force_percent: float = 1.0
+    trial: LegTrial | None = None
 
 
-def parse_decomposition(table: Table) -> DecompositionSpec:
-    """DecompositionSpec from a problem file (errors name the file, key and line)."""
-    table.check_keys(("kind", "joints", "quiet_phases", "smoothness_weight", "trial", "filter",
-                      "uncertainty", "passive", "solver"))
+def parse_joints(table: Table) -> tuple[str, ...]:
+    """The ``joints`` key (knee, ankle or both)."""
     joints = table.strings("joints", ("knee", "ankle"))
     for joint in joints:
         if joint not in JOINTS:
             raise table.error("joints", f"'{joint}' is not one of: {', '.join(JOINTS)}.")
     if not joints:
         raise table.error("joints", "give at least one joint (knee, ankle).")
+    return tuple(joints)
+
+
+def parse_phases(table: Table) -> tuple[tuple[float, float], ...]:
+    """The ``quiet_phases`` key: [start, end] pairs in % gait cycle."""
     phases = table.get("quiet_phases", list, [[73.0, 100.0]])
     checked = []
     for phase in phases:
@@ -81,26 +85,41 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
         checked.append((float(phase[0]), float(phase[1])))
     if not checked:
         raise table.error("quiet_phases", "give at least one [start, end] phase.")
-    trial = leg_trial(table.table("trial"))
-    filt = table.table("filter")
-    filt.check_keys(("marker_cutoff", "sensitivity_hz"))
+    return tuple(checked)
+
+
+def parse_cutoff(filt: Table) -> float | None:
+    """``marker_cutoff``: Hz, or None for "residual" (Winter's residual analysis)."""
     cutoff = filt.get("marker_cutoff", (str, float), "residual")
     if isinstance(cutoff, str) and cutoff != "residual":
         raise filt.error("marker_cutoff", f"'{cutoff}': give a cut-off in Hz or \"residual\".")
-    if not isinstance(cutoff, str):
-        cutoff = filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
+    if isinstance(cutoff, str):
+        return None
+    return filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
+
+
+def parse_decomposition(table: Table) -> DecompositionSpec:
+    """DecompositionSpec from a problem file (errors name the file, key and line)."""
+    table.check_keys(("kind", "joints", "quiet_phases", "smoothness_weight", "trial", "filter",
+                      "uncertainty", "passive", "solver"))
+    joints = parse_joints(table)
+    checked = parse_phases(table)
+    trial = leg_trial(table.table("trial"))
+    filt = table.table("filter")
+    filt.check_keys(("marker_cutoff", "sensitivity_hz"))
+    cutoff = parse_cutoff(filt)
     unc = table.table("uncertainty")
     unc.check_keys(("bootstrap", "seed", "min_cycles", "block_s", "noise_repeats",
                     "noise_marker_mm", "noise_force_percent"))
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
-    settings = Settings(quiet_phases=tuple(checked),
+    settings = Settings(quiet_phases=checked,
                         smoothness_weight=table.number("smoothness_weight", 0.01, low=0.0),
                         max_iter=int(solver.number("max_iter", 200, low=1, high=10000)))
     return DecompositionSpec(
         source=table.path, inverse_problem=trial.inverse_problem, side=trial.side,
-        model=_passive_model(table.table("passive"), joints), settings=settings,
-        cutoff=None if isinstance(cutoff, str) else cutoff,
+        model=parse_passive_model(table.table("passive"), joints), settings=settings,
+        cutoff=cutoff,
         sensitivity_hz=filt.numbers("sensitivity_hz", [4.0, 6.0, 8.0, 12.0, 20.0], low=0.5,
                                     high=100, unit="Hz", increasing=True),
         repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
@@ -110,10 +129,11 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
         noise_repeats=int(unc.number("noise_repeats", 0, low=0, high=1000)),
         noise_marker_mm=unc.number("noise_marker_mm", 1.0, low=0.0, high=50.0, unit="mm"),
         noise_force_percent=unc.number("noise_force_percent", 1.0, low=0.0, high=50.0,
-                                       unit="%"))
+                                       unit="%"), trial=trial)
 
 
-def _passive_model(passive: Table, joints) -> PassiveModel:
+def parse_passive_model(passive: Table, joints) -> PassiveModel:
+    """The ``[passive.<joint>]`` tables: elements, fit, fixed, bounds, priors, stops_deg."""
     passive.check_keys(JOINTS)
     choices = {"elements": {}, "fit": {}, "fixed": {}, "bounds": {}, "priors": {}, "stops": {}}
     for joint in joints:
@@ -137,7 +157,7 @@ def _passive_model(passive: Table, joints) -> PassiveModel:
 
 
 def _options(spec: DecompositionSpec) -> InverseOptions:
-    return LegTrial(spec.side, spec.inverse_problem).options()
+    return (spec.trial or LegTrial(spec.side, spec.inverse_problem)).options()
 
 
 def residual_cutoff(options: InverseOptions) -> float:
@@ -154,7 +174,8 @@ def residual_cutoff(options: InverseOptions) -> float:
     return float(residual_analysis(xyz, markers.rate).chosen)
 
 
-def _samples(options: InverseOptions, cutoff: float) -> tuple[GaitSamples, object]:
+def inverse_samples(options: InverseOptions, cutoff: float) -> tuple[GaitSamples, object]:
+    """The trial's inverse dynamics with markers and forces filtered at ``cutoff`` Hz."""
     inverse = run_inverse(replace(options, cutoff=cutoff, grf_cutoff=cutoff))
     return GaitSamples.from_inverse(inverse), inverse
 
@@ -164,7 +185,7 @@ def cutoff_sensitivity(spec: DecompositionSpec, options: InverseOptions) -> dict
     table = {}
     for cutoff in spec.sensitivity_hz:
         try:
-            samples, _ = _samples(options, cutoff)
+            samples, _ = inverse_samples(options, cutoff)
             fit = fit_decomposition(samples, spec.model, spec.settings)
         except (InputError, SolveFailed) as exc:
             table[f"{cutoff:g}"] = {"failed": str(exc)}
@@ -224,7 +245,7 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
     """
     options = _options(spec)
     chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
-    samples, inverse = _samples(options, chosen)
+    samples, inverse = inverse_samples(options, chosen)
     where = f"{spec.source}: quiet_phases"
     check_samples(samples, spec.model, spec.settings, where=where)
     fit = fit_decomposition(samples, spec.model, spec.settings)

@@ -1,0 +1,236 @@
+"""``predgait solve`` kind ``passive_shooting``: stabilising elements beside the decomposition.
+
+The thesis' question (Fig. 4.2.9), posed so that its answer means something: which
+spring-dampers, added to the measured moments, keep the re-synthesized motion near the
+measured one over shooting intervals shorter than the driven leg's unstable time
+constant (:mod:`predgait.problems.shooting`). The same passive model is also fitted by
+the decomposition of the measured moments (:mod:`predgait.problems.decomposition`) on
+the same inverse dynamics, and both are reported side by side: the decomposition says how
+much of the moment is passive (tissue, under the quiet-muscle assumption), the shooting
+fit how much spring-damper the re-synthesis needs on top of the measured moments.
+Writes solution.json, passive_moments.sto and active_passive.png.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from predgait.data import write_storage
+from predgait.problemfile import Table
+from predgait.problems.decomposition import Settings, bootstrap, fit_decomposition
+from predgait.problems.identifiability import assess
+from predgait.problems.passive_model import PassiveModel
+from predgait.problems.shooting import (
+    MAX_INTERVAL_S,
+    Intervals,
+    ShootingSettings,
+    bootstrap_shooting,
+    fit_shooting,
+)
+from predgait.report.figures import plots_wanted
+from predgait.report.tidy import write_summary
+from predgait.workflows.decomposition import (
+    METHOD as DECOMPOSITION_METHOD,
+)
+from predgait.workflows.decomposition import (
+    inverse_samples,
+    parse_cutoff,
+    parse_joints,
+    parse_passive_model,
+    parse_phases,
+    residual_cutoff,
+)
+from predgait.workflows.output import staged_output
+from predgait.workflows.trials import LegTrial, leg_trial
+
+METHOD = ("multiple shooting: the leg (foot prescribed) driven by the inverse-dynamics "
+          "moments plus the elements, simulated (RK4) over intervals shorter than the "
+          "unstable time constant, each from the measured state; the elements minimise the "
+          "interval-end angle errors (bounded Gauss-Newton); 95 % intervals from a "
+          "bootstrap over gait cycles (or blocks) widened to the Fisher-information "
+          "interval where that is wider")
+WHAT = ("stabilising elements added to the measured moments so that the re-synthesized "
+        "motion stays near the measured one (thesis Fig. 4.2.9), not tissue properties: "
+        "the measured moments already contain the tissue's passive moment (see "
+        "'decomposition' for that)")
+
+
+@dataclass(frozen=True)
+class ShootingSpec:
+    """A parsed ``passive_shooting`` problem file (see problems/passive_shooting.toml)."""
+
+    source: Path
+    trial: LegTrial
+    model: PassiveModel
+    settings: ShootingSettings
+    decomposition: Settings
+    cutoff: float | None            # Hz; None: residual analysis
+    repeats: int
+    seed: int
+    min_cycles: int
+    block_s: float
+
+
+def parse_shooting(table: Table) -> ShootingSpec:
+    """ShootingSpec from a problem file (errors name the file, key and line)."""
+    table.check_keys(("kind", "joints", "trial", "filter", "shooting", "decomposition",
+                      "uncertainty", "passive"))
+    joints = parse_joints(table)
+    trial = leg_trial(table.table("trial"))
+    filt = table.table("filter")
+    filt.check_keys(("marker_cutoff",))
+    shooting = table.table("shooting")
+    shooting.check_keys(("interval_s", "step_s", "max_iter"))
+    beside = table.table("decomposition")
+    beside.check_keys(("quiet_phases", "smoothness_weight"))
+    unc = table.table("uncertainty")
+    unc.check_keys(("bootstrap", "seed", "min_cycles", "block_s"))
+    return ShootingSpec(
+        source=table.path, trial=trial, model=parse_passive_model(table.table("passive"),
+                                                                  joints),
+        settings=ShootingSettings(
+            interval_s=shooting.number("interval_s", 0.02, low=1e-3, high=MAX_INTERVAL_S,
+                                       unit="s"),
+            step_s=shooting.number("step_s", 0.005, low=1e-4, high=0.01, unit="s"),
+            max_iter=int(shooting.number("max_iter", 50, low=1, high=1000))),
+        decomposition=Settings(quiet_phases=parse_phases(beside),
+                               smoothness_weight=beside.number("smoothness_weight", 0.01,
+                                                               low=0.0)),
+        cutoff=parse_cutoff(filt),
+        repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
+        seed=int(unc.number("seed", 0, low=0)),
+        min_cycles=int(unc.number("min_cycles", 6, low=2, high=1000)),
+        block_s=unc.number("block_s", 0.1, low=0.01, high=2.0, unit="s"))
+
+
+def _rms_deg(residual: np.ndarray) -> dict:
+    rms = np.degrees(np.sqrt(np.mean(residual ** 2, axis=0)))
+    return {"ankle": float(rms[0]), "knee": float(rms[1])}
+
+
+def _assessed(model, fit, boot) -> tuple[dict, dict]:
+    reports, correlation = assess(model, fit, boot)
+    return ({r.key: r.as_dict() for r in reports},
+            {"parameters": [p.key for p in model.fitted],
+             "matrix": np.round(correlation, 4).tolist()})
+
+
+def _boot_summary(boot, seed) -> dict | None:
+    return None if boot is None else {"repeats": int(len(boot.values)), "failed": boot.failed,
+                                      "unit": boot.unit, "units": boot.n_units, "seed": seed}
+
+
+def solve_shooting(spec: ShootingSpec) -> dict:
+    """Both fits on the same inverse dynamics: what :func:`run_shooting` writes.
+
+    Raises:
+        InputError: Bad trial, too few intervals or quiet samples (nothing written).
+        SolveFailed: A fit did not converge (nothing written).
+    """
+    options = spec.trial.options()
+    chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
+    samples, inverse = inverse_samples(options, chosen)
+    intervals = Intervals.from_inverse(inverse, samples, spec.settings)
+    fit = fit_shooting(inverse.model, intervals, spec.model, spec.settings,
+                       where=f"{spec.source}: shooting")
+    boot = bootstrap_shooting(intervals, samples, spec.model, fit, repeats=spec.repeats,
+                              seed=spec.seed, min_cycles=spec.min_cycles,
+                              block_s=spec.block_s) if spec.repeats > 1 else None
+    parameters, correlation = _assessed(spec.model, fit, boot)
+    split = fit_decomposition(samples, spec.model, spec.decomposition)
+    split_boot = bootstrap(samples, spec.model, split, spec.decomposition,
+                           repeats=spec.repeats, seed=spec.seed, min_cycles=spec.min_cycles,
+                           block_s=spec.block_s) if spec.repeats > 1 else None
+    split_parameters, _ = _assessed(spec.model, split, split_boot)
+    stabilising = {joint: np.asarray(spec.model.passive_joint(joint, fit.values).moment(
+        samples.angles[joint], samples.rates[joint])) for joint in spec.model.joints}
+    solution = {
+        "status": "solved", "kind": "passive_shooting", "method": METHOD, "what": WHAT,
+        "iterations": fit.iterations, "solve_time_s": fit.seconds,
+        "parameters": parameters, "fitted_correlation": correlation,
+        "shooting_intervals": len(intervals), "interval_s": intervals.length_s,
+        "rk4_steps_per_interval": intervals.substeps,
+        "interval_end_rms_deg": {"with_elements": _rms_deg(fit.residual),
+                                 "without_elements": _rms_deg(fit.residual_none)},
+        "gait_cycles": int(np.unique(samples.cycle[samples.cycle >= 0]).size),
+        "bootstrap": _boot_summary(boot, spec.seed),
+        "marker_cutoff_hz": chosen,
+        "marker_cutoff_choice": "given" if spec.cutoff is not None else
+        "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
+        "decomposition": {
+            "what": "passive joint moments (tissue properties under the quiet-muscle "
+                    "assumption)", "method": DECOMPOSITION_METHOD,
+            "ipopt_status": split.status, "parameters": split_parameters,
+            "quiet_phases_percent": [list(p) for p in spec.decomposition.quiet_phases],
+            "quiet_phase_residual_sd_n_m": split.noise_sd,
+            "bootstrap": _boot_summary(split_boot, spec.seed)},
+        "provenance": {"problem": str(spec.source), "model": inverse.model.source,
+                       **inverse.provenance},
+    }
+    return {"solution": solution, "samples": samples, "split": split,
+            "stabilising": stabilising}
+
+
+def run_shooting(spec: ShootingSpec, out: Path, *, force: bool = False) -> dict:
+    """Solve (:func:`solve_shooting`) and write the result folder; returns solution.json."""
+    result = solve_shooting(spec)
+    samples, split, stabilising = result["samples"], result["split"], result["stabilising"]
+    columns = {"percent_gait_cycle": samples.percent}
+    for joint in spec.model.joints:
+        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
+        columns[f"{joint}_moment_passive_decomposition"] = split.passive[joint]
+        columns[f"{joint}_moment_active_decomposition"] = split.active[joint]
+        columns[f"{joint}_moment_stabilising_shooting"] = stabilising[joint]
+    with staged_output(out, force=force,
+                       inputs=[spec.source, spec.trial.inverse_problem]) as stage:
+        solution = write_summary(stage / "solution.json", result["solution"])
+        write_storage(stage / "passive_moments.sto", samples.time, columns,
+                      header={"units": "N m (clinical sign: positive toward knee flexion / "
+                                       "ankle dorsiflexion), % gait cycle",
+                              "what": "inverse-dynamics moment split into passive + active "
+                                      "(decomposition) and the stabilising elements' moment "
+                                      "along the measured motion (multiple shooting)",
+                              "marker_cutoff_hz": f"{solution['marker_cutoff_hz']:.3g}"})
+        if plots_wanted():
+            from predgait.report.decomposition_plots import plot_active_passive
+
+            plot_active_passive(samples, split, spec.model.joints,
+                                spec.decomposition.quiet_phases, stage / "active_passive.png",
+                                stabilising=stabilising)
+    return solution
+
+
+def _parameter_line(key: str, report: dict) -> str | None:
+    if report["status"] == "fixed":
+        return None
+    head = f"    {key} = {report['value']:.4g} {report['unit']}"
+    if report["status"] == "not identifiable":
+        return f"{head}: not identifiable ({'; '.join(report['reasons'])})"
+    if report["interval95"] is None:
+        return f"{head} (no bootstrap: no interval)"
+    low, high = report["interval95"]
+    note = f"; {report['note']}" if report["note"] else ""
+    return f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}"
+
+
+def summary_lines(solution: dict) -> list[str]:
+    """What the CLI prints: both fits, parameter by parameter."""
+    rms = solution["interval_end_rms_deg"]
+    lines = [f"passive_shooting: Gauss-Newton in {solution['iterations']} iterations, "
+             f"{solution['solve_time_s']:.3f} s; {solution['shooting_intervals']} intervals of "
+             f"{solution['interval_s'] * 1e3:.1f} ms; marker cut-off "
+             f"{solution['marker_cutoff_hz']:.3g} Hz",
+             "  stabilising elements (multiple shooting; not tissue properties):"]
+    lines += [line for key, r in solution["parameters"].items()
+              if (line := _parameter_line(key, r)) is not None]
+    lines.append("    interval-end RMS error with / without them: " + ", ".join(
+        f"{j} {rms['with_elements'][j]:.4f} / {rms['without_elements'][j]:.4f} deg"
+        for j in ("ankle", "knee")))
+    lines.append("  passive moments (decomposition, quiet phases "
+                 f"{solution['decomposition']['quiet_phases_percent']} %):")
+    lines += [line for key, r in solution["decomposition"]["parameters"].items()
+              if (line := _parameter_line(key, r)) is not None]
+    return lines
