@@ -18,9 +18,9 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
                      around the measured motion, re-simulated over the first gait
                      cycle (problems/torque_feedback.toml): feedforward vs feedback
                      torque against the inverse-dynamics uncertainty (cut-offs 4-8 Hz)
-  fullbody_tracking  the 35-DOF body with its pelvis free made dynamically consistent
-                     (corrected kinematics, joint torques, sole contact forces) and
-                     held by time-varying LQR feedback (problems/fullbody_tracking.toml)
+  fullbody_tracking  the 35-DOF body with its pelvis free made dynamically consistent:
+                     corrected kinematics, joint torques, sole contact forces
+                     (problems/fullbody_tracking.toml)
   passive_decomposition  passive knee/ankle moments split from the measured moments
                      (no simulation; problems/passive_decomposition.toml), with
                      bootstrap intervals or "not identifiable"

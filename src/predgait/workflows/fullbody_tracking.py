@@ -3,19 +3,15 @@
 Problem file (problems/fullbody_tracking.toml): ``[trial]`` and ``[contact]`` as in
 ``kind = "fullbody"`` (:mod:`predgait.workflows.forward3d_spec`), ``[window]`` (start,
 end in trial time; default the first right gait cycle), ``[weights]``
-(:class:`~predgait.problems.fullbody_tracking.TrackingWeights`), ``[solver]``,
-``[feedback]`` and ``[integrator]``, ``[fall]`` of the re-simulation.
+(:class:`~predgait.problems.fullbody_tracking.TrackingWeights`) and ``[solver]``.
 
-Steps: whole-body IK + ID of the trial, the tracking problem on the marker frames of the
-window (:mod:`predgait.problems.fullbody_tracking`), then the forward engine re-simulating
-the free body on its contact springs from the corrected initial state, driven by the
-solved joint torques, with and without the time-varying LQR feedback
-(:mod:`predgait.dynamics.floating_lqr`).
+Steps: whole-body IK + ID of the trial, then the tracking problem on the marker frames of
+the window (:mod:`predgait.problems.fullbody_tracking`).
 
 Files: ``kinematics3d.sto`` (corrected pelvis position m, pelvis Cardan angles and joint
 angles deg), ``corrected_moments3d.sto`` (joint torques N m, pelvis residual),
-``contact_forces.sto`` (N on each sole point), ``feedback_gains.npz``, ``summary.json``,
-``tracking.png`` and the stick figure.
+``contact_forces.sto`` (N on each sole point), ``summary.json``, ``tracking.png`` and the
+stick figure.
 """
 
 from __future__ import annotations
@@ -49,13 +45,12 @@ class TrackingSpec:
     weights: TrackingWeights
     contact_height: float
     max_iter: int
-    feedback: dict
     source: str
 
 
 def parse_tracking(table: Table) -> TrackingSpec:
     """TrackingSpec from a problem file (errors name the file, key and line)."""
-    table.check_keys(("kind", "trial", "contact", "window", "weights", "solver", "feedback"))
+    table.check_keys(("kind", "trial", "contact", "window", "weights", "solver"))
     window = table.table("window")
     window.check_keys(("start", "end", "contact_height"))
     start = window.number("start", None, low=0, unit="s")
@@ -70,8 +65,6 @@ def parse_tracking(table: Table) -> TrackingSpec:
     weights.check_keys(tuple(vars(defaults)))
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
-    feedback = table.table("feedback")
-    feedback.check_keys(("angle_deg", "rate_deg_s", "torque_n_m", "step"))
     return TrackingSpec(
         trial=_trial(table), contact=_contact(table),
         window=None if start is None else (start, end),
@@ -79,10 +72,6 @@ def parse_tracking(table: Table) -> TrackingSpec:
                                    for k, v in vars(defaults).items()}),
         contact_height=window.number("contact_height", 0.03, low=0.0, high=0.2, unit="m"),
         max_iter=int(solver.number("max_iter", 200, low=1, high=5000)),
-        feedback={"angle_deg": feedback.number("angle_deg", 2.0, low=1e-3, unit="deg"),
-                  "rate_deg_s": feedback.number("rate_deg_s", 50.0, low=1e-3, unit="deg/s"),
-                  "torque_n_m": feedback.number("torque_n_m", 20.0, low=1e-3, unit="N m"),
-                  "step": feedback.number("step", 5e-4, low=1e-5, high=5e-3, unit="s")},
         source=str(table.path))
 
 
