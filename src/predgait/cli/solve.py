@@ -22,6 +22,9 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
                      7-link model on smooth heel/toe contact (problems/
                      predict_gait7.toml), checked by Pinocchio at every node and
                      re-simulated by the engine with TVLQR feedback
+  fullbody_tracking  the 35-DOF body with its pelvis free made dynamically consistent:
+                     corrected kinematics, joint torques, sole contact forces
+                     (problems/fullbody_tracking.toml)
   passive_decomposition  passive knee/ankle moments split from the measured moments
                      (no simulation; problems/passive_decomposition.toml), with
                      bootstrap intervals or "not identifiable"
@@ -66,6 +69,10 @@ def run(args: argparse.Namespace) -> int:
         return _run_predict(table, args)
     if table.data.get("kind") == "passive_shooting":
         return _run_shooting(table, args)
+    if table.data.get("kind") == "fullbody_tracking":
+        from predgait.workflows.fullbody_tracking_run import run_cli
+
+        return run_cli(table, args)
 
     spec = parse_solve(table)
     check_out(args.out, force=args.force, inputs=[args.problem, spec.inverse_problem])
