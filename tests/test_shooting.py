@@ -175,3 +175,12 @@ def test_problem_files_parse():
         spec = parse_shooting(load_problem(PROBLEMS / name))
         assert spec.settings.interval_s <= 0.025
         assert spec.model.fitted
+
+
+def test_fit_that_does_not_converge_exits_3_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "none"
+    code = main(["solve", str(PROBLEMS / "passive_shooting.toml"), "--out", str(out),
+                 "--set", "shooting.max_iter=1", "--set", "uncertainty.bootstrap=0"])
+    assert code == 3
+    assert "did not converge" in capsys.readouterr().err
+    assert not out.exists()

@@ -132,6 +132,10 @@ class LegDrivers:
         passive_offset: Optional t -> (5,) generalised passive force of ``passive`` at
             the measured motion, subtracted in the run (set by :meth:`from_inverse`: the
             inverse-dynamics moments already contain the elements).
+        hip_in_thigh_frame: The hip force and moment held fixed in the thigh frame
+            (thesis 3.3.3 and Appendix A: forces at a segment's proximal joint expressed
+            in its own coordinate system): their components on the thigh's axes at the
+            measured motion, turning with the simulated thigh. False: fixed in the lab.
     """
 
     prescribed_q: TimeFunction
@@ -146,6 +150,7 @@ class LegDrivers:
     time_range: tuple[float, float] | None = None
     passive: Mapping = field(default_factory=dict)
     passive_offset: TimeFunction | None = None
+    hip_in_thigh_frame: bool = False
 
     @classmethod
     def still(cls, base=(0.0, 0.0, 0.0), *, joint_torque=(0.0, 0.0),

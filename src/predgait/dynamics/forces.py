@@ -227,14 +227,18 @@ class JointFeedback(Force):
 
 @dataclass(frozen=True, eq=False)
 class FrameLoad(Force):
-    """A world-frame force and moment at the origin of one frame (e.g. the hip load).
+    """A force and moment at the origin of one frame (e.g. the hip load).
 
-    tau += J^T (f, m), J the frame Jacobian (LOCAL_WORLD_ALIGNED). A load that is zero at
+    tau += J^T (f, m), J the frame Jacobian: LOCAL_WORLD_ALIGNED for lab-frame components,
+    LOCAL with ``body_fixed`` (components on the frame's own axes, so the load turns with
+    the segment: the thesis' body-based forces, 3.2.3 and 3.3.3). A load that is zero at
     all times is not added to a system at all (no Jacobian). The wrench is read once per
     time (the modified-Euler correctors ask for the same t again and again).
 
     Attributes:
-        model: The model. frame: frame name. force, moment: t -> (3,) N, N m (lab frame).
+        model: The model. frame: frame name. force, moment: t -> (3,) N, N m (lab frame,
+        or the frame's axes with ``body_fixed``).
+        body_fixed: Components on the frame's axes instead of the lab's.
     """
 
     model: RigidBodyModel
@@ -242,6 +246,7 @@ class FrameLoad(Force):
     force: Callable[[float], np.ndarray]
     moment: Callable[[float], np.ndarray]
     name: str = "load"
+    body_fixed: bool = False
     _id: int = field(init=False, repr=False)
     _wrench: np.ndarray = field(init=False, repr=False)
     _time: list = field(init=False, repr=False)  # [t] of the wrench held in _wrench
@@ -258,7 +263,7 @@ class FrameLoad(Force):
             wrench[:3], wrench[3:] = self.force(t), self.moment(t)
             self._time[0] = t
         tau += wrench.dot(pin.computeFrameJacobian(self.model.pin_model, data, q, self._id,
-                                                   LWA))
+                                                   pin.LOCAL if self.body_fixed else LWA))
 
 
 @dataclass(frozen=True, eq=False)

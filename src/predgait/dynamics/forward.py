@@ -125,8 +125,12 @@ class LegSystem(PartitionedSystem):
         if feedback is not None:
             forces.append(feedback)
         if not (is_zero(drivers.hip_force) and is_zero(drivers.hip_moment)):
-            forces.append(FrameLoad(model, "hip_center", drivers.hip_force,
-                                    drivers.hip_moment, name="hip"))
+            if drivers.hip_in_thigh_frame:
+                forces.append(FrameLoad(model, "hip_center", *hip_on_thigh_axes(model, drivers),
+                                        name="hip", body_fixed=True))
+            else:
+                forces.append(FrameLoad(model, "hip_center", drivers.hip_force,
+                                        drivers.hip_moment, name="hip"))
         super().__init__(model, rows, self._motion_function(drivers, joints_prescribed),
                          forces)
         self.nf = self.nvf
@@ -180,6 +184,32 @@ class LegSystem(PartitionedSystem):
             reduce_to_cop(fx, fz, m_heel, heel[:, 0], heel[:, 2], ground_z=ground_z), zeros,
             np.where(np.abs(fz) >= COP_THRESHOLD, ground_z, 0.0)])
         return np.column_stack([fx, zeros, fz]), cop, m_heel
+
+
+def hip_on_thigh_axes(model: Model, drivers: LegDrivers):
+    """The hip load held in the thigh frame: (force, moment) functions of t.
+
+    Their values are the load's components on the axes of frame ``hip_center`` (on the
+    thigh) at the measured motion, N and N m: R(q_ref(t))^T (f, m)(t).
+
+    Raises:
+        InputError: The drivers carry no reference motion.
+    """
+    if drivers.reference_q is None:
+        raise InputError("a hip load fixed in the thigh frame needs drivers with a "
+                         "reference motion (from inverse dynamics).")
+    data = model.pin_model.createData()
+    frame = model.frame_id("hip_center")
+    last = [None, None]   # t, R^T of the latest call
+
+    def transposed(t):
+        if t != last[0]:
+            pin.framesForwardKinematics(model.pin_model, data, drivers.reference_q(t))
+            last[0], last[1] = t, data.oMf[frame].rotation.T.copy()
+        return last[1]
+
+    return (lambda t: transposed(t) @ drivers.hip_force(t),
+            lambda t: transposed(t) @ drivers.hip_moment(t))
 
 
 def simulate_leg(model: Model, drivers: LegDrivers, t_span: tuple[float, float], x0=None, *,

@@ -244,6 +244,34 @@ def _torque_feedback(s: dict) -> Headline:
                     numbers, sentence)
 
 
+def _fullbody_tracking(s: dict) -> Headline:
+    dev = s["deviation"]
+    grf = max(dev["grf_rms_percent_bw"].values())
+    window = s["window_s"][1] - s["window_s"][0]
+    numbers = [("pelvis residual", f"{s['pelvis_residual_max_n']:.1e} N "
+                f"(data {s['measured_pelvis_residual_rms_n']:.1f} N RMS)"),
+               ("joint change", _deg(dev["all_joints_rms_deg"]) + " RMS"),
+               ("GRF change", f"{grf:.1f} % BW RMS (worst axis)"),
+               ("solve", f"{s['iterations']} iterations, {s['solve_time_s']:.1f} s")]
+    sentence = (f"Over {window:.2f} s the body with its pelvis free satisfies its equations "
+                f"of motion to {s['pelvis_residual_max_n']:.1e} N after moving its joints "
+                f"{_deg(dev['all_joints_rms_deg'])} RMS and its ground reactions at most "
+                f"{grf:.1f} % body weight RMS from the plates")
+    feedback = s.get("feedback")
+    if feedback:
+        closed, opened = feedback["with_feedback"], feedback["without_feedback"]
+        numbers.append(("re-simulation with feedback",
+                        "completes" if closed["time_to_fall_s"] is None else
+                        f"falls at {_t(closed['time_to_fall_s'])}"))
+        numbers.append(("without feedback falls at", _t(opened["time_to_fall_s"])))
+        sentence += ("; re-simulated on the contact springs with LQR feedback it "
+                     + ("walks the whole window" if closed["time_to_fall_s"] is None else
+                        f"falls at {_t(closed['time_to_fall_s'])}")
+                     + f", without it falls at {_t(opened['time_to_fall_s'])}")
+    return Headline("Whole-body tracking", trial_name(s["provenance"]), s["status"],
+                    numbers, sentence + ".")
+
+
 def _decomposition(s: dict) -> Headline:
     fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
     numbers = []
@@ -365,7 +393,7 @@ BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynt
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
             "solve": _solve, "scenario": _scenario, "sweep": _sweep,
             "passive_decomposition": _decomposition, "torque_feedback": _torque_feedback,
-            "passive_shooting": _shooting}
+            "passive_shooting": _shooting, "fullbody_tracking": _fullbody_tracking}
 
 
 def summary_file(folder: Path) -> Path | None:

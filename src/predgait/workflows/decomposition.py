@@ -58,6 +58,7 @@ class DecompositionSpec:
     noise_repeats: int = 0
     noise_marker_mm: float = 1.0
     noise_force_percent: float = 1.0
+    trial: LegTrial | None = None
 
 
 def parse_joints(table: Table) -> tuple[str, ...]:
@@ -128,7 +129,7 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
         noise_repeats=int(unc.number("noise_repeats", 0, low=0, high=1000)),
         noise_marker_mm=unc.number("noise_marker_mm", 1.0, low=0.0, high=50.0, unit="mm"),
         noise_force_percent=unc.number("noise_force_percent", 1.0, low=0.0, high=50.0,
-                                       unit="%"))
+                                       unit="%"), trial=trial)
 
 
 def parse_passive_model(passive: Table, joints) -> PassiveModel:
@@ -156,7 +157,7 @@ def parse_passive_model(passive: Table, joints) -> PassiveModel:
 
 
 def _options(spec: DecompositionSpec) -> InverseOptions:
-    return LegTrial(spec.side, spec.inverse_problem).options()
+    return (spec.trial or LegTrial(spec.side, spec.inverse_problem)).options()
 
 
 def residual_cutoff(options: InverseOptions) -> float:

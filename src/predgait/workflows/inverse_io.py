@@ -67,9 +67,25 @@ def options_from_problem(table: Table) -> InverseOptions:
     table.check_keys(("trial", "points", "options"))
     trial = table.table("trial", required=True)
     trial.check_keys(TRIAL_KEYS)
-    points = table.table("points", required=True)
+    return _options(trial, table.table("points", required=True), table.table("options"))
+
+
+def options_from_trial(trial: Table, extra_keys=()) -> InverseOptions:
+    """InverseOptions from another problem's ``[trial]`` table holding the inverse inputs.
+
+    The same keys as an inverse problem file's ``[trial]`` (markers, grf, static, mass,
+    height, side, model), with its ``[points]`` and ``[options]`` as the sub-tables
+    ``[trial.points]`` and ``[trial.options]``; ``extra_keys`` are the caller's own.
+    """
+    trial.check_keys((*TRIAL_KEYS, "points", "options", *extra_keys))
+    if not trial.has("points"):
+        raise trial.error("points", "name the trial's markers in [trial.points] (hip, knee, "
+                                    "ankle, heel, toe), as in an inverse problem file.")
+    return _options(trial, trial.table("points"), trial.table("options"))
+
+
+def _options(trial: Table, points: Table, opts: Table) -> InverseOptions:
     points.check_keys(POINT_NAMES)
-    opts = table.table("options")
     opts.check_keys(OPTION_KEYS)
     side = trial.get("side", str, "right")
     if side not in ("right", "left"):

@@ -28,7 +28,7 @@ from predgait.dynamics.forward import LEG_FALL, FallLimit, ForceFrame
 from predgait.dynamics.integrators import IntegratorOptions
 from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.problemfile import Table, load_problem
-from predgait.workflows.trials import leg_trial
+from predgait.workflows.trials import LegTrial, leg_trial
 
 KINDS = ("rod", "collapse", "resynthesis", "gait7", "fullbody")
 
@@ -54,6 +54,7 @@ class Variant:
     step: float | None = None
     iterations: int | None = None
     passive: dict[str, PassiveJoint] | None = None
+    hip_in_thigh_frame: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -84,10 +85,12 @@ class ResynthesisSpec:
     threshold_deg: float = 5.0
     fall: FallLimit = LEG_FALL
     passive: dict[str, PassiveJoint] = field(default_factory=dict)
+    hip_in_thigh_frame: bool = False
     variants: tuple[Variant, ...] = ()
     stability_times: tuple[float, ...] = (0.05, 0.2, 0.4)
     stick_interval: float = 0.05
     source: str = ""
+    trial: LegTrial | None = None
 
 
 Spec = RodSpec | CollapseSpec | ResynthesisSpec
@@ -119,12 +122,27 @@ def _fall(table: Table) -> FallLimit:
 def _variants(table: Table, key: str) -> tuple[Variant, ...]:
     out = []
     for sub in table.tables(key):
-        sub.check_keys(("name", "step", "iterations", "passive"))
+        sub.check_keys(("name", "step", "iterations", "passive", "hip_force_frame"))
         out.append(Variant(name=sub.get("name", str),
                            step=sub.number("step", None, low=1e-6, high=0.1, unit="s"),
                            iterations=_iterations(sub),
-                           passive=_passive(sub) if sub.has("passive") else None))
+                           passive=_passive(sub) if sub.has("passive") else None,
+                           hip_in_thigh_frame=_hip_in_thigh(sub) if sub.has("hip_force_frame")
+                           else None))
     return tuple(out)
+
+
+#: ``hip_force_frame`` values: the hip load fixed in the lab (inertial-based) or in the
+#: thigh frame (body-based, thesis 3.3.3 and Appendix A).
+HIP_FORCE_FRAMES = ("lab", "thigh")
+
+
+def _hip_in_thigh(table: Table) -> bool:
+    frame = table.get("hip_force_frame", str, "lab")
+    if frame not in HIP_FORCE_FRAMES:
+        raise table.error("hip_force_frame", f"'{frame}' is not one of: "
+                                             f"{', '.join(HIP_FORCE_FRAMES)}.")
+    return frame == "thigh"
 
 
 def _iterations(table: Table) -> int | None:
@@ -192,7 +210,7 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
                       "variants", "stability"))
     trial = leg_trial(table.table("trial"))
     sim = table.table("simulation")
-    sim.check_keys(("start", "duration", "threshold_deg", "stick_interval"))
+    sim.check_keys(("start", "duration", "threshold_deg", "stick_interval", "hip_force_frame"))
     stab = table.table("stability")
     stab.check_keys(("times",))
     return ResynthesisSpec(
@@ -201,6 +219,6 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
         duration=sim.number("duration", None, low=0.01, high=30, unit="s"),
         threshold_deg=sim.number("threshold_deg", 5.0, low=0.01, high=90, unit="deg"),
         stick_interval=sim.number("stick_interval", 0.05, low=0.001, high=1, unit="s"),
-        fall=_fall(table), passive=_passive(table), variants=_variants(table, "variants"),
-        stability_times=_stability_times(stab, sim),
-        source=source)
+        fall=_fall(table), passive=_passive(table), hip_in_thigh_frame=_hip_in_thigh(sim),
+        variants=_variants(table, "variants"), stability_times=_stability_times(stab, sim),
+        source=source, trial=trial)

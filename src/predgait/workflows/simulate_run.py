@@ -238,7 +238,7 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     from predgait.report.stick import plot_stick
     from predgait.report.viewer import write_motion
 
-    inv = LegTrial(spec.side, spec.inverse_problem).inverse()
+    inv = (spec.trial or LegTrial(spec.side, spec.inverse_problem)).inverse()
     model = inv.model
     drivers = LegDrivers.from_inverse(inv)
     t0 = spec.start
@@ -258,7 +258,10 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     runs, rows, main_msg = {}, [], None
     for v in variants:
         passive = v.passive if v.passive is not None else spec.passive
-        active = LegDrivers.from_inverse(inv, passive=passive)
+        in_thigh = spec.hip_in_thigh_frame if v.hip_in_thigh_frame is None \
+            else v.hip_in_thigh_frame
+        active = replace(LegDrivers.from_inverse(inv, passive=passive),
+                         hip_in_thigh_frame=in_thigh)
         sim, msg = _run(simulate_leg, model, active, (t0, t1), None,
                         options=_variant_options(spec.integrator, v), fall=spec.fall,
                         progress=progress and v.name == "main")
@@ -266,6 +269,7 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
         main_msg = msg if v.name == "main" else main_msg
         dev = deviation(sim, inv.time, inv.q, threshold_deg=spec.threshold_deg)
         rows.append({"name": v.name, "status": sim.status, "time_to_fall_s": sim.time_to_fall,
+                     "hip_force_frame": "thigh" if in_thigh else "lab",
                      "end_time_s": float(sim.t[-1]),
                      "rms_deg": {k: float(np.degrees(x)) for k, x in dev.rms.items()},
                      "time_to_threshold_s": dev.time_to_threshold,
@@ -280,7 +284,8 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     grf_i = np.column_stack([np.interp(inv.time[inside], main.t, main.grf[:, i])
                              for i in (0, 2)])
     grf_rms = np.sqrt(np.mean((grf_i - inv.grf[inside][:, [0, 2]]) ** 2, axis=0))
-    system = LegSystem(model, LegDrivers.from_inverse(inv, passive=spec.passive))
+    system = LegSystem(model, replace(LegDrivers.from_inverse(inv, passive=spec.passive),
+                                      hip_in_thigh_frame=spec.hip_in_thigh_frame))
     stability = []
     for t in spec.stability_times:
         tt = t0 + t
@@ -318,6 +323,7 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
         "time_span_s": [t0, t1], "rms_deg": rows[0]["rms_deg"],
         "time_to_threshold_s": rows[0]["time_to_threshold_s"],
         "threshold_deg": spec.threshold_deg,
+        "hip_force_frame": "thigh" if spec.hip_in_thigh_frame else "lab",
         "grf_rms_n": {"x": float(grf_rms[0]), "z": float(grf_rms[1])}, "runs": rows,
         "stability": stability,
         "provenance": {"trial": inv.provenance.get("trial", ""), "model": model.source,

@@ -63,6 +63,7 @@ class SolveSpec:
     perturbation_deg: float
     max_iter: int
     check_step: float = 2.5e-4
+    trial: LegTrial | None = None
 
 
 WEIGHT_KEYS = {Kind.KNEE_FIT: (), Kind.TORQUE_CORRECTION: ("tracking", "effort", "smoothness"),
@@ -95,11 +96,11 @@ def parse_solve(table: Table) -> SolveSpec:
         threshold_deg=check.number("threshold_deg", 2.0, low=0.1, high=45, unit="deg"),
         perturbation_deg=check.number("perturbation_deg", 3.0, low=0.0, high=30, unit="deg"),
         max_iter=int(solver.number("max_iter", 300, low=1, high=10000)),
-        check_step=check.number("step", 2.5e-4, low=1e-5, high=5e-3, unit="s"))
+        check_step=check.number("step", 2.5e-4, low=1e-5, high=5e-3, unit="s"), trial=trial)
 
 
 def _inverse(spec: SolveSpec) -> InverseResult:
-    return LegTrial(spec.side, spec.inverse_problem).inverse()
+    return (spec.trial or LegTrial(spec.side, spec.inverse_problem)).inverse()
 
 
 def solve_problem(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers) -> FitResult:

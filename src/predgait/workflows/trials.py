@@ -3,8 +3,11 @@
 A problem file's ``[trial]`` names ``source = "bundled:subject01"`` (the OpenSim subject01
 walk shipped with predgait, :mod:`predgait.data.bundled`), optionally the analysed
 ``side`` and, for the leg, ``inverse_problem = FILE.toml`` (an ``inverse`` problem file
-whose trial and options are used instead). Every kind of problem resolves its trial here:
-the leg (re-synthesis, solve, passive decomposition), gait7 and the whole body.
+whose trial and options are used instead) or the inverse inputs themselves (``markers``,
+``grf``, ``static``, ``mass``, ``height``, ``side``, ``model``, ``[trial.points]``,
+``[trial.options]``: the keys of an inverse problem file, read by the same parser).
+Every kind of problem resolves its trial here: the leg (re-synthesis, solve, passive
+decomposition), gait7 and the whole body.
 """
 
 from __future__ import annotations
@@ -29,9 +32,12 @@ class LegTrial:
 
     side: str = "right"
     inverse_problem: Path | None = None
+    direct: InverseOptions | None = None
 
     def options(self) -> InverseOptions:
         """Inverse-dynamics options of this trial."""
+        if self.direct is not None:
+            return self.direct
         if self.inverse_problem is None:
             from predgait.dynamics.inverse_trial import bundled_options
 
@@ -45,13 +51,31 @@ class LegTrial:
         """Inverse dynamics of this trial (the bundled one cached)."""
         from predgait.dynamics.inverse_trial import bundled_inverse, run_inverse
 
-        if self.inverse_problem is None:
+        if self.inverse_problem is None and self.direct is None:
             return bundled_inverse(self.side)
         return run_inverse(self.options())
 
 
+#: The keys of an inverse problem's ``[trial]`` that make a leg trial direct.
+DIRECT_KEYS = ("markers", "grf", "static", "mass", "height", "model", "points", "options")
+
+
 def leg_trial(table: Table) -> LegTrial:
-    """The :class:`LegTrial` of a ``[trial]`` table (keys source, side, inverse_problem)."""
+    """The :class:`LegTrial` of a ``[trial]`` table.
+
+    Keys: source, side, inverse_problem; or the inverse inputs directly (DIRECT_KEYS and
+    side, see :func:`predgait.workflows.inverse_io.options_from_trial`).
+    """
+    direct = [key for key in DIRECT_KEYS if key in table.data]
+    if direct:
+        from predgait.workflows.inverse_io import options_from_trial
+
+        for key in ("source", "inverse_problem"):
+            if key in table.data:
+                raise table.error(key, f"the trial is given directly ({', '.join(direct)}); "
+                                       f"drop {key} or the direct inputs.")
+        options = options_from_trial(table)
+        return LegTrial(side=options.side.value, direct=options)
     table.check_keys(("source", "side", "inverse_problem"))
     bundled_source(table)
     side = table.get("side", str, "right")

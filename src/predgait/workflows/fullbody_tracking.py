@@ -1,0 +1,182 @@
+"""``kind = "fullbody_tracking"``: the whole body made dynamically consistent, then held.
+
+Problem file (problems/fullbody_tracking.toml): ``[trial]`` and ``[contact]`` as in
+``kind = "fullbody"`` (:mod:`predgait.workflows.forward3d_spec`), ``[window]`` (start,
+end in trial time; default the first right gait cycle), ``[weights]``
+(:class:`~predgait.problems.fullbody_tracking.TrackingWeights`) and ``[solver]``.
+
+Steps: whole-body IK + ID of the trial, then the tracking problem on the marker frames of
+the window (:mod:`predgait.problems.fullbody_tracking`).
+
+Files: ``kinematics3d.sto`` (corrected pelvis position m, pelvis Cardan angles and joint
+angles deg), ``corrected_moments3d.sto`` (joint torques N m, pelvis residual),
+``contact_forces.sto`` (N on each sole point), ``summary.json``, ``tracking.png`` and the
+stick figure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from predgait.dynamics.inverse3d import foot_points
+from predgait.problemfile import Table
+from predgait.problems.fullbody_tracking import (
+    POINTS,
+    TrackingData,
+    TrackingSolution,
+    TrackingWeights,
+)
+from predgait.simulations.forward3d import ContactSettings, FullbodyDrive, measured_ground
+from predgait.workflows.forward3d_spec import TrialSpec, _contact, _trial
+
+#: Plate force above which a foot is loaded, N.
+LOAD_THRESHOLD = 20.0
+
+
+@dataclass(frozen=True)
+class TrackingSpec:
+    """A parsed ``fullbody_tracking`` problem."""
+
+    trial: TrialSpec
+    contact: ContactSettings
+    window: tuple[float, float] | None
+    weights: TrackingWeights
+    contact_height: float
+    max_iter: int
+    source: str
+
+
+def parse_tracking(table: Table) -> TrackingSpec:
+    """TrackingSpec from a problem file (errors name the file, key and line)."""
+    table.check_keys(("kind", "trial", "contact", "window", "weights", "solver"))
+    window = table.table("window")
+    window.check_keys(("start", "end", "contact_height"))
+    start = window.number("start", None, low=0, unit="s")
+    end = window.number("end", None, low=0, unit="s")
+    if (start is None) != (end is None):
+        raise window.error("start", "give both start and end (s, trial time) or neither "
+                                    "(the first right gait cycle).")
+    if start is not None and end <= start:
+        raise window.error("end", f"end {end:g} s is not after start {start:g} s.")
+    weights = table.table("weights")
+    defaults = TrackingWeights()
+    weights.check_keys(tuple(vars(defaults)))
+    solver = table.table("solver")
+    solver.check_keys(("max_iter",))
+    return TrackingSpec(
+        trial=_trial(table), contact=_contact(table),
+        window=None if start is None else (start, end),
+        weights=TrackingWeights(**{k: weights.number(k, v, low=1e-9)
+                                   for k, v in vars(defaults).items()}),
+        contact_height=window.number("contact_height", 0.03, low=0.0, high=0.2, unit="m"),
+        max_iter=int(solver.number("max_iter", 200, low=1, high=5000)),
+        source=str(table.path))
+
+
+def gait_cycle(drive: FullbodyDrive, stances) -> tuple[float, float]:
+    """First right gait cycle: heel strike to the next right heel strike, s."""
+    starts = sorted(s.start for s in stances if s.side == "r" and s.start > drive.time[0])
+    if len(starts) < 2:
+        from predgait.errors import InputError
+
+        raise InputError(f"{drive.source}: fewer than two right heel strikes on the plates; "
+                         "give [window] start and end.")
+    return starts[0], starts[1]
+
+
+def foot_cop(drive: FullbodyDrive, plate_z: float) -> tuple[np.ndarray, np.ndarray,
+                                                             np.ndarray]:
+    """Each foot's plate force (n, 2, 3) N, COP (n, 2, 3) m on z = plate_z, free moment (n, 2).
+
+    From the foot wrench about the origin (F, M): M = cop x F + T e_z.
+    """
+    n = drive.time.size
+    force, cop, free = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
+    for j, side in enumerate("rl"):
+        wrench = drive.foot_wrench[side]
+        f, m = wrench[:, :3], wrench[:, 3:]
+        on = f[:, 2] > 1.0
+        fz = np.where(on, f[:, 2], 1.0)
+        x = np.where(on, (plate_z * f[:, 0] - m[:, 1]) / fz, np.nan)
+        y = np.where(on, (m[:, 0] + plate_z * f[:, 1]) / fz, np.nan)
+        force[:, j] = f
+        cop[:, j] = np.column_stack([x, y, np.full(n, plate_z)])
+        free[:, j] = np.where(on, m[:, 2] - (x * f[:, 1] - y * f[:, 0]), 0.0)
+    # Unloaded feet: COP anywhere (its moment is multiplied by zero force); keep finite.
+    return force, np.nan_to_num(cop), free
+
+
+def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, float], *,
+                  contact: ContactSettings, contact_height: float = 0.03) -> TrackingData:
+    """The problem's nodes: the marker frames of ``window`` (s) and what they track.
+
+    A sole point is in contact when its foot is loaded (plate force above
+    :data:`LOAD_THRESHOLD`) and its measured height is within ``contact_height`` (m) of
+    the floor (:func:`~predgait.simulations.forward3d.measured_ground`).
+    """
+    ground_z, belt = measured_ground(drive, POINTS, threshold=LOAD_THRESHOLD)
+    ground_z = ground_z if contact.ground_z is None else contact.ground_z
+    belt = belt if contact.belt_velocity is None else contact.belt_velocity
+    keep = (drive.time >= window[0] - 1e-9) & (drive.time <= window[1] + 1e-9)
+    points = foot_points(drive.model, drive.q[keep])
+    heights = np.column_stack([points[s][i][:, 2] for s, i in
+                               (("r", 0), ("r", 1), ("l", 0), ("l", 1))])
+    force, cop, free = foot_cop(drive, plate_z)
+    loaded = force[keep][:, [0, 0, 1, 1], 2] > LOAD_THRESHOLD
+    law = contact.contact
+    return TrackingData(drive.time[keep], drive.q[keep], drive.v[keep], drive.a[keep],
+                        loaded & (heights < ground_z + contact_height), force[keep],
+                        cop[keep], free[keep], ground_z, belt, stiffness=law.stiffness,
+                        friction=law.friction)
+
+
+def plate_height(inverse) -> float:
+    """Median COP height of the loaded plate samples, m (the floor of the plates)."""
+    heights = [p.cop[p.force[:, 2] > LOAD_THRESHOLD, 2] for p in inverse.plates]
+    heights = np.concatenate(heights) if heights else np.zeros(1)
+    return float(np.median(heights)) if heights.size else 0.0
+
+
+def deviations(model, data: TrackingData, solution: TrackingSolution) -> dict:
+    """How far the solution moved from the measured data (angles, GRF, COP)."""
+    from predgait.kinematics.ik3d import pelvis_cardan
+
+    joint_names, body_weight = model.joint_names, model.total_mass() * model.gravity
+    points = foot_points(model, solution.q)
+
+    joints = np.degrees(solution.q[:, 7:] - data.q[:, 7:])
+    pelvis = np.degrees(pelvis_cardan(solution.q) - pelvis_cardan(data.q))
+    feet = solution.foot_forces()
+    grf = feet - data.force
+    cop_shift = {}
+    for j, side in enumerate("rl"):
+        loaded = data.force[:, j, 2] > LOAD_THRESHOLD
+        solved = feet[:, j, 2] > 1.0
+        both = loaded & solved
+        if not both.any():
+            continue
+        pts = np.stack(points[side], axis=1)
+        weights = solution.forces[:, 2 * j: 2 * j + 2, 2]
+        cop = (pts[both] * weights[both, :, None]).sum(axis=1) / weights[both].sum(axis=1)[
+            :, None]
+        shift = np.linalg.norm((cop - data.cop[both, j])[:, :2], axis=1)
+        cop_shift[side] = {"rms_m": float(np.sqrt(np.mean(shift**2))),
+                           "max_m": float(shift.max())}
+    return {
+        "joint_rms_deg": {n: float(np.sqrt(np.mean(joints[:, i] ** 2)))
+                          for i, n in enumerate(joint_names)},
+        "all_joints_rms_deg": float(np.sqrt(np.mean(joints**2))),
+        "pelvis_angle_rms_deg": {n: float(np.sqrt(np.mean(pelvis[:, i] ** 2)))
+                                 for i, n in enumerate(("obliquity", "tilt", "rotation"))},
+        "pelvis_position_rms_m": float(np.sqrt(np.mean(
+            (solution.q[:, :3] - data.q[:, :3]) ** 2))),
+        "grf_rms_percent_bw": {f"{side}_{axis}": float(
+            100 * np.sqrt(np.mean(grf[:, j, i] ** 2)) / body_weight)
+            for j, side in enumerate("rl") for i, axis in enumerate("xyz")},
+        "grf_peak_difference_percent_bw": {f"{side}_z": float(
+            100 * (feet[:, j, 2].max() - data.force[:, j, 2].max()) / body_weight)
+            for j, side in enumerate("rl")},
+        "cop_shift": cop_shift,
+    }

@@ -1,0 +1,139 @@
+"""Run a ``fullbody_tracking`` spec and write its result folder.
+
+See :mod:`predgait.workflows.fullbody_tracking`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from predgait import __version__
+from predgait.data import write_storage
+from predgait.errors import SolveFailed
+from predgait.kinematics.ik3d import pelvis_cardan
+from predgait.problems.fullbody_tracking import (
+    POINTS,
+    TrackingData,
+    TrackingSolution,
+    solve_tracking,
+)
+from predgait.report.tidy import write_summary
+from predgait.simulations.forward3d import FullbodyDrive
+from predgait.workflows.forward3d_run import inverse_for
+from predgait.workflows.fullbody_tracking import (
+    TrackingSpec,
+    deviations,
+    gait_cycle,
+    plate_height,
+    tracking_data,
+)
+from predgait.workflows.output import staged_output
+
+
+def solve_spec(spec: TrackingSpec) -> tuple[FullbodyDrive, TrackingData, TrackingSolution]:
+    """IK + ID of the trial, then the tracking problem on the window.
+
+    Raises:
+        SolveFailed: Ipopt did not converge.
+    """
+    inverse = inverse_for(spec.trial)
+    drive = FullbodyDrive.from_inverse(inverse)
+    window = spec.window or gait_cycle(drive, inverse.stances)
+    data = tracking_data(drive, plate_height(inverse), window, contact=spec.contact,
+                         contact_height=spec.contact_height)
+    return drive, data, solve_tracking(drive.model, data, spec.weights,
+                                       max_iter=spec.max_iter)
+
+
+def write_solution(folder: Path, drive: FullbodyDrive, solution: TrackingSolution,
+                   header: dict) -> None:
+    """kinematics3d.sto, corrected_moments3d.sto and contact_forces.sto."""
+    names = drive.model.joint_names
+    q, t = solution.q, solution.time
+    cols = {f"pelvis_t{a}": q[:, i] for i, a in enumerate("xyz")}
+    cols |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(q).T,
+                                                            strict=True)}
+    cols |= {n: np.degrees(q[:, 7 + i]) for i, n in enumerate(names)}
+    write_storage(folder / "kinematics3d.sto", t, cols, in_degrees=True, header=header | {
+        "units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
+        "what": "dynamically consistent (corrected) kinematics"})
+    moments = {f"{n}_moment": solution.tau[:, 6 + i] for i, n in enumerate(names)}
+    moments |= {f"pelvis_residual_{k}": solution.tau[:, i]
+                for i, k in enumerate(("fx", "fy", "fz", "mx", "my", "mz"))}
+    write_storage(folder / "corrected_moments3d.sto", t, moments, header=header | {
+        "units": "N m (joint moments about each Cardan axis); N, N m (pelvis residual, "
+                 "pelvis frame: zero to the solver's tolerance)"})
+    forces = {p: solution.forces[:, i] for i, p in enumerate(POINTS)}
+    forces |= {f"foot_{s}": solution.foot_forces()[:, j] for j, s in enumerate("rl")}
+    write_storage(folder / "contact_forces.sto", t, forces, header=header | {
+        "units": "N (lab frame, on each sole point and each foot)"})
+
+
+def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> dict:
+    """The summary.json content."""
+    model = drive.model
+    return {
+        "kind": "fullbody_tracking", "status": "solved",
+        "window_s": [float(data.time[0]), float(data.time[-1])], "nodes": int(data.nodes),
+        "ipopt_status": solution.status, "iterations": solution.iterations,
+        "solve_time_s": solution.seconds, "build_time_s": solution.build_seconds,
+        "pelvis_residual_max_n": float(np.abs(solution.tau[:, :3]).max()),
+        "pelvis_residual_max_n_m": float(np.abs(solution.tau[:, 3:6]).max()),
+        "measured_pelvis_residual_rms_n": float(np.sqrt(np.mean(
+            drive.tau[np.isin(drive.time, data.time), :3] ** 2))),
+        "floor_z_m": data.ground_z, "belt_velocity_m_per_s": data.belt_velocity,
+        "contact_nodes": {p: int(data.contact[:, i].sum()) for i, p in enumerate(POINTS)},
+        "deviation": deviations(model, data, solution),
+        "feedback": feedback,
+        "provenance": {"problem": spec.source, "trial": drive.source,
+                       "predgait": __version__},
+    }
+
+
+def run_tracking(spec: TrackingSpec, out: Path, *, force: bool = False) -> dict:
+    """Solve, re-simulate and write ``out``; returns the summary.
+
+    Raises:
+        SolveFailed: Ipopt did not converge (nothing written).
+    """
+    from predgait.report.figures import plots_wanted
+
+    drive, data, solution = solve_spec(spec)
+    header = {"provenance": f"problem={spec.source}; trial={drive.source}; "
+                            f"predgait={__version__}"}
+    with staged_output(out, force=force, inputs=[spec.source]) as stage:
+        write_solution(stage, drive, solution, header)
+        if plots_wanted():
+            from predgait.report.fullbody_tracking_plots import save_tracking_plots
+
+            save_tracking_plots(stage, drive.model, data, solution)
+        return write_summary(stage / "summary.json", summary_of(spec, drive, data, solution))
+
+
+
+def run_cli(table, args) -> int:
+    """``predgait solve`` for ``kind = "fullbody_tracking"``: prints a summary; exit code."""
+    import sys
+
+    from predgait.workflows.fullbody_tracking import parse_tracking
+
+    spec = parse_tracking(table)
+    try:
+        info = run_tracking(spec, args.out, force=args.force)
+    except SolveFailed as exc:
+        print(f"predgait: solve failed: {exc}", file=sys.stderr)
+        return 3
+    dev = info["deviation"]
+    print(f"fullbody_tracking: {info['ipopt_status']} in {info['iterations']} iterations, "
+          f"{info['solve_time_s']:.1f} s ({info['nodes']} nodes, "
+          f"{info['window_s'][0]:.3f}..{info['window_s'][1]:.3f} s)")
+    print(f"  pelvis residual max {info['pelvis_residual_max_n']:.2e} N "
+          f"(measured data: {info['measured_pelvis_residual_rms_n']:.1f} N RMS)")
+    print(f"  joints moved {dev['all_joints_rms_deg']:.2f} deg RMS; GRF differs "
+          + ", ".join(f"{k} {v:.1f}" for k, v in dev['grf_rms_percent_bw'].items())
+          + " % BW RMS")
+    print(f"  wrote {args.out}/ (kinematics3d.sto, corrected_moments3d.sto, "
+          "contact_forces.sto, summary.json, tracking.png)")
+    return 0

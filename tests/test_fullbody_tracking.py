@@ -1,0 +1,234 @@
+"""Whole-body tracking with contacts (problems.fullbody_tracking, issue 18).
+
+Known answers: the symbolic node (ADAM) equals Pinocchio's floating-base rows of
+RNEA - J^T f and its contact points; a standing sway simulated by the forward engine
+with a known torque history on the engine's contact springs is recovered (torques within
+2 % RMS, motion within 0.5 deg); on subject01 the solution satisfies the equations of
+motion when re-evaluated by Pinocchio (pelvis residual < 1e-6 N) while staying close to
+the measured angles and plate forces.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from predgait.dynamics.contact import ImpactContact
+from predgait.dynamics.drivers import SampledHistory
+from predgait.dynamics.forces import GroundContact, JointFeedback, JointTorques
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.partitioned import PartitionedSystem, simulate_partitioned
+from predgait.models.loading3d import base_transform, load_fullbody
+from predgait.problems.fullbody_tracking import (
+    POINTS,
+    TrackingData,
+    TrackingWeights,
+    contact_inverse_dynamics,
+    node_function,
+    solve_tracking,
+)
+
+PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "fullbody_tracking.toml"
+CONTACT = ImpactContact(stiffness=2e5, exponent=1.0, damping=2e3, damping_depth=1e-3,
+                        friction=0.8, slip_transition=1.0)
+
+
+def test_node_function_equals_pinocchio():
+    model = load_fullbody()
+    rng = np.random.default_rng(11)
+    node = node_function(model)
+    pm, data = model.pin_model, model.pin_model.createData()
+    for _ in range(3):
+        q_ref = pin.randomConfiguration(pm, -np.ones(36), np.ones(36))
+        q_ref[7:] = rng.uniform(-0.5, 0.5, 29)
+        v, a, f = rng.uniform(-2, 2, 35), rng.uniform(-5, 5, 35), rng.uniform(-300, 300, 12)
+        eom, points, rot, pos, point_vel = (np.asarray(x).ravel() for x in
+                                            node(q_ref, np.zeros(35), v, a, f))
+        tau = contact_inverse_dynamics(model, q_ref[None], v[None], a[None],
+                                       f.reshape(1, 4, 3))[0]
+        np.testing.assert_allclose(eom, tau[:6], atol=1e-8)
+        np.testing.assert_allclose(rot.reshape(3, 3, order="F"),
+                                   base_transform(q_ref)[:3, :3], atol=1e-12)
+        pin.forwardKinematics(pm, data, q_ref, v)
+        pin.updateFramePlacements(pm, data)
+        for i, name in enumerate(POINTS):
+            fid = model.frame_id(name)
+            np.testing.assert_allclose(points[3 * i: 3 * i + 3],
+                                       data.oMf[fid].translation, atol=1e-12)
+            vel = pin.getFrameVelocity(pm, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
+            np.testing.assert_allclose(point_vel[3 * i: 3 * i + 3], vel, atol=1e-10)
+
+
+def standing_sway(duration=0.3, settle=0.4, step=2.5e-4):
+    """The body standing on its sole springs, joints held by PD plus known sinusoids.
+
+    Returns (time, q, v, a, tau_true (n, 29), point forces (n, 4, 3)) sampled every 10 ms
+    after ``settle`` s of settling.
+    """
+    model = load_fullbody()
+    pm, data = model.pin_model, model.pin_model.createData()
+    q0 = model.neutral()
+    for side in "rl":  # a slight squat, feet flat: the knees carry tens of N m
+        for joint, angle in (("hip", -0.3), ("knee", 0.6), ("ankle", -0.3)):
+            q0[7 + model.joint_names.index(f"{joint}_{side}_y")] = angle
+    pin.framesForwardKinematics(pm, data, q0)
+    sole = min(data.oMf[model.frame_id(p)].translation[2] for p in POINTS)
+    q0[2] = -sole - model.total_mass() * model.gravity / (4 * CONTACT.stiffness)
+    rows = np.arange(6, 35)
+    hold = q0.copy()
+
+    def reference(t):
+        return hold, np.zeros(35), np.zeros(35)
+
+    feedback = JointFeedback.damped(model, rows, reference, 300.0, 1.0, q0)
+    names = model.joint_names
+    amplitude = np.array([15.0 if n.endswith("_y") and n[:3] in ("hip", "kne", "ank")
+                          else 0.0 for n in names])
+    t_grid = np.linspace(0.0, settle + duration + 0.05, 800)
+    ramp = np.clip((t_grid - 0.1) / 0.2, 0, 1)[:, None]
+    drive = amplitude * ramp * np.sin(2 * np.pi * 1.5 * t_grid[:, None])
+    known = JointTorques(rows, SampledHistory(t_grid, drive))
+    ground = GroundContact(model, POINTS, CONTACT, ground_z=0.0)
+    system = PartitionedSystem(model, range(35), reference, [known, feedback, ground])
+    sim = simulate_partitioned(system, (0.0, settle + duration),
+                               system.state(q0, np.zeros(35)),
+                               options=IntegratorOptions(method=Method.RK4, step=step),
+                               t_eval=np.arange(settle, settle + duration + 1e-9, 0.01))
+    tau = np.array([known.history(t) + feedback.torque(t, q, v)
+                    for t, q, v in zip(sim.t, sim.q, sim.v, strict=True)])
+    forces = []
+    for q, v in zip(sim.q, sim.v, strict=True):
+        pin.forwardKinematics(pm, data, q, v)
+        pin.updateFramePlacements(pm, data)
+        forces.append(ground.forces(data))
+    return model, sim.t, sim.q, sim.v, sim.a, tau, np.array(forces)
+
+
+def feet_data(model, q, forces, plate_z=0.0):
+    """Foot force, COP (on z = plate_z) and free moment from point forces."""
+    pm, data = model.pin_model, model.pin_model.createData()
+    n = q.shape[0]
+    force, cop, free = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
+    for k in range(n):
+        pin.framesForwardKinematics(pm, data, q[k])
+        for j in range(2):
+            pts = [data.oMf[model.frame_id(p)].translation for p in POINTS[2 * j: 2 * j + 2]]
+            fs = forces[k, 2 * j: 2 * j + 2]
+            total = fs.sum(axis=0)
+            moment = sum(np.cross(p, f) for p, f in zip(pts, fs, strict=True))
+            x = (plate_z * total[0] - moment[1]) / total[2]
+            y = (moment[0] + plate_z * total[1]) / total[2]
+            force[k, j], cop[k, j] = total, (x, y, plate_z)
+            free[k, j] = moment[2] - (x * total[1] - y * total[0])
+    return force, cop, free
+
+
+@pytest.fixture(scope="module")
+def sway():
+    model, t, q, v, a, tau, forces = standing_sway()
+    force, cop, free = feet_data(model, q, forces)
+    data = TrackingData(t, q, v, a, np.ones((t.size, 4), bool), force, cop, free,
+                        ground_z=0.0, stiffness=CONTACT.stiffness, friction=CONTACT.friction)
+    # The generating contact slips (its friction ramps over 1 m/s): slip costs nothing here.
+    return model, data, tau, forces, solve_tracking(model, data,
+                                                    TrackingWeights(slip_m_s=10.0))
+
+
+def test_sway_is_a_real_test_case(sway):
+    _, data, tau, _, _ = sway
+    # The knee and ankle torques are tens of N m and vary; the feet carry the weight.
+    assert np.ptp(tau, axis=0).max() > 10.0
+    assert data.force[:, :, 2].sum(axis=1) == pytest.approx(72.6 * 9.81, rel=0.05)
+
+
+def test_known_torques_and_motion_recovered(sway):
+    model, data, tau, forces, solution = sway
+    assert solution.status == "Solve_Succeeded"
+    error = solution.tau[:, 6:] - tau
+    assert np.sqrt(np.mean(error**2)) < 0.02 * np.sqrt(np.mean(tau**2))
+    angles = np.degrees(solution.q[:, 7:] - data.q[:, 7:])
+    assert np.abs(angles).max() < 0.5
+    feet = solution.foot_forces()
+    assert np.abs(feet - data.force).max() < 0.01 * 72.6 * 9.81
+    assert np.abs(solution.tau[:, :6]).max() < 1e-6
+
+
+# ------------------------------------------------------------------ subject01
+
+
+@pytest.fixture(scope="module")
+def subject01():
+    from predgait.problemfile import load_problem
+    from predgait.workflows.fullbody_tracking import parse_tracking
+    from predgait.workflows.fullbody_tracking_run import solve_spec
+
+    spec = parse_tracking(load_problem(PROBLEM, ["window.start=0.633", "window.end=0.9"]))
+    return solve_spec(spec)
+
+
+def test_subject01_satisfies_the_equations_of_motion(subject01):
+    from predgait.dynamics.external import Load, joint_forces
+
+    drive, data, solution = subject01
+    model = drive.model
+    pm, pdata = model.pin_model, model.pin_model.createData()
+    bodies = {p: pm.frames[model.frame_id(p)].parentJoint for p in POINTS}
+    assert {pm.names[j] for j in bodies.values()} >= {"ankle_r_z", "ankle_l_z"}
+    for k in range(data.nodes):
+        q, v, a = solution.q[k], solution.v[k], solution.a[k]
+        pin.framesForwardKinematics(pm, pdata, q)
+        loads = [Load(f"foot_{p[-1]}", f, pdata.oMf[model.frame_id(p)].translation, None)
+                 for p, f in zip(POINTS, solution.forces[k], strict=True) if f.any()]
+        tau = pin.rnea(pm, pdata, q, v, a, joint_forces(model, pdata, loads))
+        assert np.abs(tau[:6]).max() < 1e-6                        # no pelvis residual
+        np.testing.assert_allclose(tau[6:], solution.tau[k, 6:], atol=1e-6)
+    # The measured data were not consistent: ID needed a pelvis residual of ~19 N RMS.
+    assert np.sqrt(np.mean(drive.tau[np.isin(drive.time, data.time), :3] ** 2)) > 10.0
+    # Kinematics consistent: joint angles are the trapezoidal integral of the rates.
+    h = np.diff(data.time)[:, None]
+    np.testing.assert_allclose(np.diff(solution.q[:, 7:], axis=0),
+                               h / 2 * (solution.v[1:, 6:] + solution.v[:-1, 6:]), atol=1e-8)
+
+
+def test_subject01_stays_near_the_measured_data(subject01):
+    drive, data, solution = subject01
+    model = drive.model
+    angles = np.degrees(solution.q[:, 7:] - data.q[:, 7:])
+    assert np.sqrt(np.mean(angles**2, axis=0)).max() < 5.0         # each joint, deg RMS
+    body_weight = model.total_mass() * model.gravity
+    grf = solution.foot_forces() - data.force
+    assert 100 * np.sqrt(np.mean(grf**2, axis=0)).max() / body_weight < 10.0
+    # Forces only where the plates say the foot is down, inside the friction cone.
+    assert np.all(solution.forces[~data.contact] == 0.0)
+    on = solution.forces[data.contact]
+    assert np.all(on[:, 2] >= -1e-9)
+    assert np.all(np.abs(on[:, :2]) <= data.friction * on[:, 2:3] + 1e-6)
+
+
+def test_cli_writes_the_result(tmp_path, capsys, assert_tidy_result):
+    from predgait.cli import main
+    from predgait.data.storage import read_storage
+
+    out = tmp_path / "tracking"
+    code = main(["solve", str(PROBLEM), "--out", str(out), "--set", "window.start=0.633",
+                 "--set", "window.end=0.75"])
+    assert code == 0, capsys.readouterr()
+    for name in ("kinematics3d.sto", "corrected_moments3d.sto", "contact_forces.sto",
+                 "tracking.png", "stick.gif"):
+        assert (out / name).is_file(), name
+    summary = assert_tidy_result(out / "summary.json")
+    assert summary["pelvis_residual_max_n"] < 1e-6
+    moments = read_storage(out / "corrected_moments3d.sto")
+    assert "knee_r_y_moment" in moments.columns
+    assert "pelvis residual" in capsys.readouterr().out
+
+
+def test_cli_bad_window_names_the_key(tmp_path, capsys):
+    from predgait.cli import main
+
+    code = main(["solve", str(PROBLEM), "--out", str(tmp_path / "x"), "--set",
+                 "window.start=0.9", "--set", "window.end=0.6"])
+    err = capsys.readouterr().err
+    assert code == 2 and "window.end" in err and "Traceback" not in err
+    assert not (tmp_path / "x").exists()
