@@ -34,7 +34,7 @@ def shooting(repeat: int) -> None:
     """Multiple-shooting fit: in process (first and cached), one replicate, cold CLI.
 
     Size: the leg with the foot prescribed (2 free DOF), one shooting interval per
-    sample of the trial (60 Hz: 150 intervals of 16.7 ms, 4 RK4 steps each), 6 fitted
+    sample of the trial (60 Hz: 150 intervals of 16.7 ms, 2 RK4 steps each), 6 fitted
     parameters (linear knee and ankle).
     """
     import tempfile

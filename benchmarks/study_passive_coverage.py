@@ -78,8 +78,9 @@ def main() -> None:
           f"{max(cutoffs):.1f} Hz); {time.perf_counter() - start:.0f} s in all")
     for key, values in errors.items():
         e = 100 * np.abs(values)
-        print(f"  {key:13s} max |error| {e.max():5.1f} %, RMS {np.sqrt(np.mean(e ** 2)):5.1f} "
-              f"%, 95 % interval covers the truth in {covered[key]} / {args.seeds}")
+        print(f"  {key:13s} mean error {100 * np.mean(values):+6.1f} %, max |error| "
+              f"{e.max():5.1f} %, RMS {np.sqrt(np.mean(e ** 2)):5.1f} %, 95 % interval covers "
+              f"the truth in {covered[key]} / {args.seeds}")
 
 
 if __name__ == "__main__":
