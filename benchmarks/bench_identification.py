@@ -1,6 +1,8 @@
-"""Speed of the passive decomposition fit (problems/passive_decomposition.toml).
+"""Speed of the passive decomposition fit and the multiple-shooting fit.
 
 Run: python benchmarks/bench_identification.py [--repeat N]
+
+Problems: problems/passive_decomposition.toml and problems/passive_shooting.toml.
 
 In process, on the bundled subject01 trial (inverse dynamics done once, outside the
 timing): the first fit (builds the CasADi/Ipopt solver), later fits (solver cached), and
@@ -25,6 +27,51 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from timing import NOT_AVAILABLE, REPO, time_call, time_process  # noqa: E402
 
 PROBLEM = REPO / "problems" / "passive_decomposition.toml"
+SHOOTING = REPO / "problems" / "passive_shooting.toml"
+
+
+def shooting(repeat: int) -> None:
+    """Multiple-shooting fit: in process (first and cached), one replicate, cold CLI.
+
+    Size: the leg with the foot prescribed (2 free DOF), one shooting interval per
+    sample of the trial (60 Hz: 150 intervals of 16.7 ms, 2 RK4 steps each), 6 fitted
+    parameters (linear knee and ankle).
+    """
+    import tempfile
+
+    from predgait.dynamics.inverse_trial import bundled_inverse
+    from predgait.problemfile import load_problem
+    from predgait.problems.gait_samples import GaitSamples
+    from predgait.problems.shooting import Intervals, bootstrap_shooting, fit_shooting
+    from predgait.workflows.shooting import parse_shooting
+
+    spec = parse_shooting(load_problem(SHOOTING))
+    inverse = bundled_inverse(spec.trial.side)
+    samples = GaitSamples.from_inverse(inverse)
+    intervals = Intervals.from_inverse(inverse, samples, spec.settings)
+    start = time.perf_counter()
+    fit = fit_shooting(inverse.model, intervals, spec.model, spec.settings)
+    first = time.perf_counter() - start
+    later = time_call(lambda: fit_shooting(inverse.model, intervals, spec.model,
+                                           spec.settings), repeat)
+    replicate = time_call(lambda: bootstrap_shooting(intervals, samples, spec.model, fit,
+                                                     repeats=1), repeat)
+    print(f"multiple-shooting fit, bundled subject01 right leg: {len(intervals)} intervals of "
+          f"{intervals.length_s * 1e3:.1f} ms, {intervals.substeps} RK4 steps each, "
+          f"{len(spec.model.fitted)} fitted parameters, {fit.iterations} Gauss-Newton "
+          "iterations (2 passes)")
+    print(f"  in process, first fit (builds the CasADi functions): {first * 1e3:.0f} ms")
+    print(f"  in process, fit (functions cached), min / median of {repeat}: "
+          f"{later.describe('ms')}")
+    print(f"  in process, one bootstrap replicate: {replicate.describe('ms')}")
+    with tempfile.TemporaryDirectory() as folder:
+        argv = [sys.executable, "-m", "predgait", "solve", str(SHOOTING), "--out",
+                f"{folder}/out", "--force", "--no-plots", "--set", "uncertainty.bootstrap=0",
+                "--set", "filter.marker_cutoff=6.0"]
+        cold = time_process(argv, max(1, repeat // 2))
+    print(f"  cold CLI (6 Hz, no bootstrap; the decomposition beside it included), "
+          f"{max(1, repeat // 2)} runs: {cold.describe('s')}")
+    print(f"  OpenSim Moco MocoParameter on the same leg: {NOT_AVAILABLE}")
 
 
 def main() -> None:
@@ -78,6 +125,7 @@ def main() -> None:
           f"noise refits each with its inverse dynamics), {repeat} runs: "
           f"{full.describe('s')}")
     print(f"  OpenSim Moco MocoParameter on the same leg: {NOT_AVAILABLE}")
+    shooting(args.repeat)
 
 
 if __name__ == "__main__":

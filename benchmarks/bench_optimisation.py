@@ -3,13 +3,16 @@
 Run: python benchmarks/bench_optimisation.py [--repeat N] [--grid]
 
 Rows (min / median of N repeats, wall and CPU):
-  * cold, in process: the solver is generated (ADAM dynamics, collocation NLP, Ipopt with
-    the exact Hessian) and solved, as the first solve of a process does; imports excluded;
-  * cached, in process: the same problem on another 1 s window of the same grid (the
-    generated solver is reused; only Ipopt runs);
+  * cold, in process, solver cache off: the SX solver is generated in memory (ADAM
+    dynamics, collocation NLP, Ipopt with the exact Hessian) and solved, as the first solve
+    of a process does; imports excluded;
+  * first run ever: the MX problem generated as C and compiled into the disk cache
+    (problems/solver_cache.py, a temporary cache folder), once;
+  * cold, in process, compiled solver loaded from that cache;
+  * reused in process: the same problem on another 1 s window of the same grid (only Ipopt);
   * whole CLI processes: `predgait solve problems/knee_fit.toml` and
     `problems/torque_correction.toml` (imports, inverse dynamics, solve, re-simulation
-    checks, files and plots).
+    checks, files and plots), solver cache off and with the compiled solver cached.
 The peer would be OpenSim Moco solving the same problems (MocoParameter on a passive knee;
 a tracking problem with torque controls), cold, in the peer's Python; there is no such Moco
 problem in benchmarks/ yet, so those rows print "peer not available".
@@ -19,6 +22,8 @@ problem in benchmarks/ yet, so those rows print "peer not available".
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 import tempfile
 import time
@@ -27,7 +32,7 @@ from timing import REPO, Row, print_rows, time_call, time_process
 
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.inverse_trial import bundled_inverse
-from predgait.problems import collocation, fitting
+from predgait.problems import collocation, fitting, solver_cache
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.fitting import correct_torques, fit_feedback, fit_knee
 
@@ -50,32 +55,65 @@ def rows(repeat: int) -> list[Row]:
     first = NodeData.from_drivers(drivers, 0.0, 1.0, grid)
     other = NodeData.from_drivers(drivers, -0.1, 0.9, grid)
     out = []
-    for name, function, problem in (("knee_fit", fit_knee, "knee_fit.toml"),
-                                    ("torque_correction", correct_torques,
-                                     "torque_correction.toml")):
-        def cold(function=function):
-            clear_generated()
-            return function(inverse.model, first, transcription=HS)
+    with tempfile.TemporaryDirectory() as folder:
+        cache = {solver_cache.FOLDER: folder, solver_cache.SWITCH: "on"}
+        for name, function, problem in (("knee_fit", fit_knee, "knee_fit.toml"),
+                                        ("torque_correction", correct_torques,
+                                         "torque_correction.toml")):
+            def cold(function=function):
+                clear_generated()
+                return function(inverse.model, first, transcription=HS)
 
-        cold_time = time_call(cold, repeat)
-        cached = time_call(lambda function=function: function(inverse.model, other,
-                                                              transcription=HS), repeat)
-        fit = function(inverse.model, other, transcription=HS)
-        solved = fit.solved
-        out.append(Row(f"{name} cold, in process (1 s, 100 Hermite-Simpson intervals)",
-                       cold_time, "generate the solver, then Ipopt; imports excluded",
-                       None, NO_PEER, unit="s"))
-        out.append(Row(f"{name} cached solver, in process (another 1 s window)", cached,
-                       f"Ipopt only: {solved.iterations} iterations, "
-                       f"{solved.seconds * 1e3:.0f} ms in the solver", None, NO_PEER))
-        with tempfile.TemporaryDirectory() as tmp:
-            whole = time_process([sys.executable, "-m", "predgait", "solve",
-                                  str(REPO / "problems" / problem), "--out", f"{tmp}/out",
-                                  "--force"], repeat)
-        out.append(Row(f"predgait solve problems/{problem}, whole CLI process", whole,
-                       "imports, inverse dynamics, cold solve, re-simulation checks, files, "
-                       "plots", None, NO_PEER, unit="s"))
+            with environment({solver_cache.SWITCH: "off"}):
+                in_memory = time_call(cold, repeat)
+            out.append(Row(f"{name} cold, in process (1 s, 100 Hermite-Simpson intervals), "
+                           "solver cache off", in_memory,
+                           "generate the SX solver in memory, then Ipopt; imports excluded",
+                           None, NO_PEER, unit="s"))
+            with environment(cache):
+                compiled = time_call(cold, 1)
+                loaded = time_call(cold, repeat)
+                cached = time_call(lambda function=function: function(
+                    inverse.model, other, transcription=HS), repeat)
+                fit = function(inverse.model, other, transcription=HS)
+            out.append(Row(f"{name} first run ever, in process: MX solver generated as C and "
+                           "compiled into the cache", compiled,
+                           f"{solver_cache.compiler()} {' '.join(solver_cache.FLAGS)}, once "
+                           "per problem structure; the compiler runs as a child process, its "
+                           "CPU is not in the CPU figure", None, NO_PEER, unit="s"))
+            out.append(Row(f"{name} cold, in process, compiled solver loaded from the cache",
+                           loaded, "build the MX problem, hash it, load the library, Ipopt",
+                           None, NO_PEER, unit="s"))
+            out.append(Row(f"{name} solver reused in process (another 1 s window)", cached,
+                           f"Ipopt only: {fit.solved.iterations} iterations, "
+                           f"{fit.solved.seconds * 1e3:.0f} ms in the solver", None, NO_PEER))
+            command = [sys.executable, "-m", "predgait", "solve",
+                       str(REPO / "problems" / problem), "--force"]
+            for label, env in (("solver cache off", {solver_cache.SWITCH: "off"}),
+                               ("compiled solver in the cache", cache)):
+                with tempfile.TemporaryDirectory() as tmp:
+                    whole = time_process([*command, "--out", f"{tmp}/out"], repeat,
+                                         env={**os.environ, **env})
+                out.append(Row(f"predgait solve problems/{problem}, whole CLI process, "
+                               f"{label}", whole, "imports, inverse dynamics, solve, "
+                               "re-simulation checks, files, plots", None, NO_PEER,
+                               unit="s"))
     return out
+
+
+@contextlib.contextmanager
+def environment(values: dict):
+    """Set environment variables within the block."""
+    saved = {key: os.environ.get(key) for key in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
 
 
 def grid_table() -> None:

@@ -191,39 +191,54 @@ def simulate(cycles=12, seed=0):
     return t, states[:, :5], states, ref, system
 
 
+class NoiseFreeTrial:
+    """The simulated walk sampled as a lab records it, before noise is added."""
+
+    def __init__(self, cycles=12, seed=0):
+        t, q, states, ref, system = simulate(cycles, seed)
+        self.model = ref.model
+        every = int(round(1 / (MARKER_RATE * STEP)))
+        self.t_m, self.q_m = t[::every], q[::every]
+        self.positions = frame_positions(self.model, self.q_m)
+        self.t_p = np.arange(0.0, t[-1], 1 / PLATE_RATE)
+        q_p = np.column_stack([np.interp(self.t_p, t, q[:, j]) for j in range(5)])
+        feet = frame_positions(self.model, q_p)
+        self.plate = [np.array(a) for a in zip(*(
+            ref.ground_reaction(ti, heel, toe)
+            for ti, heel, toe in zip(self.t_p, feet["heel"], feet["toe"], strict=True)),
+            strict=True)]
+        torques = [system.torques(ti, xi[:5], xi[5:], system.reference_loads(ti))
+                   for ti, xi in zip(self.t_m, states[::every], strict=True)]
+        active = np.array([a for a, _ in torques])
+        passive = np.array([p for _, p in torques])
+        self.truth = {"t": self.t_m, "q": self.q_m, "strikes": ref.strikes,
+                      "passive": {"ankle": passive[:, 0], "knee": -passive[:, 1]},
+                      "active": {"ankle": active[:, 0], "knee": -active[:, 1]}}
+
+    def write(self, folder, *, noise_seed, marker_noise=1e-3, force_noise=0.01):
+        """markers.csv, grf.mot and leg.urdf with this noise; the inverse options."""
+        rng = np.random.default_rng(noise_seed)
+        (folder / "leg.urdf").write_text(self.model.urdf)
+        noisy = {k: v + rng.normal(0.0, marker_noise, v.shape)
+                 for k, v in self.positions.items()}
+        write_markers_csv(folder / "markers.csv", self.t_m, noisy)
+        plate = list(self.plate)
+        peak = np.abs(plate[0]).max(axis=0)
+        plate[0] = plate[0] + np.where(plate[0][:, 2:3] > 0, 1.0, 0.0) * rng.normal(
+            0.0, 1.0, plate[0].shape) * force_noise * peak
+        write_grf_mot(folder / "grf.mot", self.t_p, [tuple(plate)])
+        return InverseOptions(markers=folder / "markers.csv", grf=folder / "grf.mot",
+                              mass=72.6, model=folder / "leg.urdf",
+                              points={n: n for n in ("hip", "knee", "ankle", "heel", "toe")})
+
+
 def write_trial(folder, *, cycles=12, seed=0, marker_noise=1e-3, force_noise=0.01):
     """Simulate and write markers.csv, grf.mot, leg.urdf; return options and the truth.
 
     Returns:
         (InverseOptions, dict with t, q, clinical passive and active moments (N m)).
     """
-    t, q, states, ref, system = simulate(cycles, seed)
-    rng = np.random.default_rng(seed + 1000)
-    model = ref.model
-    (folder / "leg.urdf").write_text(model.urdf)
-    every = int(round(1 / (MARKER_RATE * STEP)))
-    t_m, q_m = t[::every], q[::every]
-    positions = frame_positions(model, q_m)
-    noisy = {k: v + rng.normal(0.0, marker_noise, v.shape) for k, v in positions.items()}
-    write_markers_csv(folder / "markers.csv", t_m, noisy)
-    t_p = np.arange(0.0, t[-1], 1 / PLATE_RATE)
-    q_p = np.column_stack([np.interp(t_p, t, q[:, j]) for j in range(5)])
-    feet = frame_positions(model, q_p)
-    plate = [np.array(a) for a in zip(*(ref.ground_reaction(ti, heel, toe) for ti, heel, toe
-                                        in zip(t_p, feet["heel"], feet["toe"], strict=True)),
-                                      strict=True)]
-    peak = np.abs(plate[0]).max(axis=0)
-    plate[0] = plate[0] + np.where(plate[0][:, 2:3] > 0, 1.0, 0.0) * rng.normal(
-        0.0, 1.0, plate[0].shape) * force_noise * peak
-    write_grf_mot(folder / "grf.mot", t_p, [tuple(plate)])
-    torques = [system.torques(ti, xi[:5], xi[5:], system.reference_loads(ti))
-               for ti, xi in zip(t_m, states[::every], strict=True)]
-    active = np.array([a for a, _ in torques])
-    passive = np.array([p for _, p in torques])
-    truth = {"t": t_m, "q": q_m, "strikes": ref.strikes,
-             "passive": {"ankle": passive[:, 0], "knee": -passive[:, 1]},
-             "active": {"ankle": active[:, 0], "knee": -active[:, 1]}}
-    options = InverseOptions(markers=folder / "markers.csv", grf=folder / "grf.mot",
-                             mass=72.6, model=folder / "leg.urdf",
-                             points={n: n for n in ("hip", "knee", "ankle", "heel", "toe")})
-    return options, truth
+    trial = NoiseFreeTrial(cycles, seed)
+    options = trial.write(folder, noise_seed=seed + 1000, marker_noise=marker_noise,
+                          force_noise=force_noise)
+    return options, trial.truth

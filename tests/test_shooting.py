@@ -87,6 +87,11 @@ def test_recovers_elements_missing_from_the_moments(measured):
         assert report.status is Status.IDENTIFIED, report
         low, high = report.interval95
         assert low <= TRUTH[report.key] <= high, report
+    # The RK4 step inside the intervals (default 2 per 16.7 ms) does not matter.
+    fine = fit_shooting(inverse.model, Intervals.from_inverse(
+        inverse, samples, ShootingSettings(step_s=0.0025)), model)
+    for key in TRUTH:
+        assert fine.values[key] == pytest.approx(fit.values[key], rel=0.01), key
     # The elements explain the drift of the intervals: without them it is far larger.
     rms = np.sqrt(np.mean(fit.residual ** 2, axis=0))
     rms_none = np.sqrt(np.mean(fit.residual_none ** 2, axis=0))
@@ -175,3 +180,12 @@ def test_problem_files_parse():
         spec = parse_shooting(load_problem(PROBLEMS / name))
         assert spec.settings.interval_s <= 0.025
         assert spec.model.fitted
+
+
+def test_fit_that_does_not_converge_exits_3_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "none"
+    code = main(["solve", str(PROBLEMS / "passive_shooting.toml"), "--out", str(out),
+                 "--set", "shooting.max_iter=1", "--set", "uncertainty.bootstrap=0"])
+    assert code == 3
+    assert "did not converge" in capsys.readouterr().err
+    assert not out.exists()

@@ -81,3 +81,28 @@ def test_leg_inverse_pipeline_imports_no_heavy_module():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=300, check=True)
     assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+@pytest.mark.parametrize("argv", [
+    ["inverse", "problems/inverse_subject01.toml"],
+    ["inverse", "src/predgait/datasets/subject01_walk1/subject01_walk1.trc", "--grf",
+     "src/predgait/datasets/subject01_walk1/subject01_walk1_grf.mot", "--static",
+     "src/predgait/datasets/subject01_walk1/subject01_static.trc", "--mass", "72.6",
+     "--height", "1.8034", "--model", "fullbody", "--marker-map",
+     "problems/markers_fullbody_subject01.toml"],
+], ids=["leg", "fullbody"])
+def test_inverse_draws_its_plots_without_matplotlib(tmp_path, argv):
+    """Both inverse commands write their PNG plots and stick GIF with Pillow
+    (report.raster): no Matplotlib, SciPy optimize or CasADi import on those paths."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    out = tmp_path / "out"
+    code = ("import sys; from predgait.cli import main; "
+            f"status = main({[*argv, '--out', str(out)]!r}); "
+            f"print(status, sorted(m for m in {HEAVY!r} if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=True, cwd=repo)
+    assert done.stdout.strip().splitlines()[-1] == "0 []"
+    pngs = sorted(p.name for p in out.glob("*.png"))
+    assert len(pngs) >= 2 and (out / "stick.gif").is_file(), pngs

@@ -13,6 +13,10 @@ ankle-foot orthosis or a stiffer knee, restrict a range of motion, lock a joint)
 the measured walk with the same drive and PD control, and compare with the unedited leg.
 Writes summary.json (metrics), states_baseline.sto, states_edited.sto, edited_leg.urdf and
 comparison plots into --out. Example files: problems/scenario_*.toml.
+With predicts = true (problems/scenario_*_predict.toml) the edited and the unedited gait7
+are given new gaits by predictive collocation instead (predgait solve predict_gait7):
+summary.json, states/torques/grf_{baseline,edited}.sto, edited_gait7.urdf, plots; an
+Ipopt failure exits 3 and writes nothing.
 """
 
 
@@ -61,7 +65,10 @@ def run(args: argparse.Namespace) -> int:
     from predgait.workflows.output import check_out
 
     check_out(args.out, force=args.force, inputs=[args.scenario])  # before any computation
-    result = run_scenario(load_scenario(args.scenario, args.set))
+    spec = load_scenario(args.scenario, args.set)
+    if spec.predicts:
+        return _run_predicted(spec, args)
+    result = run_scenario(spec)
     write_scenario(result, args.out, force=args.force)
     m = result.metrics
     print(f"scenario '{result.spec.name}': {m['status']}; wrote {args.out}/")
@@ -75,4 +82,64 @@ def run(args: argparse.Namespace) -> int:
           f"{m['knee_max_change_deg']:.1f}); ankle {m['ankle_rms_change_deg']:.1f} deg")
     print(f"  extra feedback torque RMS: knee {m['knee_extra_feedback_rms_n_m']:.1f} N m, "
           f"ankle {m['ankle_extra_feedback_rms_n_m']:.1f} N m")
+    return 0
+
+
+def write_predicted_scenario(result, out: Path, *, force: bool = False) -> dict:
+    """Write a predicted scenario's folder whole or not at all; returns the summary."""
+    from predgait.report.figures import plots_wanted
+    from predgait.report.tidy import write_summary
+    from predgait.scenarios.edits import edit_record
+    from predgait.workflows.output import staged_output
+    from predgait.workflows.predict import prediction_summary, write_prediction
+
+    spec = result.spec
+    with staged_output(out, force=force, inputs=[spec.source]) as stage:
+        summary = write_summary(stage / "summary.json", {
+            "status": result.metrics["status"], "scenario": spec.name, "predicts": True,
+            "trial": "bundled:subject01", "side": spec.side,
+            "edits": [edit_record(e) for e in spec.edits], "metrics": result.metrics,
+            "baseline": prediction_summary(spec.predict, result.baseline),
+            "edited": prediction_summary(spec.predict, result.edited)})
+        write_prediction(stage, result.model, result.baseline, prefix="baseline_")
+        write_prediction(stage, result.edited_model, result.edited, prefix="edited_")
+        (stage / "edited_gait7.urdf").write_text(result.edited_model.urdf)
+        if plots_wanted():
+            from predgait.report.predict_plots import save_prediction_plots
+
+            save_prediction_plots(stage, result.model,
+                                  {"unedited": result.baseline, "edited": result.edited},
+                                  models={"edited": result.edited_model})
+    return summary
+
+
+def _run_predicted(spec, args) -> int:
+    import sys
+
+    from predgait.errors import SolveFailed
+    from predgait.scenarios.predict import ANGLES, run_predicted_scenario
+
+    try:
+        result = run_predicted_scenario(spec, spec.predict)
+    except SolveFailed as exc:
+        print(f"predgait: solve failed: {exc}", file=sys.stderr)
+        return 3
+    write_predicted_scenario(result, args.out, force=args.force)
+    m = result.metrics
+    print(f"scenario '{spec.name}' (predicted gait7, edits on {spec.side}): "
+          f"{m['status']}; wrote {args.out}/")
+    for s in m["edited_sides"]:
+        print(f"  {s}: " + ", ".join(
+            f"{j} range {m[f'{j}_{s}_range_deg']:.1f} deg (unedited "
+            f"{m[f'{j}_{s}_baseline_range_deg']:.1f}, RMS change "
+            f"{m[f'{j}_{s}_rms_change_deg']:.1f})" for j in ANGLES))
+        print(f"  {s}: swing hip torque RMS {m[f'swing_hip_torque_rms_{s}_n_m']:.1f} N m "
+              f"(unedited {m[f'baseline_swing_hip_torque_rms_{s}_n_m']:.1f})")
+    print(f"  effort {m['effort']:.4g} (unedited {m['baseline_effort']:.4g}, "
+          f"{m['effort_change_percent']:+.1f} %); step {m['step_length_m']:.3f} m at "
+          f"{m['speed_m_s']:.2f} m/s, cadence {m['cadence_steps_min']:.1f} steps/min")
+    if "resimulation_max_deviation_deg" in m:
+        print(f"  engine re-simulation of the edited gait with TVLQR: max deviation "
+              f"{m['resimulation_max_deviation_deg']:.2f} deg, feedback RMS "
+              f"{m['resimulation_feedback_rms_n_m']:.2f} N m")
     return 0

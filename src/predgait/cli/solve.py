@@ -18,6 +18,10 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
                      around the measured motion, re-simulated over the first gait
                      cycle (problems/torque_feedback.toml): feedforward vs feedback
                      torque against the inverse-dynamics uncertainty (cut-offs 4-8 Hz)
+  predict_gait7      tracking or predictive (tracking weight 0) gait cycle of the
+                     7-link model on smooth heel/toe contact (problems/
+                     predict_gait7.toml), checked by Pinocchio at every node and
+                     re-simulated by the engine with TVLQR feedback
   fullbody_tracking  the 35-DOF body with its pelvis free made dynamically consistent:
                      corrected kinematics, joint torques, sole contact forces
                      (problems/fullbody_tracking.toml)
@@ -61,6 +65,8 @@ def run(args: argparse.Namespace) -> int:
         return _run_decomposition(table, args)
     if table.data.get("kind") == "torque_feedback":
         return _run_torque_feedback(table, args)
+    if table.data.get("kind") == "predict_gait7":
+        return _run_predict(table, args)
     if table.data.get("kind") == "passive_shooting":
         return _run_shooting(table, args)
     if table.data.get("kind") == "fullbody_tracking":
@@ -137,6 +143,24 @@ def _run_torque_feedback(table, args) -> int:
     print(f"  wrote {args.out}/ (solution.json, corrected_moments.sto, feedback_gains.sto, "
           "torque_feedback.png)")
     return 0 if solution["holds_within_threshold"] else 3
+
+
+def _run_predict(table, args) -> int:
+    import sys
+
+    from predgait.errors import SolveFailed
+    from predgait.workflows.predict import parse_predict, run_predict, summary_lines
+
+    spec = parse_predict(table)
+    try:
+        summary = run_predict(spec, args.out, force=args.force)
+    except SolveFailed as exc:
+        print(f"predgait: solve failed: {exc}", file=sys.stderr)
+        return 3
+    for line in summary_lines(summary):
+        print(line)
+    print(f"  wrote {args.out}/ (solution.json, states.sto, torques.sto, grf.sto, plots)")
+    return 0
 
 
 def _run_shooting(table, args) -> int:

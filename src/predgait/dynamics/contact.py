@@ -146,7 +146,9 @@ class HuntCrossleyContact:
     def force(self, penetration, penetration_rate, slip_velocity=0.0):
         """Normal and tangential force, N (smooth in all arguments)."""
         _, _, _, tanh, sqrt, *_ = _ops(penetration, penetration_rate, slip_velocity)
-        depth = softplus(penetration, self.smoothing)
+        # + 1e-30 m: far above the floor the softplus underflows to exactly 0, where
+        # depth**n has an infinite second derivative (NaN in an exact Hessian)
+        depth = softplus(penetration, self.smoothing) + 1e-30
         factor = 1.0 + 1.5 * self.dissipation * penetration_rate
         factor = 0.5 * (factor + sqrt(factor * factor + self.damping_smoothing**2))
         normal = self.stiffness * depth**self.exponent * factor

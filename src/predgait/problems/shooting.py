@@ -67,7 +67,7 @@ class ShootingSettings:
     """
 
     interval_s: float = 0.02
-    step_s: float = 0.0025
+    step_s: float = 0.01
     max_iter: int = 200
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from predgait.report.figures import new_figure, save_figure
+from predgait.report.raster import Line, Panel, save_chart
 
 #: Panels (clinical names without the side suffix).
 PANELS = ("hip_flexion", "hip_adduction", "hip_internal_rotation", "knee_flexion",
@@ -41,9 +41,9 @@ def _percent(time, cycle):
     return mask, 100.0 * (time[mask] - cycle[0]) / (cycle[1] - cycle[0])
 
 
-def plot_left_right(time, series: Mapping[str, np.ndarray], cycles, *, suffix: str,
-                    scale: float, ylabel: str, title: str):
-    """A 2 x 3 grid of :data:`PANELS`, both sides overlaid; returns the figure.
+def left_right_panels(time, series: Mapping[str, np.ndarray], cycles, *, suffix: str,
+                      scale: float, ylabel: str) -> list[Panel]:
+    """The 2 x 3 :data:`PANELS`, both sides overlaid.
 
     Args:
         time: (n,) s.
@@ -52,31 +52,28 @@ def plot_left_right(time, series: Mapping[str, np.ndarray], cycles, *, suffix: s
         suffix: ``""`` for angles, ``"_moment"`` for moments.
         scale: Factor applied to the values (e.g. 1 / body mass).
         ylabel: Unit label.
-        title: Figure title.
     """
-    fig, axes = new_figure(2, 3, figsize=(12, 6.2), wspace=0.28, hspace=0.45, title=True)
     over_time = any(side not in cycles for side in SIDES)
-    for ax, panel in zip(axes.ravel(), PANELS, strict=True):
+    panels = []
+    for k, panel in enumerate(PANELS):
+        lines = []
         for side, (label, colour) in SIDES.items():
             values = series.get(f"{panel}_{side}{suffix}")
             if values is None:
                 continue
+            legend = k == 0
             if side in cycles:
                 mask, x = _percent(time, cycles[side])
-                ax.plot(x, scale * values[mask], color=colour, lw=1.6, label=label)
+                lines.append(Line(x, scale * values[mask], color=colour, width=1.6,
+                                  label=label if legend else None))
             else:
-                ax.plot(time, scale * values, color=colour, lw=1.0, ls="--",
-                        label=f"{label} (time, s)")
-        ax.axhline(0.0, color="0.4", lw=0.5)
-        ax.set_title(panel.replace("_", " "), fontsize=10)
-        ax.grid(alpha=0.3)
-    for ax in axes[1]:
-        ax.set_xlabel("% gait cycle" + (" (or time, s)" if over_time else ""))
-    for ax in axes[:, 0]:
-        ax.set_ylabel(ylabel)
-    axes[0, 0].legend(fontsize=8)
-    fig.suptitle(f"{title} — no normal band (no shippable normative data set)", fontsize=11)
-    return fig
+                lines.append(Line(time, scale * values, color=colour, width=0.8,
+                                  label=f"{label} (time, s)" if legend else None))
+        panels.append(Panel(tuple(lines), title=panel.replace("_", " "),
+                            xlabel=("% gait cycle" + (" (or time, s)" if over_time else ""))
+                            if k >= 3 else "", ylabel=ylabel if k % 3 == 0 else "",
+                            hlines=(0.0,)))
+    return panels
 
 
 def save_clinical_plots(folder: Path, time, angles, moments, stances, *,
@@ -84,14 +81,17 @@ def save_clinical_plots(folder: Path, time, angles, moments, stances, *,
     """clinical_angles.png (deg) and clinical_moments.png (N m/kg); their names."""
     time = np.asarray(time)
     cycles = side_cycles(time, stances)
+    note = " - no normal band (no shippable normative data set)"
     figures = {
-        "clinical_angles.png": plot_left_right(time, angles, cycles, suffix="", scale=1.0,
-                                               ylabel="angle (deg)",
-                                               title="Joint angles, left and right"),
-        "clinical_moments.png": plot_left_right(
-            time, moments, cycles, suffix="_moment", scale=1.0 / body_mass,
-            ylabel="moment (N m/kg)", title="Internal joint moments, left and right"),
+        "clinical_angles.png": (left_right_panels(time, angles, cycles, suffix="", scale=1.0,
+                                                  ylabel="angle (deg)"),
+                                "Joint angles, left and right" + note),
+        "clinical_moments.png": (left_right_panels(time, moments, cycles, suffix="_moment",
+                                                   scale=1.0 / body_mass,
+                                                   ylabel="moment (N m/kg)"),
+                                 "Internal joint moments, left and right" + note),
     }
-    for name, fig in figures.items():
-        save_figure(fig, Path(folder) / name)
+    for name, (panels, title) in figures.items():
+        save_chart(Path(folder) / name, panels, size=(12, 6.2), title=title, columns=3,
+                   wspace=0.28, hspace=0.45)
     return list(figures)

@@ -274,15 +274,18 @@ def _dotted(canvas: Canvas, a, b, ink, width: int) -> None:
 
 
 def save_chart(path: str | Path, panels: list[Panel], *, size: tuple[float, float],
-               title: str = "", wspace: float = 0.3) -> Path:
-    """A row of panels as one PNG.
+               title: str = "", columns: int | None = None, wspace: float = 0.3,
+               hspace: float = 0.45) -> Path:
+    """Panels in a grid (row by row) as one PNG.
 
     Args:
         path: Output .png.
-        panels: Left to right.
+        panels: Left to right, then top to bottom.
         size: Figure width, height in inches.
         title: Figure title above the panels.
-        wspace: Gap between panels, a fraction of the panel width.
+        columns: Panels per row (default: all in one row).
+        wspace: Gap between columns, a fraction of the panel width.
+        hspace: Gap between rows, a fraction of the panel height.
 
     Returns:
         ``path``.
@@ -291,14 +294,17 @@ def save_chart(path: str | Path, panels: list[Panel], *, size: tuple[float, floa
     s = DPI * canvas.scale
     left, right, bottom, top = (m * s for m in MARGINS)
     top += 0.3 * s if title else 0.0
-    n = len(panels)
-    width = (canvas.width - left - right) / (n + wspace * (n - 1))
+    columns = columns or len(panels)
+    rows = -(-len(panels) // columns)
+    width = (canvas.width - left - right) / (columns + wspace * (columns - 1))
+    height = (canvas.height - top - bottom) / (rows + hspace * (rows - 1))
     for k, panel in enumerate(panels):
-        x0 = left + k * width * (1 + wspace)
+        x0 = left + (k % columns) * width * (1 + wspace)
+        y0 = top + (k // columns) * height * (1 + hspace)
         xs = [line.x for line in panel.lines] + [np.asarray(panel.vlines, float)]
         ys = [line.y for line in panel.lines] + [np.asarray(panel.hlines, float)]
-        axes = Axes(canvas, (x0, top, x0 + width, canvas.height - bottom),
-                    data_limits(xs, margin=0.02), data_limits(ys))
+        axes = Axes(canvas, (x0, y0, x0 + width, y0 + height), data_limits(xs, margin=0.02),
+                    data_limits(ys))
         axes.frame(title=panel.title, xlabel=panel.xlabel, ylabel=panel.ylabel)
         for y in panel.hlines:
             axes.polyline(axes.xlim, (y, y), color="#4d4d4d", width=0.6)

@@ -80,6 +80,8 @@ class ScenarioSpec:
     torques: Torques = Torques.MEASURED
     gains: Gains = Gains.FIXED
     reoptimize: bool = False
+    predicts: bool = False     # solve the predictive gait7 problem instead (scenarios/predict)
+    predict: object = None     # its PredictSpec ([predict] table as predict_gait7.toml)
 
 
 @dataclass(frozen=True)
@@ -97,11 +99,21 @@ class ScenarioResult:
 
 def parse_scenario(table: Table) -> ScenarioSpec:
     """ScenarioSpec from a TOML table (errors name file, key and line)."""
-    table.check_keys(("name", "trial", "side", "window", "control", "integrator", "edit"))
+    table.check_keys(("name", "trial", "side", "window", "control", "integrator", "edit",
+                      "predicts", "predict"))
     bundled_source(table, "trial")
+    predicts = table.get("predicts", bool, False)
     side = table.get("side", str, "right")
-    if side not in ("right", "left"):
-        raise table.error("side", f"'{side}' is not one of: right, left.")
+    sides = ("right", "left", "both") if predicts else ("right", "left")
+    if side not in sides:
+        raise table.error("side", f"'{side}' is not one of: {', '.join(sides)}.")
+    predict = None
+    if predicts:
+        from predgait.workflows.predict import parse_predict
+
+        predict = parse_predict(table.table("predict"))
+    elif table.has("predict"):
+        raise table.error("predict", "a [predict] table needs predicts = true.")
     window = table.numbers("window", [0.0, 1.0], length=2, low=-5.0, high=30.0, unit="s")
     if not window[0] < window[1]:
         raise table.error("window", "give [start, end] in s from heel strike, start < end.")
@@ -121,7 +133,8 @@ def parse_scenario(table: Table) -> ScenarioSpec:
         options=options, edits=tuple(edits),
         torques=control.choice("torques", Torques, "measured"),
         gains=control.choice("gains", Gains, "fixed"),
-        reoptimize=control.get("reoptimize", bool, False))
+        reoptimize=control.get("reoptimize", bool, False), predicts=predicts,
+        predict=predict)
 
 
 def load_scenario(path: str | Path, overrides=()) -> ScenarioSpec:
@@ -288,7 +301,13 @@ def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) ->
 
 def scenario_metrics(path: str | Path, point) -> dict:
     """Sweep task: the metrics of a scenario file with a sweep point's overrides."""
-    metrics = run_scenario(load_scenario(path, point.overrides)).metrics
+    spec = load_scenario(path, point.overrides)
+    if spec.predicts:
+        from predgait.scenarios.predict import run_predicted_scenario
+
+        metrics = run_predicted_scenario(spec, spec.predict).metrics
+        return {k: v for k, v in metrics.items() if isinstance(v, int | float)}
+    metrics = run_scenario(spec).metrics
     if metrics["status"].startswith("diverged"):
         raise SimulationDiverged(metrics["status"])
     return {k: (np.nan if v is None else v) for k, v in metrics.items()

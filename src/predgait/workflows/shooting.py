@@ -94,7 +94,7 @@ def parse_shooting(table: Table) -> ShootingSpec:
         settings=ShootingSettings(
             interval_s=shooting.number("interval_s", 0.02, low=1e-3, high=MAX_INTERVAL_S,
                                        unit="s"),
-            step_s=shooting.number("step_s", 0.005, low=1e-4, high=0.01, unit="s"),
+            step_s=shooting.number("step_s", 0.01, low=1e-4, high=0.01, unit="s"),
             max_iter=int(shooting.number("max_iter", 50, low=1, high=1000))),
         decomposition=Settings(quiet_phases=parse_phases(beside),
                                smoothness_weight=beside.number("smoothness_weight", 0.01,

@@ -1,0 +1,121 @@
+"""Checks of a predicted gait7 cycle with Pinocchio, and gait measures.
+
+:func:`node_residuals` re-evaluates the dynamics at every node with Pinocchio's RNEA and
+the engine's own contact force (:class:`predgait.dynamics.forces.GroundContact`) and
+passive elements (:func:`predgait.dynamics.forces.passive_generalized`), independent of
+the ADAM expressions the optimiser used: the unactuated base rows must vanish and the
+joint rows must equal the optimiser's torques. :func:`full_stride` turns a symmetric
+half cycle into a stride (the second half mirrored and shifted), and :func:`gait_measures`
+gives stance phases, step length, cadence and the vertical GRF's peaks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.data.events import runs_of
+from predgait.dynamics.forces import GroundContact, passive_generalized
+from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
+from predgait.models.gait7 import CONTACT_FRAMES
+from predgait.models.loading import Model
+from predgait.problems.predictive import JOINTS, Cycle, PredictedGait, mirror_matrix
+
+#: A foot carrying more than this (N) is in stance.
+STANCE_THRESHOLD_N = 20.0
+
+
+def passive_joints(springs) -> dict[str, PassiveJoint]:
+    """The engine's passive elements of the predictive problem's springs."""
+    out: dict[str, list] = {}
+    for s in springs:
+        out.setdefault(s.joint, []).append(LinearSpringDamper(s.k, s.c, s.theta0))
+    return {joint: PassiveJoint(tuple(items)) for joint, items in out.items()}
+
+
+def node_residuals(model: Model, gait: PredictedGait, contact, ground_z: float,
+                   springs=()) -> dict:
+    """Pinocchio's re-evaluation of the dynamics at every node.
+
+    Returns:
+        ``base_residual_n`` (N+1, 3): RNEA - contact on the base rows (N, N, N m), should
+        be 0; ``torque_mismatch_n_m`` (N+1, 6): RNEA - contact - passive - tau on the
+        joint rows; ``defects`` max |trapezoidal defect| of q (m, rad) and v (m/s, rad/s).
+    """
+    pm = model.pin_model
+    kin, dyn = pm.createData(), pm.createData()
+    ground = GroundContact(model, CONTACT_FRAMES, contact, ground_z, planar=True)
+    joints = [model.coordinate_index(j) for j in JOINTS]
+    passive = passive_generalized(model, passive_joints(springs), gait.q, gait.v)
+    base, mismatch = [], []
+    for k, (q, v, a) in enumerate(zip(gait.q, gait.v, gait.a, strict=True)):
+        pin.forwardKinematics(pm, kin, q, v)
+        pin.computeJointJacobians(pm, kin, q)
+        pin.updateFramePlacements(pm, kin)
+        r = pin.rnea(pm, dyn, q, v, a) - ground(0.0, q, v, kin)
+        base.append(r[:3])
+        mismatch.append(r[joints] - passive[k, joints] - gait.tau[k])
+    h = np.diff(gait.t)[:, None]
+    return {"base_residual_n": np.array(base), "torque_mismatch_n_m": np.array(mismatch),
+            "defects": {"q": float(np.abs(np.diff(gait.q, axis=0)
+                                          - 0.5 * h * (gait.v[1:] + gait.v[:-1])).max()),
+                        "v": float(np.abs(np.diff(gait.v, axis=0)
+                                          - 0.5 * h * (gait.a[1:] + gait.a[:-1])).max())}}
+
+
+def full_stride(model: Model, gait: PredictedGait) -> dict[str, np.ndarray]:
+    """t, q, v, a, tau, contact over a whole stride (a half cycle mirrored and appended)."""
+    out = {"t": gait.t, "q": gait.q, "v": gait.v, "a": gait.a, "tau": gait.tau,
+           "contact": gait.contact}
+    if gait.cycle is Cycle.FULL:
+        return out
+    mirror = mirror_matrix(model, Cycle.HALF)
+    shift = np.zeros(model.nq)
+    shift[model.coordinate_index("base_x")] = gait.speed * gait.duration
+    half = len(JOINTS) // 2
+    second = {"t": gait.t[1:] + gait.duration, "q": gait.q[1:] @ mirror.T + shift,
+              "v": gait.v[1:] @ mirror.T, "a": gait.a[1:] @ mirror.T,
+              "tau": np.roll(gait.tau[1:], half, axis=1),
+              "contact": np.roll(gait.contact[1:], 2, axis=1)}
+    return {k: np.concatenate([out[k], second[k]]) for k in out}
+
+
+def gait_measures(stride: dict[str, np.ndarray], speed: float) -> dict:
+    """Stance phases, step length and cadence, vertical GRF peaks of a stride.
+
+    Per foot: ``stance_phases`` (runs of vertical force > STANCE_THRESHOLD_N, counting a
+    run that wraps around the cycle end once), ``stance_fraction``, ``fz_peaks_bw``
+    (local maxima of the foot's vertical force during stance above 0.5 body weight are
+    counted by the caller from ``fz``). Step length = speed * stride time / 2, cadence =
+    2 steps per stride time (steps/min).
+    """
+    t = stride["t"]
+    period = t[-1] - t[0]
+    out = {"stride_time_s": float(period), "speed_m_s": float(speed),
+           "step_length_m": float(speed * period / 2), "cadence_steps_min": 120.0 / period}
+    for i, side in enumerate(("right", "left")):
+        fz = stride["contact"][:, 2 * i:2 * i + 2, 1].sum(axis=1)
+        on = fz[:-1] > STANCE_THRESHOLD_N          # last node = first node of next stride
+        runs = list(runs_of(on))
+        if len(runs) > 1 and on[0] and on[-1]:
+            runs = runs[1:]                          # the wrapped run counts once
+        out[side] = {"stance_phases": len(runs), "stance_fraction": float(on.mean()),
+                     "peak_fz_n": float(fz.max())}
+    return out
+
+
+def vertical_grf_peaks(fz: np.ndarray, body_weight: float) -> int:
+    """Local maxima of a stance's vertical force above 0.8 body weight (double bump: 2).
+
+    A maximum counts when it exceeds both neighbours' minima in between by 5 % BW.
+    """
+    peaks, last_min, rising = [], np.inf, False
+    for k in range(1, fz.size - 1):
+        last_min = min(last_min, fz[k])
+        if fz[k] >= fz[k - 1] and fz[k] > fz[k + 1] and fz[k] > 0.8 * body_weight:
+            if not peaks or fz[k] - last_min > 0.05 * body_weight:
+                peaks.append(k)
+                last_min = fz[k]
+            rising = True
+    del rising
+    return len(peaks)

@@ -1,0 +1,151 @@
+"""A what-if scenario solved as a predictive gait7 problem (``predicts = true``).
+
+Instead of re-simulating the measured gait with PD feedback toward it (which pins the
+outcome to the old gait, :mod:`predgait.scenarios.run`), the edited body gets a new gait
+of its own: the predictive collocation problem of :mod:`predgait.problems.predictive`
+is solved on the edited gait7 and compared with the same problem on the unedited one.
+
+Edits on gait7 (the scenario's ``side``, or both legs with ``side = "both"``):
+
+* segment edits (scale mass/length, move COM, add mass) regenerate the URDF from the
+  edited leg parameters (:func:`predgait.models.gait7.build_gait7_urdf`);
+* ``lock_joint``: the joint's range is fixed at the angle (lower = upper bound);
+* ``range_of_motion``: bounds on the joint angle (hard limits, not stiff stops);
+* ``passive``: a linear spring-damper on the joint (an orthosis) in the dynamics.
+
+One edited leg breaks the left/right symmetry, so both predictions are then full cycles
+(twice the nodes), the unedited one started from its mirrored half cycle; with
+``side = "both"`` they are half cycles.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from predgait.kinematics.clinical import clinical_joint
+from predgait.models.anthropometry import leg_from_subject
+from predgait.models.gait7 import build_gait7_urdf
+from predgait.models.loading import Model, model_from_urdf
+from predgait.problems.predictive import Cycle, Guess, PassiveSpring
+from predgait.problems.predictive_check import STANCE_THRESHOLD_N
+from predgait.scenarios.edits import (
+    LockJoint,
+    PassiveEdit,
+    RangeOfMotion,
+    apply_segment_edits,
+)
+from predgait.workflows.predict import Prediction, PredictSpec, default_bounds, predict
+
+SIDE_SUFFIX = {"right": ("r",), "left": ("l",), "both": ("r", "l")}
+ANGLES = ("hip", "knee", "ankle")
+
+
+@dataclass(frozen=True, eq=False)
+class PredictedScenario:
+    """Unedited and edited predictions, their models and the comparison."""
+
+    spec: object                 # ScenarioSpec
+    baseline: Prediction
+    edited: Prediction
+    model: Model
+    edited_model: Model
+    metrics: dict
+
+
+def edited_gait7(spec: PredictSpec, edits, sides) -> Model:
+    """gait7 with the segment edits applied to the legs of ``sides`` ("r"/"l")."""
+    leg = apply_segment_edits(leg_from_subject(spec.mass, spec.height), edits)
+    urdf = build_gait7_urdf(spec.mass, spec.height, {s: leg for s in sides})
+    return model_from_urdf(urdf, source=f"gait7 for {spec.mass:g} kg, {spec.height:g} m "
+                                        f"+ edits on {'/'.join(sides)}")
+
+
+def joint_constraints(model: Model, edits, sides) -> tuple[dict, tuple[PassiveSpring, ...]]:
+    """Bounds (coordinate -> (lower, upper) rad) and springs of the joint edits."""
+    bounds, springs = default_bounds(), []
+    for edit in edits:
+        for s in sides:
+            if not isinstance(edit, LockJoint | RangeOfMotion | PassiveEdit):
+                continue
+            name = f"{edit.joint}_{s}"
+            sign = clinical_joint(model, name).sign
+            if isinstance(edit, LockJoint):
+                bounds[name] = (sign * edit.angle, sign * edit.angle)
+            elif isinstance(edit, RangeOfMotion):
+                bounds[name] = tuple(sorted((sign * edit.lower, sign * edit.upper)))
+            else:
+                springs.append(PassiveSpring(name, edit.k, edit.c, edit.theta0))
+    return bounds, tuple(springs)
+
+
+def baseline_prediction(spec: PredictSpec, cycle: Cycle) -> Prediction:
+    """The unedited prediction as a ``cycle`` (a full one from the mirrored half)."""
+    half = predict(replace(spec, cycle=Cycle.HALF, resimulate=spec.resimulate
+                           and cycle is Cycle.HALF))
+    if cycle is Cycle.HALF:
+        return half
+    st = half.stride
+    return predict(replace(spec, cycle=Cycle.FULL, nodes=2 * spec.nodes),
+                   guess=Guess(st["q"], st["v"], st["a"]))
+
+
+def run_predicted_scenario(scenario, spec: PredictSpec) -> PredictedScenario:
+    """Predict the unedited and the edited gait of ``scenario`` (a ScenarioSpec).
+
+    Raises:
+        SolveFailed: Ipopt did not converge on either (status and violation).
+    """
+    sides = SIDE_SUFFIX[scenario.side]
+    cycle = Cycle.HALF if len(sides) == 2 else Cycle.FULL
+    baseline = baseline_prediction(spec, cycle)
+    model = edited_gait7(spec, (), ())
+    edited_model = edited_gait7(spec, scenario.edits, sides)
+    bounds, springs = joint_constraints(edited_model, scenario.edits, sides)
+    g = baseline.gait
+    full = replace(spec, cycle=cycle, nodes=spec.nodes * (1 if cycle is Cycle.HALF else 2))
+    edited = predict(full, edited_model, bounds=bounds, springs=springs,
+                     guess=Guess(g.q, g.v, g.a))
+    return PredictedScenario(scenario, baseline, edited, model, edited_model,
+                             predicted_metrics(model, baseline, edited, sides))
+
+
+def _swing_hip_torque(model: Model, prediction: Prediction, s: str) -> float:
+    """RMS hip torque (N m) of side ``s`` while its foot is off the ground."""
+    st = prediction.stride
+    foot = {"r": slice(0, 2), "l": slice(2, 4)}[s]
+    swing = st["contact"][:, foot, 1].sum(axis=1) < STANCE_THRESHOLD_N
+    column = ["hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r"].index(f"hip_{s}")
+    return float(np.sqrt(np.mean(st["tau"][swing, column] ** 2))) if swing.any() else 0.0
+
+
+def predicted_metrics(model: Model, base: Prediction, edited: Prediction, sides) -> dict:
+    """Angles, torques, GRF, effort and their changes from the unedited prediction."""
+    b, e = base.stride, edited.stride
+    out = {"status": "solved", "edited_sides": list(sides),
+           "effort": edited.gait.terms["effort"],
+           "baseline_effort": base.gait.terms["effort"],
+           "effort_change_percent": 100 * (edited.gait.terms["effort"]
+                                           / base.gait.terms["effort"] - 1),
+           "step_length_m": edited.measures["step_length_m"],
+           "cadence_steps_min": edited.measures["cadence_steps_min"],
+           "speed_m_s": edited.measures["speed_m_s"]}
+    for s in ("r", "l"):
+        side = {"r": "right", "l": "left"}[s]
+        for joint in ANGLES:
+            name = f"{joint}_{s}"
+            i, sign = model.coordinate_index(name), clinical_joint(model, name).sign
+            angle_e, angle_b = np.degrees(sign * e["q"][:, i]), np.degrees(sign * b["q"][:, i])
+            out[f"{name}_range_deg"] = float(angle_e.max() - angle_e.min())
+            out[f"{name}_baseline_range_deg"] = float(angle_b.max() - angle_b.min())
+            out[f"{name}_rms_change_deg"] = float(np.sqrt(np.mean((angle_e - angle_b) ** 2)))
+        out[f"swing_hip_torque_rms_{s}_n_m"] = _swing_hip_torque(model, edited, s)
+        out[f"baseline_swing_hip_torque_rms_{s}_n_m"] = _swing_hip_torque(model, base, s)
+        out[f"stance_fraction_{s}"] = edited.measures[side]["stance_fraction"]
+        out[f"peak_vertical_grf_{s}_n"] = edited.measures[side]["peak_fz_n"]
+        out[f"baseline_peak_vertical_grf_{s}_n"] = base.measures[side]["peak_fz_n"]
+    if edited.resimulation is not None:
+        out["resimulation_max_deviation_deg"] = edited.resimulation.max_angle_deviation_deg
+        out["resimulation_feedback_rms_n_m"] = edited.resimulation.feedback_rms_n_m
+    return out

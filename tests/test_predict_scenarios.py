@@ -1,0 +1,106 @@
+"""Scenarios with ``predicts = true``: edits solved as predictive gait7 problems (issue 13).
+
+Directions checked against the unedited prediction of the same grid: a locked knee keeps
+its angle at the lock while hip and ankle change; a mass added to both shanks raises the
+swing hip torque. Edits on both legs keep the half-cycle symmetry (fast); 20 nodes per
+half cycle keep the tests short (the directions, not the gait's details, are checked).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from predgait.cli import main
+from predgait.problemfile import load_problem
+from predgait.problems.predictive import Guess
+from predgait.scenarios.edits import AddMass, LockJoint
+from predgait.scenarios.predict import (
+    edited_gait7,
+    joint_constraints,
+    predicted_metrics,
+)
+from predgait.scenarios.run import parse_scenario
+from predgait.workflows.predict import PredictSpec, predict
+
+REPO = Path(__file__).resolve().parents[1]
+SPEC = PredictSpec(nodes=20, resimulate=False)
+BOTH = ("r", "l")
+
+
+@pytest.fixture(scope="module")
+def baseline():
+    return predict(SPEC)
+
+
+def _edited(baseline, edits):
+    model = edited_gait7(SPEC, edits, BOTH)
+    bounds, springs = joint_constraints(model, edits, BOTH)
+    g = baseline.gait
+    edited = predict(SPEC, model, bounds=bounds, springs=springs, guess=Guess(g.q, g.v, g.a))
+    return model, edited, predicted_metrics(edited_gait7(SPEC, (), ()), baseline, edited, BOTH)
+
+
+def test_locked_knee_stays_locked_and_hip_and_ankle_change(baseline):
+    lock = math.radians(10.0)
+    model, edited, metrics = _edited(baseline, (LockJoint("knee", lock),))
+    assert edited.gait.solved.success
+    for s in BOTH:
+        knee = edited.gait.q[:, model.coordinate_index(f"knee_{s}")]
+        np.testing.assert_allclose(knee, lock, atol=1e-7)       # gait7 knee + = flexion
+        assert metrics[f"knee_{s}_range_deg"] < 1e-5
+        assert metrics[f"knee_{s}_baseline_range_deg"] > 30.0
+        assert metrics[f"hip_{s}_rms_change_deg"] > 2.0
+        assert metrics[f"ankle_{s}_rms_change_deg"] > 2.0
+    assert metrics["effort"] > metrics["baseline_effort"]       # a stiff leg costs effort
+    res = edited.residuals                                      # Pinocchio on the edit
+    assert np.abs(res["base_residual_n"]).max() < 1e-3
+
+
+def test_added_shank_mass_raises_the_swing_hip_torque(baseline):
+    model, edited, metrics = _edited(baseline, (AddMass("shank", 2.0, 0.5),))
+    assert edited.gait.solved.success
+    shank = [link for link in model.pin_model.inertias][1:]
+    assert sum(i.mass for i in shank) == pytest.approx(72.6 + 4.0, rel=1e-6)
+    for s in BOTH:
+        assert metrics[f"swing_hip_torque_rms_{s}_n_m"] > \
+            metrics[f"baseline_swing_hip_torque_rms_{s}_n_m"]
+    assert np.abs(edited.residuals["torque_mismatch_n_m"]).max() < 1e-6
+
+
+def test_scenario_file_parses_predicts_and_refuses_predict_without_it(tmp_path):
+    spec = parse_scenario(load_problem(REPO / "problems" / "scenario_afo_predict.toml"))
+    assert spec.predicts and spec.side == "right" and spec.predict.nodes == 40
+    bad = tmp_path / "bad.toml"
+    bad.write_text('side = "both"\n[[edit]]\nkind = "passive"\njoint = "ankle"\nk = 1.0\n')
+    code = main(["scenario", str(bad), "--out", str(tmp_path / "x")])
+    assert code == 2
+
+
+def test_model_unable_to_stand_exits_3_and_writes_nothing(tmp_path, capsys):
+    scenario = tmp_path / "crouch.toml"
+    scenario.write_text('name = "knees locked at 150 deg"\nside = "both"\npredicts = true\n'
+                        '[[edit]]\nkind = "lock_joint"\njoint = "knee"\nangle_deg = 150.0\n'
+                        '[predict.grid]\nnodes = 20\n[predict.solver]\nmax_iter = 60\n')
+    out = tmp_path / "never"
+    assert main(["scenario", str(scenario), "--out", str(out)]) == 3
+    err = capsys.readouterr().err
+    assert "predgait: solve failed: Ipopt" in err and "constraint violation" in err
+    assert not out.exists()
+
+
+def test_springs_match_the_engine_passive_elements(baseline):
+    """An orthosis spring in the NLP equals the engine's passive element (Pinocchio check)."""
+    from predgait.scenarios.edits import PassiveEdit
+
+    model = edited_gait7(SPEC, (), ())
+    bounds, springs = joint_constraints(model, (PassiveEdit("ankle", 100.0, 1.0, 0.1),), BOTH)
+    g = baseline.gait
+    edited = predict(replace(SPEC, max_iter=3000), model, bounds=bounds, springs=springs,
+                     guess=Guess(g.q, g.v, g.a))
+    assert len(springs) == 2
+    assert np.abs(edited.residuals["torque_mismatch_n_m"]).max() < 1e-6
