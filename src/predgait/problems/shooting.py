@@ -410,6 +410,31 @@ def _no_elements(leg, model, intervals) -> np.ndarray:
                             intervals).evaluate(np.zeros(0))[0]
 
 
+def engine_elements(model: PassiveModel, values, knee_offset: float) -> dict:
+    """Joint -> PassiveJoint of ``values`` on the engine's (hinge) clinical angles.
+
+    The fit writes the knee on its anatomical angle (hinge angle - ``knee_offset``, rad):
+    the neutral angle and the stops move by the offset, so the elements act on the
+    simulated leg exactly as in the fit.
+    """
+    from dataclasses import replace
+
+    from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
+
+    out = {}
+    for joint in model.joints:
+        shift = knee_offset if joint == "knee" else 0.0
+        elements = []
+        for element in model.passive_joint(joint, values).elements:
+            if isinstance(element, LinearSpringDamper):
+                elements.append(replace(element, theta0=element.theta0 + shift))
+            elif isinstance(element, ExponentialLimits):
+                elements.append(replace(element, lower=element.lower + shift,
+                                        upper=element.upper + shift))
+        out[joint] = PassiveJoint(tuple(elements))
+    return out
+
+
 def bootstrap_shooting(intervals: Intervals, samples: GaitSamples, model: PassiveModel,
                        fit: ShootingFit, *, repeats: int = 200, seed: int = 0,
                        min_cycles: int = 6, block_s: float = 0.1) -> Bootstrap:
