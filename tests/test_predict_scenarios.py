@@ -104,3 +104,24 @@ def test_springs_match_the_engine_passive_elements(baseline):
                      guess=Guess(g.q, g.v, g.a))
     assert len(springs) == 2
     assert np.abs(edited.residuals["torque_mismatch_n_m"]).max() < 1e-6
+
+
+def test_sweep_over_a_predicted_orthosis(tmp_path):
+    """scenario_metrics runs predicted scenarios; a 0 N m/rad orthosis changes nothing."""
+    import functools
+
+    from predgait.scenarios.run import scenario_metrics
+    from predgait.scenarios.sweep import grid_points, run_sweep
+
+    scenario = tmp_path / "afo.toml"
+    scenario.write_text('side = "both"\npredicts = true\n[[edit]]\nkind = "passive"\n'
+                        'joint = "ankle"\nk = 0.0\nc = 0.0\n[predict.grid]\nnodes = 20\n'
+                        '[predict.check]\nresimulate = false\n')
+    points = grid_points({"edit.0.k": [0.0, 150.0]})
+    outcomes = run_sweep(functools.partial(scenario_metrics, scenario), points, workers=1,
+                         progress=False)
+    assert all(o.ok for o in outcomes), [o.reason for o in outcomes]
+    none, spring = (o.metrics for o in outcomes)
+    assert none["effort"] == pytest.approx(none["baseline_effort"], rel=1e-4)
+    assert none["ankle_r_rms_change_deg"] < 0.05
+    assert spring["ankle_r_rms_change_deg"] > 0.5
