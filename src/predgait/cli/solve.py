@@ -23,8 +23,9 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
                      predict_gait7.toml), checked by Pinocchio at every node and
                      re-simulated by the engine with TVLQR feedback
   fullbody_tracking  the 35-DOF body with its pelvis free made dynamically consistent:
-                     corrected kinematics, joint torques, sole contact forces
-                     (problems/fullbody_tracking.toml)
+                     corrected kinematics, joint torques, sole contact forces; then
+                     re-simulated on the contact springs with and without time-varying
+                     LQR feedback (problems/fullbody_tracking.toml)
   passive_decomposition  passive knee/ankle moments split from the measured moments
                      (no simulation; problems/passive_decomposition.toml), with
                      bootstrap intervals or "not identifiable"

@@ -330,7 +330,8 @@ def _scatter(n: int) -> cs.DM:
 
 def solve_tracking(model: Model3D, data: TrackingData,
                    weights: TrackingWeights = TrackingWeights(), *,
-                   max_iter: int = 200, tol: float = 1e-8) -> TrackingSolution:
+                   max_iter: int = 200, tol: float = 1e-8,
+                   print_level: int = 0) -> TrackingSolution:
     """Solve the tracking problem (module docstring) with Ipopt, exact Hessian.
 
     Decision vector: node-major, z_k = (dx_k, v_k, a_k, f_k) (NZ each). Constraints:
@@ -389,7 +390,7 @@ def solve_tracking(model: Model3D, data: TrackingData,
     ubx[:, 105:] = np.where(on_points, np.inf, 0.0)
     nlp = {"x": x, "f": cs.sum2(cost) / n, "g": g}
     options = {"print_time": False, "hess_lag": hess_lag, "ipopt": {
-        "print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": tol,
+        "print_level": print_level, "sb": "yes", "max_iter": max_iter, "tol": tol,
         "constr_viol_tol": 1e-9, "mu_strategy": "adaptive"}}
     solver = cs.nlpsol("fullbody_tracking", "ipopt", nlp, options)
     built = time.perf_counter()

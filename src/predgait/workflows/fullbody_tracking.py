@@ -3,15 +3,22 @@
 Problem file (problems/fullbody_tracking.toml): ``[trial]`` and ``[contact]`` as in
 ``kind = "fullbody"`` (:mod:`predgait.workflows.forward3d_spec`), ``[window]`` (start,
 end in trial time; default the first right gait cycle), ``[weights]``
-(:class:`~predgait.problems.fullbody_tracking.TrackingWeights`) and ``[solver]``.
+(:class:`~predgait.problems.fullbody_tracking.TrackingWeights`), ``[solver]`` and
+``[feedback]`` (:class:`~predgait.dynamics.floating_lqr.FloatingWeights`, the RK4 step
+of the re-simulation).
 
-Steps: whole-body IK + ID of the trial, then the tracking problem on the marker frames of
-the window (:mod:`predgait.problems.fullbody_tracking`).
+Steps: whole-body IK + ID of the trial, the tracking problem on the marker frames of the
+window (:mod:`predgait.problems.fullbody_tracking`), then the forward engine
+re-simulating the free body on its contact law from the solution's first state, driven
+by the solved joint torques, with and without the time-varying LQR feedback
+(:mod:`predgait.simulations.fullbody_feedback`).
 
 Files: ``kinematics3d.sto`` (corrected pelvis position m, pelvis Cardan angles and joint
 angles deg), ``corrected_moments3d.sto`` (joint torques N m, pelvis residual),
-``contact_forces.sto`` (N on each sole point), ``summary.json``, ``tracking.png`` and the
-stick figure.
+``contact_forces.sto`` (N on each sole point), ``feedback_gains.npz`` (times, gains
+K(t) (m, 29, 70) float32 on the state error (pin.difference(q_ref, q), v - v_ref), the
+reference), ``resimulated_kinematics3d.sto`` (the run with feedback), ``summary.json``,
+``tracking.png`` and the stick figure.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from predgait.dynamics.floating_lqr import FloatingWeights
 from predgait.dynamics.inverse3d import foot_points
 from predgait.problemfile import Table
 from predgait.problems.fullbody_tracking import (
@@ -45,12 +53,14 @@ class TrackingSpec:
     weights: TrackingWeights
     contact_height: float
     max_iter: int
+    feedback: FloatingWeights
+    step: float
     source: str
 
 
 def parse_tracking(table: Table) -> TrackingSpec:
     """TrackingSpec from a problem file (errors name the file, key and line)."""
-    table.check_keys(("kind", "trial", "contact", "window", "weights", "solver"))
+    table.check_keys(("kind", "trial", "contact", "window", "weights", "solver", "feedback"))
     window = table.table("window")
     window.check_keys(("start", "end", "contact_height"))
     start = window.number("start", None, low=0, unit="s")
@@ -65,6 +75,9 @@ def parse_tracking(table: Table) -> TrackingSpec:
     weights.check_keys(tuple(vars(defaults)))
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
+    feedback = table.table("feedback")
+    fb = FloatingWeights()
+    feedback.check_keys((*vars(fb), "step"))
     return TrackingSpec(
         trial=_trial(table), contact=_contact(table),
         window=None if start is None else (start, end),
@@ -72,6 +85,9 @@ def parse_tracking(table: Table) -> TrackingSpec:
                                    for k, v in vars(defaults).items()}),
         contact_height=window.number("contact_height", 0.03, low=0.0, high=0.2, unit="m"),
         max_iter=int(solver.number("max_iter", 200, low=1, high=5000)),
+        feedback=FloatingWeights(**{k: feedback.number(k, v, low=1e-6)
+                                    for k, v in vars(fb).items()}),
+        step=feedback.number("step", 1e-4, low=1e-6, high=5e-3, unit="s"),
         source=str(table.path))
 
 

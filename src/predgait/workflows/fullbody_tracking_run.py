@@ -5,6 +5,7 @@ See :mod:`predgait.workflows.fullbody_tracking`.
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -51,12 +52,9 @@ def write_solution(folder: Path, drive: FullbodyDrive, solution: TrackingSolutio
                    header: dict) -> None:
     """kinematics3d.sto, corrected_moments3d.sto and contact_forces.sto."""
     names = drive.model.joint_names
-    q, t = solution.q, solution.time
-    cols = {f"pelvis_t{a}": q[:, i] for i, a in enumerate("xyz")}
-    cols |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(q).T,
-                                                            strict=True)}
-    cols |= {n: np.degrees(q[:, 7 + i]) for i, n in enumerate(names)}
-    write_storage(folder / "kinematics3d.sto", t, cols, in_degrees=True, header=header | {
+    t = solution.time
+    write_storage(folder / "kinematics3d.sto", t, _angles(solution.q, names), in_degrees=True,
+                  header=header | {
         "units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
         "what": "dynamically consistent (corrected) kinematics"})
     moments = {f"{n}_moment": solution.tau[:, 6 + i] for i, n in enumerate(names)}
@@ -69,6 +67,14 @@ def write_solution(folder: Path, drive: FullbodyDrive, solution: TrackingSolutio
     forces |= {f"foot_{s}": solution.foot_forces()[:, j] for j, s in enumerate("rl")}
     write_storage(folder / "contact_forces.sto", t, forces, header=header | {
         "units": "N (lab frame, on each sole point and each foot)"})
+
+
+def _angles(q: np.ndarray, names) -> dict:
+    """Pelvis position (m), pelvis Cardan and joint angles (deg) as storage columns."""
+    cols = {f"pelvis_t{a}": q[:, i] for i, a in enumerate("xyz")}
+    cols |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(q).T,
+                                                            strict=True)}
+    return cols | {n: np.degrees(q[:, 7 + i]) for i, n in enumerate(names)}
 
 
 def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> dict:
@@ -92,6 +98,48 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
     }
 
 
+def hold_with_feedback(spec: TrackingSpec, drive, data, solution):
+    """Re-simulate the solution without and with LQR feedback.
+
+    Returns:
+        (summary dict, the gains, the run with feedback).
+    """
+    from predgait.simulations.fullbody_feedback import body_system, feedback_gains, resimulate
+
+    model = drive.model
+    body_weight = model.total_mass() * model.gravity
+    floor = {"ground_z": data.ground_z, "belt_velocity": data.belt_velocity}
+    system, history, ground = body_system(model, solution, spec.contact.contact, **floor)
+    without = resimulate(system, history, ground, solution, step=spec.step)
+    started = time.perf_counter()
+    lqr = feedback_gains(system, history, solution, spec.feedback)
+    gains_s = time.perf_counter() - started
+    closed, history, ground = body_system(model, solution, spec.contact.contact,
+                                          feedback=lqr, **floor)
+    with_fb = resimulate(closed, history, ground, solution, step=spec.step)
+    info = {"weights": vars(spec.feedback), "rk4_step_s": spec.step,
+            "gains_time_s": gains_s,
+            "without_feedback": without.summary(solution, data, body_weight),
+            "with_feedback": with_fb.summary(solution, data, body_weight)}
+    return info, lqr, with_fb
+
+
+def write_gains(path: Path, lqr, solution: TrackingSolution, names) -> None:
+    """``feedback_gains.npz``: K(t) as float32 with its times, reference and row names."""
+    np.savez_compressed(path, times=lqr.times, gains=lqr.gains.astype(np.float32),
+                        q_ref=solution.q, v_ref=solution.v,
+                        actuated=np.array(names),
+                        state=np.array([f"d{n}" for n in ("pelvis_x", "pelvis_y", "pelvis_z",
+                                                          "pelvis_rx", "pelvis_ry",
+                                                          "pelvis_rz", *names)]
+                                       + [f"v_{n}" for n in ("pelvis_vx", "pelvis_vy",
+                                                             "pelvis_vz", "pelvis_wx",
+                                                             "pelvis_wy", "pelvis_wz",
+                                                             *names)]),
+                        units=np.array("N m per (m or rad) and per (m/s or rad/s); "
+                                       "u = -K(t) [pin.difference(q_ref, q), v - v_ref]"))
+
+
 def run_tracking(spec: TrackingSpec, out: Path, *, force: bool = False) -> dict:
     """Solve, re-simulate and write ``out``; returns the summary.
 
@@ -101,15 +149,24 @@ def run_tracking(spec: TrackingSpec, out: Path, *, force: bool = False) -> dict:
     from predgait.report.figures import plots_wanted
 
     drive, data, solution = solve_spec(spec)
+    feedback, lqr, run = hold_with_feedback(spec, drive, data, solution)
     header = {"provenance": f"problem={spec.source}; trial={drive.source}; "
                             f"predgait={__version__}"}
+    names = drive.model.joint_names
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
         write_solution(stage, drive, solution, header)
+        write_gains(stage / "feedback_gains.npz", lqr, solution, names)
+        write_storage(stage / "resimulated_kinematics3d.sto", run.t, _angles(run.q, names),
+                      in_degrees=True, header=header | {
+                          "units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
+                          "what": "forward re-simulation with the LQR feedback, "
+                                  f"{feedback['with_feedback']['status']}"})
         if plots_wanted():
             from predgait.report.fullbody_tracking_plots import save_tracking_plots
 
-            save_tracking_plots(stage, drive.model, data, solution)
-        return write_summary(stage / "summary.json", summary_of(spec, drive, data, solution))
+            save_tracking_plots(stage, drive.model, data, solution, simulated=(run.t, run.q))
+        return write_summary(stage / "summary.json",
+                             summary_of(spec, drive, data, solution, feedback=feedback))
 
 
 
@@ -134,6 +191,14 @@ def run_cli(table, args) -> int:
     print(f"  joints moved {dev['all_joints_rms_deg']:.2f} deg RMS; GRF differs "
           + ", ".join(f"{k} {v:.1f}" for k, v in dev['grf_rms_percent_bw'].items())
           + " % BW RMS")
+    for name in ("without_feedback", "with_feedback"):
+        run = info["feedback"][name]
+        fell = run["time_to_fall_s"]
+        print(f"  re-simulated {name.replace('_', ' ')}: "
+              + ("completes the window" if fell is None else f"falls at {fell:.3f} s")
+              + f" ({run['status']}; joints {run['joint_rms_from_solution_deg']:.2f} deg RMS "
+                "from the solution)")
     print(f"  wrote {args.out}/ (kinematics3d.sto, corrected_moments3d.sto, "
-          "contact_forces.sto, summary.json, tracking.png)")
+          "contact_forces.sto, feedback_gains.npz, resimulated_kinematics3d.sto, "
+          "summary.json, tracking.png)")
     return 0

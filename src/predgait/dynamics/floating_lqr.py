@@ -1,0 +1,164 @@
+"""Time-varying LQR for a free-floating body: feedback on the joints from the whole state.
+
+The body with its free-flyer root free (all nv velocity rows integrated, e.g. the 35-DOF
+whole body on its contact springs) is linearised along a reference motion
+(q_ref(t), v_ref(t)) in the tangent space of the configuration::
+
+    dx = (pin.difference(q_ref, q) (nv,), v - v_ref (nv,)),
+    d(dx)/dt = A(t) dx + B(t) du,   A = [[0, I], [da/dq, da/dv]],   B = [[0], [M^-1 S^T]],
+
+where a = ABA(q, v, tau_ff + applied forces) are the engine's accelerations
+(:class:`~predgait.dynamics.partitioned.PartitionedSystem`, contact forces included),
+da/dq and da/dv are central differences (q perturbed on its Lie group with
+``pin.integrate``), S selects the actuated joint rows (the root has no actuator), and
+M^-1 comes from ``pin.computeMinverse``. The configuration error's rate is taken as the
+velocity error (exact at the reference up to the root's adjoint term, which feedback
+absorbs). Gains from the finite-horizon Riccati equation stepped in its zero-order-hold
+form (:func:`predgait.dynamics.lqr.riccati_gains`); u = -K(t) dx on the joints
+(Kirk 1970, ch. 3 and 5; Tedrake, Underactuated Robotics, "time-varying LQR").
+Weights follow Bryson's rule, the torque cost of each joint its inertia
+(:class:`FloatingWeights`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from predgait.dynamics.forces import Force
+from predgait.dynamics.lqr import riccati_gains
+
+
+@dataclass(frozen=True)
+class FloatingWeights:
+    """Bryson's-rule state weights and a closed-loop bandwidth that sets the torque cost.
+
+    A joint of inertia I alone (I x'' = u) under the cost x^2 / angle^2 + r u^2 closes
+    its loop at the natural frequency (1 / (angle^2 r I^2))^(1/4); the torque cost of
+    each actuated joint is chosen so that this is ``bandwidth_hz`` with its own diagonal
+    inertia M_jj (a foot and a thigh then respond alike instead of the light foot getting
+    gains 1000 times stiffer, which no fixed step could integrate).
+
+    Attributes:
+        angle_deg: Joint and root orientation error, deg.
+        position_m: Root position error, m.
+        rate_deg_s: Joint and root angular rate error, deg/s (root linear rate: the
+            position error per 0.1 s).
+        bandwidth_hz: Closed-loop natural frequency of each joint alone, Hz.
+    """
+
+    angle_deg: float = 2.0
+    position_m: float = 0.02
+    rate_deg_s: float = 50.0
+    bandwidth_hz: float = 4.0
+
+    def matrices(self, inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(Q (2 nv, 2 nv), R (n, n)) for the diagonal inertias (n,) of the actuated rows.
+
+        SI units; nv is taken as 6 + n (a free-flyer root and the actuated joints).
+        """
+        angle, rate = np.radians(self.angle_deg), np.radians(self.rate_deg_s)
+        nv = 6 + inertia.size
+        q = np.concatenate([np.full(3, self.position_m), np.full(nv - 3, angle),
+                            np.full(3, self.position_m / 0.1), np.full(nv - 3, rate)])
+        omega = 2 * np.pi * self.bandwidth_hz
+        r = 1.0 / (angle**2 * omega**4 * inertia**2)
+        return np.diag(q**-2.0), np.diag(r)
+
+
+def _accelerations(system, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    tau = system.applied(t, q, v)
+    return pin.aba(system.pm, system.data, q, v, tau).copy()
+
+
+def linearize_floating(system, t: float, q: np.ndarray, v: np.ndarray,
+                       actuated: np.ndarray, *, eps: float = 1e-6
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """(A (2 nv, 2 nv), B (2 nv, len(actuated))) at (t, q, v) (module docstring).
+
+    ``system``: a PartitionedSystem with every velocity row free (its ``applied`` forces
+    are the open-loop ones: feedforward torques, contacts).
+    """
+    pm, nv = system.pm, system.pm.nv
+    a_mat = np.zeros((2 * nv, 2 * nv))
+    a_mat[:nv, nv:] = np.eye(nv)
+    step = np.zeros(nv)
+    for i in range(nv):
+        step[i] = eps
+        plus = _accelerations(system, t, pin.integrate(pm, q, step), v)
+        minus = _accelerations(system, t, pin.integrate(pm, q, -step), v)
+        a_mat[nv:, i] = (plus - minus) / (2 * eps)
+        plus = _accelerations(system, t, q, v + step)
+        minus = _accelerations(system, t, q, v - step)
+        a_mat[nv:, nv + i] = (plus - minus) / (2 * eps)
+        step[i] = 0.0
+    m_inv = pin.computeMinverse(pm, system.data, q)
+    m_inv = np.triu(m_inv) + np.triu(m_inv, 1).T
+    b_mat = np.zeros((2 * nv, actuated.size))
+    b_mat[nv:] = m_inv[:, actuated]
+    return a_mat, b_mat
+
+
+@dataclass(frozen=True, eq=False)
+class FloatingLQR(Force):
+    """u = -K(t) dx on the actuated rows; K linear between the grid nodes.
+
+    Attributes:
+        model: The model (its Pinocchio model gives ``pin.difference``).
+        rows: Actuated velocity rows (n,).
+        reference: t -> (q_ref (nq,), v_ref (nv,), ...).
+        times: (m,) s. gains: (m, n, 2 nv), N m per rad (or m) and per rad/s.
+    """
+
+    model: object
+    rows: np.ndarray
+    reference: object
+    times: np.ndarray
+    gains: np.ndarray
+    name: str = "feedback"
+
+    def gain(self, t: float) -> np.ndarray:
+        """K(t) (n, 2 nv), held at the ends."""
+        k = int(np.clip(np.searchsorted(self.times, t) - 1, 0, self.times.size - 2))
+        w = float(np.clip((t - self.times[k]) / (self.times[k + 1] - self.times[k]), 0, 1))
+        return (1 - w) * self.gains[k] + w * self.gains[k + 1]
+
+    def error(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """State error dx (2 nv,) from the reference at t."""
+        q_ref, v_ref = self.reference(t)[:2]
+        return np.concatenate([pin.difference(self.model.pin_model, q_ref, q), v - v_ref])
+
+    def torque(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Feedback torques (n,) at t."""
+        return -self.gain(t) @ self.error(t, q, v)
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the feedback torques at t."""
+        tau[self.rows] += self.torque(t, q, v)
+
+
+def floating_tvlqr(system, reference, times: np.ndarray, actuated,
+                   weights: FloatingWeights = FloatingWeights(), *,
+                   substeps: int = 2) -> FloatingLQR:
+    """Time-varying LQR of a free-floating ``system`` along ``reference`` on ``times``.
+
+    Args:
+        system: PartitionedSystem, all rows free, open-loop forces only.
+        reference: t -> (q_ref, v_ref, ...).
+        times: (m,) s increasing grid of the linearisation and the gains.
+        actuated: Velocity rows that receive feedback torques.
+        weights: Q and R by Bryson's rule.
+        substeps: Zero-order-hold Riccati steps per grid interval.
+    """
+    times = np.asarray(times, dtype=float)
+    actuated = np.asarray(actuated, dtype=int)
+    linear = [linearize_floating(system, t, *reference(t)[:2], actuated) for t in times]
+    a_mats = np.array([a for a, _ in linear])
+    b_mats = np.array([b for _, b in linear])
+    inertia = np.diag(pin.crba(system.pm, system.pm.createData(),
+                               np.asarray(reference(times[0])[0], dtype=float)))[actuated]
+    q, r = weights.matrices(inertia)
+    gains = riccati_gains(times, a_mats, b_mats, q, r, substeps=substeps)
+    return FloatingLQR(system.model, actuated, reference, times, gains)
