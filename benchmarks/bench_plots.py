@@ -3,10 +3,12 @@
 Run: ``python benchmarks/bench_plots.py [--repeats 5]``. Prints min and median CPU
 seconds over the repeats (process CPU, so other load on the machine matters less):
 
-1. ``save_gait_plots`` (angles, moments, powers, GRF of the bundled right leg) as shipped;
-2. the same three-panel figure drawn with matplotlib's constrained layout vs predgait's
-   fixed margins (both in this run: the ratio is like for like);
-3. ``write_gif`` of the leg over 1 s (21 frames);
+1. ``save_gait_plots`` (angles, moments, powers, GRF of the bundled right leg) as shipped
+   (Pillow charts, report/raster.py);
+2. the same three-panel figure drawn with matplotlib's constrained layout, with
+   matplotlib and predgait's fixed margins (report/figures.py), and with Pillow
+   (report/raster.py, what ``predgait inverse`` writes); all in this run, like for like;
+3. ``write_gif`` of the leg over 1 s (21 frames, Pillow);
 4. ``predgait simulate problems/resynthesis.toml`` as a whole process, with and without
    ``--no-plots`` (wall seconds).
 """
@@ -37,6 +39,15 @@ def cpu(fn, repeats: int) -> list[float]:
 
 def show(name: str, times: list[float], unit: str = "s CPU") -> None:
     print(f"{name:<58} min {min(times):7.3f}  median {statistics.median(times):7.3f} {unit}")
+
+
+def three_panels_pillow(path: Path) -> None:
+    from predgait.report.raster import Line, Panel, save_chart
+
+    x = np.linspace(0, 100, 151)
+    panels = [Panel((Line(x, np.sin(x / 10 + k)),), title=f"panel {k}", xlabel="% gait cycle",
+                    ylabel="angle (deg)" if k == 0 else "") for k in range(3)]
+    save_chart(path, panels, size=(12, 3.4), title="three panels")
 
 
 def three_panels(constrained: bool, path: Path) -> None:
@@ -83,10 +94,13 @@ def main() -> None:
              cpu(lambda: save_gait_plots(result, out), args.repeats))
         old = cpu(lambda: three_panels(True, out / "a.png"), args.repeats)
         new = cpu(lambda: three_panels(False, out / "b.png"), args.repeats)
-        show("2. three-panel figure, constrained layout", old)
-        show("   three-panel figure, fixed margins (predgait)", new)
+        light = cpu(lambda: three_panels_pillow(out / "c.png"), args.repeats)
+        show("2. three-panel figure, matplotlib constrained layout", old)
+        show("   three-panel figure, matplotlib fixed margins", new)
+        show("   three-panel figure, Pillow (report.raster)", light)
         print(f"   ratio of medians constrained / fixed: "
-              f"{statistics.median(old) / statistics.median(new):.2f}")
+              f"{statistics.median(old) / statistics.median(new):.2f}; fixed / Pillow: "
+              f"{statistics.median(new) / statistics.median(light):.2f}")
         leg = load_model("leg")
         t = np.linspace(0.0, 1.0, 201)
         q = np.zeros((t.size, leg.nq))

@@ -125,3 +125,26 @@ def test_sweep_over_a_predicted_orthosis(tmp_path):
     assert none["effort"] == pytest.approx(none["baseline_effort"], rel=1e-4)
     assert none["ankle_r_rms_change_deg"] < 0.05
     assert spring["ankle_r_rms_change_deg"] > 0.5
+
+
+def test_other_grids_start_from_the_coarse_solution_resampled(monkeypatch, baseline):
+    """Grid continuation: tracking and predictive on START_INTERVALS, then the final grid."""
+    from predgait.workflows import predict as workflow
+
+    monkeypatch.setattr(workflow, "START_INTERVALS", SPEC.nodes)
+    fine = predict(replace(SPEC, nodes=SPEC.nodes + 4))
+    assert [what for what, _ in fine.stages] == ["tracking on 20 intervals",
+                                                 "predictive on 20 intervals"]
+    assert fine.stages[1][1].objective == pytest.approx(baseline.gait.solved.objective,
+                                                        rel=1e-6)
+    assert fine.gait.solved.success and fine.gait.t.size == SPEC.nodes + 5
+    assert np.abs(fine.residuals["base_residual_n"]).max() < 1e-3
+    # the refined gait stays the coarse one: same stances, angles within a few degrees
+    # (the effort moves by ~12 %: trapezoidal error at 20-24 intervals)
+    from predgait.problems.predictive_data import resampled_guess
+
+    for side in ("right", "left"):
+        assert fine.measures[side]["stance_phases"] == baseline.measures[side]["stance_phases"]
+    coarse = resampled_guess(baseline.gait, SPEC.nodes + 4).q
+    change = np.degrees(np.sqrt(np.mean((fine.gait.q - coarse)[:, 2:] ** 2, axis=0)))
+    assert change.max() < 5.0, change

@@ -98,6 +98,22 @@ def test_recovers_elements_missing_from_the_moments(measured):
     assert np.all(rms < 0.05 * rms_none)
 
 
+def test_engine_elements_act_as_in_the_fit(measured):
+    """The fitted knee (anatomical angle) on the engine's hinge angle: the same moment."""
+    from predgait.problems.shooting import engine_elements
+
+    inverse, samples = measured
+    model = _model()
+    values = model.values() | TRUTH
+    joints = engine_elements(model, values, inverse.knee_static)
+    engine = passive_generalized(inverse.model, joints, inverse.q, inverse.qd)
+    for joint, column, sign in (("knee", 4, -1.0), ("ankle", 3, 1.0)):
+        fitted = model.passive_joint(joint, values).moment(samples.angles[joint],
+                                                           samples.rates[joint])
+        np.testing.assert_allclose(sign * engine[:, column], fitted, atol=1e-9)
+    assert abs(inverse.knee_static) > 0.01   # the offset is exercised
+
+
 def test_measured_moments_need_no_element(measured):
     inverse, samples = measured
     model = build_model(["knee", "ankle"], elements={"knee": ["linear"], "ankle": ["linear"]},
@@ -147,6 +163,8 @@ def test_cli_writes_both_fits(tmp_path, assert_tidy_result):
     assert solution["kind"] == "passive_shooting"
     assert "not tissue properties" in solution["what"]
     assert solution["interval_s"] <= 0.025
+    check = solution["whole_cycle_resimulation"]
+    assert check["threshold_deg"] == 2.0 and check["with_elements"]["end_s"] > 0
     for fit in (solution["parameters"], solution["decomposition"]["parameters"]):
         assert {"knee.k", "knee.k_lower", "ankle.c"} <= set(fit)
         for report in fit.values():

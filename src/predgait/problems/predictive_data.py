@@ -22,7 +22,7 @@ from predgait.dynamics.drivers import SampledHistory
 from predgait.errors import InputError
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model
-from predgait.problems.predictive import Cycle, Guess, Reference
+from predgait.problems.predictive import Cycle, Guess, PredictedGait, Reference
 from predgait.simulations.gait7_motion import Gait7Motion, frame_positions
 
 
@@ -108,3 +108,14 @@ def measured_cycle(model: Model, motion: Gait7Motion, cycle: Cycle, intervals: i
                          guess=Guess(guess_q, guess_v,
                                      np.array([a(tk) for tk in t])),
                          reference=Reference(guess_q.copy(), fz))
+
+
+def resampled_guess(gait: PredictedGait, intervals: int) -> Guess:
+    """A solution linearly resampled onto ``intervals`` + 1 uniform nodes (same cycle)."""
+    old = np.linspace(0.0, 1.0, gait.t.size)
+    new = np.linspace(0.0, 1.0, intervals + 1)
+
+    def resample(x):
+        return np.column_stack([np.interp(new, old, column) for column in x.T])
+
+    return Guess(resample(gait.q), resample(gait.v), resample(gait.a))

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import functools
 import time as clock
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -249,6 +249,7 @@ class _LeastSquares:
     model: PassiveModel
     residuals: object      # CasADi function (z, data) -> (r, J)
     data: np.ndarray
+    _last: list = field(default_factory=lambda: [None, None])   # z, (r, J) of the last call
 
     @classmethod
     def of(cls, leg, model: PassiveModel, intervals: Intervals) -> _LeastSquares:
@@ -257,9 +258,13 @@ class _LeastSquares:
         return cls(model, function, _data(intervals))
 
     def evaluate(self, z) -> tuple[np.ndarray, np.ndarray]:
-        """(r (n, 2), J (2 n, f)) at z."""
-        r, jac = self.residuals(z, self.data)
-        return np.array(r), np.array(jac)
+        """(r (n, 2), J (2 n, f)) at z (the last point's values are kept)."""
+        z = np.asarray(z, dtype=float)
+        if self._last[0] is None or not np.array_equal(self._last[0], z):
+            r, jac = self.residuals(z, self.data)
+            self._last[0], self._last[1] = z.copy(), (np.array(r), np.array(jac))
+        r, jac = self._last[1]
+        return r.copy(), jac.copy()
 
     def prior_rows(self, z) -> tuple[np.ndarray, np.ndarray]:
         """Prior residuals and their Jacobian rows (:func:`_prior_rows`)."""
@@ -303,7 +308,7 @@ def _gauss_newton(problem: _LeastSquares, z, row_weights, max_iter: int
     cost = _cost(r, row_weights, problem.prior_rows(z))
     for iteration in range(1, max_iter + 1):
         step = _bounded_step(jac, r, row_weights, z, problem.prior_rows(z))
-        if np.max(np.abs(step)) < 1e-10:
+        if np.max(np.abs(step)) < 1e-8:
             return z, iteration, True
         for _ in range(30):
             trial = np.clip(z + step, 0.0, 1.0)
@@ -315,7 +320,8 @@ def _gauss_newton(problem: _LeastSquares, z, row_weights, max_iter: int
             step = step / 2
         else:
             return z, iteration, False
-        converged = np.max(np.abs(trial - z)) < 1e-9 or cost - cost_new <= 1e-12 * cost
+        # z is scaled to the bounds: 1e-7 of a bound range is far inside any interval.
+        converged = np.max(np.abs(trial - z)) < 1e-7 or cost - cost_new <= 1e-10 * cost
         z, r, jac, cost = trial, r_new, jac_new, cost_new
         if converged:
             return z, iteration, True
@@ -408,6 +414,31 @@ def _no_elements(leg, model, intervals) -> np.ndarray:
                        for p in model.parameters)
     return _LeastSquares.of(leg, replace(model, parameters=parameters),
                             intervals).evaluate(np.zeros(0))[0]
+
+
+def engine_elements(model: PassiveModel, values, knee_offset: float) -> dict:
+    """Joint -> PassiveJoint of ``values`` on the engine's (hinge) clinical angles.
+
+    The fit writes the knee on its anatomical angle (hinge angle - ``knee_offset``, rad):
+    the neutral angle and the stops move by the offset, so the elements act on the
+    simulated leg exactly as in the fit.
+    """
+    from dataclasses import replace
+
+    from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
+
+    out = {}
+    for joint in model.joints:
+        shift = knee_offset if joint == "knee" else 0.0
+        elements = []
+        for element in model.passive_joint(joint, values).elements:
+            if isinstance(element, LinearSpringDamper):
+                elements.append(replace(element, theta0=element.theta0 + shift))
+            elif isinstance(element, ExponentialLimits):
+                elements.append(replace(element, lower=element.lower + shift,
+                                        upper=element.upper + shift))
+        out[joint] = PassiveJoint(tuple(elements))
+    return out
 
 
 def bootstrap_shooting(intervals: Intervals, samples: GaitSamples, model: PassiveModel,

@@ -310,6 +310,14 @@ def _shooting(s: dict) -> Headline:
                  f"{rms['without_elements']['knee']:.4f} deg"),
                 ("shooting intervals", f"{s['shooting_intervals']} of "
                  f"{s['interval_s'] * 1e3:.1f} ms")]
+    check = s.get("whole_cycle_resimulation")
+    if check:
+        numbers.append((f"first cycle re-synthesized within {_deg(check['threshold_deg'])} "
+                        "until (with / without)",
+                        " / ".join(_t(run["time_to_threshold_s"])
+                                   if run["time_to_threshold_s"] is not None else "the end"
+                                   for run in (check["with_elements"],
+                                               check["without_elements"]))))
     zero = [k for k, r in fitted.items() if r.get("note", "").startswith("consistent with 0")]
     sentence = (f"Over {s['shooting_intervals']} shooting intervals re-started from the "
                 f"measured state, {len(zero)} of {len(fitted)} stabilising parameters are "

@@ -28,6 +28,7 @@ from predgait.problems.shooting import (
     Intervals,
     ShootingSettings,
     bootstrap_shooting,
+    engine_elements,
     fit_shooting,
 )
 from predgait.report.figures import plots_wanted
@@ -123,6 +124,30 @@ def _boot_summary(boot, seed) -> dict | None:
                                       "unit": boot.unit, "units": boot.n_units, "seed": seed}
 
 
+#: Deviation (deg) and RK4 step (s) of the whole-cycle re-simulation check.
+CHECK_THRESHOLD_DEG, CHECK_STEP = 2.0, 5e-4
+
+
+def whole_cycle_check(inverse, elements) -> dict:
+    """Re-simulate the first gait cycle with and without the fitted elements.
+
+    The fit holds each short interval; over a whole cycle the driven leg's instability
+    still acts. The report says for how long each run stays within 2 deg of the measured
+    motion (Pinocchio, RK4), i.e. whether the elements alone hold the re-synthesis (for
+    a stabilising feedback see kind ``torque_feedback``).
+    """
+    from predgait.dynamics.drivers import LegDrivers
+    from predgait.workflows.solve import resimulate
+
+    window = inverse.first_cycle() or (float(inverse.time[0]), float(inverse.time[-1]))
+    drivers = LegDrivers.from_inverse(inverse)
+    out = {"window_s": list(window), "threshold_deg": CHECK_THRESHOLD_DEG}
+    for name, passive in (("without_elements", None), ("with_elements", elements)):
+        _, out[name] = resimulate(inverse, drivers, window, step=CHECK_STEP,
+                                  threshold_deg=CHECK_THRESHOLD_DEG, passive=passive)
+    return out
+
+
 def solve_shooting(spec: ShootingSpec) -> dict:
     """Both fits on the same inverse dynamics: what :func:`run_shooting` writes.
 
@@ -147,6 +172,8 @@ def solve_shooting(spec: ShootingSpec) -> dict:
     split_parameters, _ = _assessed(spec.model, split, split_boot)
     stabilising = {joint: np.asarray(spec.model.passive_joint(joint, fit.values).moment(
         samples.angles[joint], samples.rates[joint])) for joint in spec.model.joints}
+    check = whole_cycle_check(inverse, engine_elements(spec.model, fit.values,
+                                                       intervals.knee_offset))
     solution = {
         "status": "solved", "kind": "passive_shooting", "method": METHOD, "what": WHAT,
         "iterations": fit.iterations, "solve_time_s": fit.seconds,
@@ -156,6 +183,7 @@ def solve_shooting(spec: ShootingSpec) -> dict:
         "interval_end_rms_deg": {"with_elements": _rms_deg(fit.residual),
                                  "without_elements": _rms_deg(fit.residual_none)},
         "gait_cycles": int(np.unique(samples.cycle[samples.cycle >= 0]).size),
+        "whole_cycle_resimulation": check,
         "bootstrap": _boot_summary(boot, spec.seed),
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
@@ -229,6 +257,15 @@ def summary_lines(solution: dict) -> list[str]:
     lines.append("    interval-end RMS error with / without them: " + ", ".join(
         f"{j} {rms['with_elements'][j]:.4f} / {rms['without_elements'][j]:.4f} deg"
         for j in ("ankle", "knee")))
+    check = solution["whole_cycle_resimulation"]
+
+    def held(run):
+        when = run["time_to_threshold_s"]
+        return f"leaves {check['threshold_deg']:g} deg at {when:.3f} s" if when is not None \
+            else f"stays within {check['threshold_deg']:g} deg"
+
+    lines.append(f"    whole first cycle re-synthesized: with them {held(check['with_elements'])}"
+                 f", without {held(check['without_elements'])}")
     lines.append("  passive moments (decomposition, quiet phases "
                  f"{solution['decomposition']['quiet_phases_percent']} %):")
     lines += [line for key, r in solution["decomposition"]["parameters"].items()

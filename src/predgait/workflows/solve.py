@@ -119,19 +119,36 @@ def solve_problem(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers) 
                         regularization=w.get("regularization", 1e-10), **common)
 
 
-def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None):
-    options = IntegratorOptions(method=Method.RK4, step=spec.check_step)
+def resimulate(inverse, drivers, window, *, step: float, threshold_deg: float, passive=None,
+               feedback=None, x0=None):
+    """Pinocchio re-simulation (RK4) over ``window`` and its deviation from the measured.
+
+    Args:
+        inverse: The trial's InverseResult (the measured motion).
+        drivers: LegDrivers of the run; ``passive`` elements are ADDED to them.
+        window: (t0, t1) s.
+        step: RK4 step, s.
+        threshold_deg: Deviation reported as first crossed.
+        passive: Optional joint -> PassiveJoint added to the drive.
+        feedback: Optional JointFeedback.
+        x0: Optional initial free state (default: the measured one).
+
+    Returns:
+        (simulation, report dict: status, end, time to the threshold, time from which it
+        stays within it, largest deviation, RMS per coordinate in deg).
+    """
+    options = IntegratorOptions(method=Method.RK4, step=step)
     if passive is not None:
         drivers = drivers.with_passive(passive)
     try:
-        sim = simulate_leg(inverse.model, drivers, spec.window, x0,
+        sim = simulate_leg(inverse.model, drivers, window, x0,
                            feedback=feedback, options=options,
                            fall=FallLimit(segment_angle_deg=90.0))
     except SimulationDiverged as exc:
         sim = exc.partial
-    dev = deviation(sim, inverse.time, inverse.q, threshold_deg=spec.threshold_deg)
-    outside = np.flatnonzero(np.degrees(np.abs(dev.error)).max(axis=1) > spec.threshold_deg)
-    within_after = None if sim.t[-1] < spec.window[1] - 1e-9 else (
+    dev = deviation(sim, inverse.time, inverse.q, threshold_deg=threshold_deg)
+    outside = np.flatnonzero(np.degrees(np.abs(dev.error)).max(axis=1) > threshold_deg)
+    within_after = None if sim.t[-1] < window[1] - 1e-9 else (
         float(dev.t[0]) if outside.size == 0 else
         float(dev.t[outside[-1] + 1]) if outside[-1] + 1 < dev.t.size else None)
     return sim, {"status": sim.status, "end_s": float(sim.t[-1]),
@@ -139,6 +156,12 @@ def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None)
                  "within_threshold_from_s": within_after,
                  "max_deviation_deg": float(np.degrees(np.abs(dev.error)).max()),
                  "rms_deg": {k: float(np.degrees(v)) for k, v in dev.rms.items()}}
+
+
+def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None):
+    return resimulate(inverse, drivers, spec.window, step=spec.check_step,
+                      threshold_deg=spec.threshold_deg, passive=passive, feedback=feedback,
+                      x0=x0)
 
 
 def check_by_resimulation(spec: SolveSpec, inverse: InverseResult, drivers: LegDrivers,
