@@ -5,6 +5,11 @@ of the shipped problems (rod, collapse, resynthesis on subject01, gait7 on its c
 the whole body), computed by tests/data/make_engine_reference.py with the separate leg,
 rod and partitioned engines. Same problem, same options: the merged engine must give
 the same numbers to 1e-9 (a deliberate change would be explained in the test below).
+
+One input changed since: the re-synthesis is driven by subject01's planar inverse kinematics,
+which now iterates all frames together (``BoundedSolver.solve_frames``) and stops at the same
+step tolerance from other starting points; its angles moved by round-off-to-1e-9 amounts that
+the 1 s driven run carries to 1.7e-8 rad/s. That case is held to 1e-7.
 """
 
 from pathlib import Path
@@ -15,6 +20,7 @@ import pytest
 from engine_cases import ANSWERS
 
 REFERENCE = Path(__file__).resolve().parent / "data" / "engine_reference.npz"
+TOLERANCE = {"resynthesis": 1e-7}  # fed by the batched IK (see above); the others 1e-9
 
 
 @pytest.fixture(scope="module")
@@ -29,5 +35,6 @@ def test_engine_reproduces_stored_answers(case, reference):
     expected = {k: v for k, v in reference.items() if k.startswith(f"{case}/")}
     assert expected and set(answers) == set(expected)
     for key, value in expected.items():
-        np.testing.assert_allclose(answers[key], value, rtol=1e-9, atol=1e-9, err_msg=key,
+        tol = TOLERANCE.get(case, 1e-9)
+        np.testing.assert_allclose(answers[key], value, rtol=tol, atol=tol, err_msg=key,
                                    equal_nan=True)

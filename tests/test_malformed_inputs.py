@@ -54,6 +54,12 @@ PROBLEMS = {
     "sweep_knee_stiffness.toml": ["sweep", "{}", "--workers", "1"],
     "inverse_subject01.toml": ["inverse", "{}"],
     "inverse_winter_a1.toml": ["inverse", "{}"],
+    "inverse_subject01_left.toml": ["inverse", "{}"],
+    "inverse_walking5.toml": ["inverse", "{}"],
+    "passive_decomposition.toml": ["solve", "{}"],
+    "passive_shooting.toml": ["solve", "{}"],
+    "passive_shooting_nonlinear.toml": ["solve", "{}"],
+    "resynthesis_fig4_2_9.toml": ["simulate", "{}"],
     "markers_fullbody_subject01.toml": [
         "inverse", "s01/subject01_walk1.trc", "--grf", "s01/subject01_walk1_grf.mot",
         "--mass", "72.6", "--height", "1.8034", "--model", "fullbody", "--marker-map", "{}"],
