@@ -17,10 +17,10 @@ import pytest
 
 from predgait.cli import main
 from predgait.problemfile import load_problem
-from predgait.problems.predictive import Guess
 from predgait.scenarios.edits import AddMass, LockJoint
 from predgait.scenarios.predict import (
     edited_gait7,
+    edited_prediction,
     joint_constraints,
     predicted_metrics,
 )
@@ -40,8 +40,7 @@ def baseline():
 def _edited(baseline, edits):
     model = edited_gait7(SPEC, edits, BOTH)
     bounds, springs = joint_constraints(model, edits, BOTH)
-    g = baseline.gait
-    edited = predict(SPEC, model, bounds=bounds, springs=springs, guess=Guess(g.q, g.v, g.a))
+    edited = edited_prediction(SPEC, model, bounds, springs, baseline)
     return model, edited, predicted_metrics(edited_gait7(SPEC, (), ()), baseline, edited, BOTH)
 
 
@@ -99,9 +98,7 @@ def test_springs_match_the_engine_passive_elements(baseline):
 
     model = edited_gait7(SPEC, (), ())
     bounds, springs = joint_constraints(model, (PassiveEdit("ankle", 100.0, 1.0, 0.1),), BOTH)
-    g = baseline.gait
-    edited = predict(replace(SPEC, max_iter=3000), model, bounds=bounds, springs=springs,
-                     guess=Guess(g.q, g.v, g.a))
+    edited = edited_prediction(SPEC, model, bounds, springs, baseline)
     assert len(springs) == 2
     assert np.abs(edited.residuals["torque_mismatch_n_m"]).max() < 1e-6
 

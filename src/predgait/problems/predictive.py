@@ -94,9 +94,11 @@ IPOPT_OPTIONS = {"tol": 1e-6, "constr_viol_tol": 1e-6}
 class Start(enum.Enum):
     """Where a solve starts, which sets Ipopt's barrier strategy.
 
-    From the measured motion (not dynamically consistent), the monotone (Fiacco-McCormick)
-    barrier converges where the adaptive one ended infeasible; from a solution of the
-    problem (dynamically consistent), the adaptive barrier converges where the monotone
+    From a guess that does not solve the problem (the measured motion, or the unedited
+    gait for an edited model), the monotone (Fiacco-McCormick) barrier converged where
+    the adaptive one ended infeasible or ran out of iterations (measured guess, 40
+    nodes; a right-ankle orthosis on a full cycle); from a solution of the problem with
+    other weights or on another grid, the adaptive barrier converged where the monotone
     one, restarting at mu = 0.1, wandered for 1000 iterations (bundled trial, 40-50 nodes).
     """
 

@@ -94,7 +94,8 @@ def stance_profile(fz: np.ndarray, body_weight: float) -> dict:
         return {"loading_peak_bw": 0.0, "valley_bw": 0.0, "push_off_peak_bw": 0.0}
     rolled, flags = np.roll(fz, -onsets[0]), np.roll(on, -onsets[0])
     end = int(np.argmin(flags)) if not flags.all() else flags.size
-    thirds = np.array_split(rolled[:end], 3)
+    stance = rolled[:end]
+    thirds = np.array_split(stance, 3) if stance.size >= 3 else [stance] * 3
     return {"loading_peak_bw": float(thirds[0].max() / body_weight),
             "valley_bw": float(thirds[1].min() / body_weight),
             "push_off_peak_bw": float(thirds[2].max() / body_weight)}

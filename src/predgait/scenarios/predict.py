@@ -24,11 +24,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from predgait.errors import SolveFailed
 from predgait.kinematics.clinical import clinical_joint
 from predgait.models.anthropometry import leg_from_subject
 from predgait.models.gait7 import build_gait7_urdf
 from predgait.models.loading import Model, model_from_urdf
-from predgait.problems.predictive import Cycle, Guess, PassiveSpring
+from predgait.problems.predictive import Cycle, Guess, PassiveSpring, Start
 from predgait.problems.predictive_check import STANCE_THRESHOLD_N
 from predgait.scenarios.edits import (
     LockJoint,
@@ -91,6 +92,27 @@ def baseline_prediction(spec: PredictSpec, cycle: Cycle) -> Prediction:
                    guess=Guess(st["q"], st["v"], st["a"]))
 
 
+def edited_prediction(spec: PredictSpec, model: Model, bounds, springs,
+                      baseline: Prediction) -> Prediction:
+    """The edited model's prediction from the unedited gait.
+
+    First with Ipopt's adaptive barrier (a null edit then stays at the unedited optimum);
+    if that fails, again with the monotone one (a right-ankle orthosis on a full cycle:
+    adaptive ran out of 1000 iterations, monotone converged in 260). See :class:`Start`.
+
+    Raises:
+        SolveFailed: Both failed (the monotone attempt's status and violation).
+    """
+    g = baseline.gait
+    guess = Guess(g.q, g.v, g.a)
+    try:
+        return predict(spec, model, bounds=bounds, springs=springs, guess=guess,
+                       start=Start.SOLUTION)
+    except SolveFailed:
+        return predict(spec, model, bounds=bounds, springs=springs, guess=guess,
+                       start=Start.MEASURED)
+
+
 def run_predicted_scenario(scenario, spec: PredictSpec) -> PredictedScenario:
     """Predict the unedited and the edited gait of ``scenario`` (a ScenarioSpec).
 
@@ -103,10 +125,8 @@ def run_predicted_scenario(scenario, spec: PredictSpec) -> PredictedScenario:
     model = edited_gait7(spec, (), ())
     edited_model = edited_gait7(spec, scenario.edits, sides)
     bounds, springs = joint_constraints(edited_model, scenario.edits, sides)
-    g = baseline.gait
     full = replace(spec, cycle=cycle, nodes=spec.nodes * (1 if cycle is Cycle.HALF else 2))
-    edited = predict(full, edited_model, bounds=bounds, springs=springs,
-                     guess=Guess(g.q, g.v, g.a))
+    edited = edited_prediction(full, edited_model, bounds, springs, baseline)
     return PredictedScenario(scenario, baseline, edited, model, edited_model,
                              predicted_metrics(model, baseline, edited, sides))
 

@@ -144,8 +144,12 @@ def measured_for(spec: PredictSpec, model: Model):
 
 
 def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, springs=(),
-            guess: Guess | None = None, resimulate: bool | None = None) -> Prediction:
+            guess: Guess | None = None, start: Start | None = None,
+            resimulate: bool | None = None) -> Prediction:
     """Solve ``spec`` on ``model`` (default: the unedited gait7) and check the result.
+
+    ``guess`` defaults to the staged start (measured motion, tracking, grid continuation);
+    ``start`` (Ipopt's barrier, :class:`Start`) to SOLUTION when a guess is given.
 
     Raises:
         SolveFailed: Ipopt did not converge (message: status, iterations, violation).
@@ -170,7 +174,8 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
     stages = []
     if guess is None and spec.weights.tracking == 0:
         guess, stages = _staged_guess(spec, model, kw)
-    start = Start.MEASURED if guess is None else Start.SOLUTION
+    if start is None:
+        start = Start.MEASURED if guess is None else Start.SOLUTION
     gait = problem.solve(guess or measured.guess, measured.reference, spec.weights,
                          start=start, **kw)
     _check_solved(gait, "solve")
