@@ -24,7 +24,6 @@ from predgait.models.loading3d import base_transform, load_fullbody
 from predgait.problems.fullbody_tracking import (
     POINTS,
     TrackingData,
-    TrackingWeights,
     contact_inverse_dynamics,
     node_function,
     solve_tracking,
@@ -130,10 +129,9 @@ def sway():
     model, t, q, v, a, tau, forces = standing_sway()
     force, cop, free = feet_data(model, q, forces)
     data = TrackingData(t, q, v, a, np.ones((t.size, 4), bool), force, cop, free,
-                        ground_z=0.0, stiffness=CONTACT.stiffness, friction=CONTACT.friction)
-    # The generating contact slips (its friction ramps over 1 m/s): slip costs nothing here.
-    return model, data, tau, forces, solve_tracking(model, data,
-                                                    TrackingWeights(slip_m_s=10.0))
+                        ground_z=0.0, stiffness=CONTACT.stiffness, friction=CONTACT.friction,
+                        slip_transition=CONTACT.slip_transition)
+    return model, data, tau, forces, solve_tracking(model, data)
 
 
 def test_sway_is_a_real_test_case(sway):

@@ -32,9 +32,11 @@ ImpactContact` with exponent 1); out of contact, f = 0 and z >= ground_z.
 
 Cost (each term a mean over nodes of squared errors over a scale, Bryson-like): joint and
 pelvis angles (deg), pelvis position (m), each foot's force and its moment about the
-plate's COP against the plate (force and free moment; % body weight), slip of the
-contact points relative to the ground surface (m/s), and a small regularisation of v and
-a toward the measured ones (which also removes the trapezoidal rule's alternating mode).
+plate's COP against the plate (force and free moment; % body weight), the tangential
+force of each contact point against the forward engine's Coulomb law at its slip relative
+to the floor, -mu f_z STEP(v_t, -v_s, -1, v_s, 1) (% body weight: the engine then starts
+from the solved friction), and a small regularisation of v and a toward the measured
+ones (which also removes the trapezoidal rule's alternating mode).
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ import casadi as cs
 import numpy as np
 import pinocchio as pin
 
+from predgait.dynamics.contact import adams_step
 from predgait.errors import SolveFailed
 from predgait.models.fullbody import CONTACTS
 from predgait.models.loading3d import Model3D, adam_kindyn
@@ -67,7 +70,8 @@ class TrackingWeights:
         position_m: Pelvis position error, m.
         force_bw: Foot force error, fraction of body weight.
         moment_bw_m: Foot moment error about the plate COP, body weight x m.
-        slip_m_s: Contact-point slip relative to the ground, m/s.
+        friction_bw: Tangential contact force against the engine's friction law at the
+            point's slip, fraction of body weight.
         velocity_rad_s: Regularisation of v toward the measured one, rad/s (and m/s).
         acceleration_rad_s2: Regularisation of a toward the measured one, rad/s^2.
     """
@@ -76,7 +80,7 @@ class TrackingWeights:
     position_m: float = 0.01
     force_bw: float = 0.02
     moment_bw_m: float = 0.004
-    slip_m_s: float = 0.05
+    friction_bw: float = 0.02
     velocity_rad_s: float = 2.0
     acceleration_rad_s2: float = 50.0
 
@@ -94,7 +98,8 @@ class TrackingData:
         free_moment: (N, 2) N m, vertical free moment of each foot's plate.
         ground_z: m, floor height. belt_velocity: m/s along X of the floor.
         stiffness: N/m, contact spring of the forward engine (exponent 1).
-        friction: Coulomb coefficient of the friction pyramid.
+        friction: Coulomb coefficient of the friction pyramid and law.
+        slip_transition: m/s, slip over which the engine's friction ramps to mu f_z.
     """
 
     time: np.ndarray
@@ -109,6 +114,7 @@ class TrackingData:
     belt_velocity: float = 0.0
     stiffness: float = 2.0e5
     friction: float = 0.8
+    slip_transition: float = 0.05
 
     @property
     def nodes(self) -> int:
@@ -228,7 +234,7 @@ def _initial_forces(data: TrackingData) -> np.ndarray:
 #: Sizes: unknowns per node (dx, v, a, f), node parameters, node constraints (base
 #: rows 6, contact heights 4, friction pyramid 16), interval constraints (joints 29,
 #: velocities 35, pelvis position 3, pelvis rotation 3), weights.
-NZ, NP, NG, NI, NW = 117, 128, 26, 70, 7
+NZ, NP, NG, NI, NW = 117, 129, 26, 70, 7
 #: Weight of the point forces' own cost relative to the foot-force tracking.
 REGULARISATION = 1e-4
 
@@ -237,11 +243,11 @@ def _node_parameters(data: TrackingData) -> np.ndarray:
     """(NP, N) per-node parameters.
 
     q_ref, v_ref, a_ref, contact, force, cop, free moment, floor height, belt velocity,
-    1/stiffness, friction.
+    1/stiffness, friction, slip transition.
     """
     n = data.nodes
     const = np.tile([[data.ground_z], [data.belt_velocity], [1.0 / data.stiffness],
-                     [data.friction]], (1, n))
+                     [data.friction], [data.slip_transition]], (1, n))
     return np.vstack([data.q.T, data.v.T, data.a.T, data.contact.T.astype(float),
                       data.force.reshape(n, 6).T, data.cop.reshape(n, 6).T,
                       data.free_moment.T, const])
@@ -251,7 +257,7 @@ def _weight_vector(weights: TrackingWeights, body_weight: float) -> np.ndarray:
     w = weights
     return 1.0 / np.array([np.radians(w.angle_deg), w.position_m, w.velocity_rad_s,
                            w.acceleration_rad_s2, w.force_bw * body_weight,
-                           w.moment_bw_m * body_weight, w.slip_m_s]) ** 2
+                           w.moment_bw_m * body_weight, w.friction_bw * body_weight]) ** 2
 
 
 @functools.lru_cache(maxsize=4)
@@ -269,7 +275,7 @@ def stage_functions(model: Model3D) -> tuple[cs.Function, cs.Function, cs.Functi
     dx, v, a, f = z[:35], z[35:70], z[70:105], z[105:]
     q_ref, v_ref, a_ref, on = p[:36], p[36:71], p[71:106], p[106:110]
     force_t, cop, free_moment = p[110:116], p[116:122], p[122:124]
-    ground_z, belt, compliance, mu = p[124], p[125], p[126], p[127]
+    ground_z, belt, compliance, mu, ramp = p[124], p[125], p[126], p[127], p[128]
     eom, points, rot, pos, point_vel = node(q_ref, dx, v, a, f)
     fz = f[2::3]
     heights = points[2::3] + on * fz * compliance - ground_z
@@ -288,7 +294,8 @@ def stage_functions(model: Model3D) -> tuple[cs.Function, cs.Function, cs.Functi
         cost += w[5] * cs.sumsqr(moment - target)
     for c in range(4):
         slip = point_vel[3 * c: 3 * c + 2] - cs.vertcat(belt, 0)
-        cost += w[6] * on[c] * cs.sumsqr(slip)
+        coulomb = -mu * f[3 * c + 2] * adams_step(slip, -ramp, -1.0, ramp, 1.0)
+        cost += w[6] * on[c] * cs.sumsqr(f[3 * c: 3 * c + 2] - coulomb)
     # The forces between two points of one foot that cancel (a squeeze along the
     # heel-toe line) change nothing else: a small cost on every force fixes them.
     cost += w[4] * REGULARISATION * cs.sumsqr(f)

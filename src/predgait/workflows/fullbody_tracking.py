@@ -52,6 +52,7 @@ class TrackingSpec:
     window: tuple[float, float] | None
     weights: TrackingWeights
     contact_height: float
+    stride: int
     max_iter: int
     feedback: FloatingWeights
     step: float
@@ -62,7 +63,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
     """TrackingSpec from a problem file (errors name the file, key and line)."""
     table.check_keys(("kind", "trial", "contact", "window", "weights", "solver", "feedback"))
     window = table.table("window")
-    window.check_keys(("start", "end", "contact_height"))
+    window.check_keys(("start", "end", "contact_height", "stride"))
     start = window.number("start", None, low=0, unit="s")
     end = window.number("end", None, low=0, unit="s")
     if (start is None) != (end is None):
@@ -84,6 +85,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
         weights=TrackingWeights(**{k: weights.number(k, v, low=1e-9)
                                    for k, v in vars(defaults).items()}),
         contact_height=window.number("contact_height", 0.03, low=0.0, high=0.2, unit="m"),
+        stride=int(window.number("stride", 1, low=1, high=50)),
         max_iter=int(solver.number("max_iter", 200, low=1, high=5000)),
         feedback=FloatingWeights(**{k: feedback.number(k, v, low=1e-6)
                                     for k, v in vars(fb).items()}),
@@ -125,8 +127,9 @@ def foot_cop(drive: FullbodyDrive, plate_z: float) -> tuple[np.ndarray, np.ndarr
 
 
 def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, float], *,
-                  contact: ContactSettings, contact_height: float = 0.03) -> TrackingData:
-    """The problem's nodes: the marker frames of ``window`` (s) and what they track.
+                  contact: ContactSettings, contact_height: float = 0.03,
+                  stride: int = 1) -> TrackingData:
+    """The problem's nodes (every ``stride``-th marker frame of ``window``, s), what they track.
 
     A sole point is in contact when its foot is loaded (plate force above
     :data:`LOAD_THRESHOLD`) and its measured height is within ``contact_height`` (m) of
@@ -135,7 +138,8 @@ def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, flo
     ground_z, belt = measured_ground(drive, POINTS, threshold=LOAD_THRESHOLD)
     ground_z = ground_z if contact.ground_z is None else contact.ground_z
     belt = belt if contact.belt_velocity is None else contact.belt_velocity
-    keep = (drive.time >= window[0] - 1e-9) & (drive.time <= window[1] + 1e-9)
+    keep = np.flatnonzero((drive.time >= window[0] - 1e-9) & (drive.time <= window[1] + 1e-9))
+    keep = keep[::stride]
     points = foot_points(drive.model, drive.q[keep])
     heights = np.column_stack([points[s][i][:, 2] for s, i in
                                (("r", 0), ("r", 1), ("l", 0), ("l", 1))])
@@ -145,7 +149,7 @@ def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, flo
     return TrackingData(drive.time[keep], drive.q[keep], drive.v[keep], drive.a[keep],
                         loaded & (heights < ground_z + contact_height), force[keep],
                         cop[keep], free[keep], ground_z, belt, stiffness=law.stiffness,
-                        friction=law.friction)
+                        friction=law.friction, slip_transition=law.slip_transition)
 
 
 def plate_height(inverse) -> float:

@@ -43,7 +43,7 @@ def solve_spec(spec: TrackingSpec) -> tuple[FullbodyDrive, TrackingData, Trackin
     drive = FullbodyDrive.from_inverse(inverse)
     window = spec.window or gait_cycle(drive, inverse.stances)
     data = tracking_data(drive, plate_height(inverse), window, contact=spec.contact,
-                         contact_height=spec.contact_height)
+                         contact_height=spec.contact_height, stride=spec.stride)
     return drive, data, solve_tracking(drive.model, data, spec.weights,
                                        max_iter=spec.max_iter)
 
