@@ -6,8 +6,10 @@ default) and 50. Per grid, min / median of the repeats (wall and CPU):
 
 * build: the NLP and its Ipopt solver (exact Hessian), from a fresh model object;
 * tracking, cold: tracking weights from the measured motion;
-* predictive, cold: the whole ``predict`` recipe from the measured motion (tracking stage,
-  then effort only from its solution), Ipopt iterations of both stages;
+* predictive, cold: the whole :func:`predgait.workflows.predict.predict` recipe from the
+  measured motion (tracking stage, then effort only; on grids other than 40 intervals the
+  40-interval solution resampled, then the final grid), problems already built, no
+  engine re-simulation; Ipopt iterations of every stage;
 * predictive, warm: the predictive problem again from its own solution.
 
 OpenSim Moco's predictive 2D walking example needs its model file (2D_gait.osim), which
@@ -22,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import subprocess
+from dataclasses import replace
 
 from timing import NOT_AVAILABLE, time_call
 
@@ -30,7 +33,7 @@ from predgait.models.loading import model_from_urdf
 from predgait.problems.predictive import Cycle, Guess, PredictiveProblem, Start, Weights
 from predgait.problems.predictive_data import carrying_depth, measured_cycle
 from predgait.simulations.gait7_motion import bundled_gait7_motion, gait7_model
-from predgait.workflows.predict import TRACKING_STAGE, PredictSpec, default_bounds
+from predgait.workflows.predict import TRACKING_STAGE, PredictSpec, default_bounds, predict
 
 SPEC = PredictSpec()
 
@@ -83,17 +86,16 @@ def bench(nodes: int, repeat: int) -> None:
           f"{s.iterations} iterations, {s.status}")
 
     def predictive_cold():
-        first = problem.solve(measured.guess, measured.reference, TRACKING_STAGE, **kw)
-        runs["first"] = first
-        runs["predictive"] = problem.solve(Guess(first.q, first.v, first.a),
-                                           measured.reference, Weights(), start=Start.SOLUTION,
-                                           **kw)
+        runs["predictive"] = predict(replace(SPEC, nodes=nodes, resimulate=False))
 
-    t = time_call(predictive_cold, repeat)
-    p = runs["predictive"]
-    print(f"{nodes} nodes, predictive (tracking stage + effort) from the measured motion: "
-          f"{t.describe('s')}; {runs['first'].solved.iterations} + {p.solved.iterations} "
-          f"iterations, {p.solved.status}, effort {p.terms['effort']:.3f}")
+    t = time_call(predictive_cold, repeat, warmup=True)     # warm-up builds the problems
+    run = runs["predictive"]
+    p = run.gait
+    stages = " + ".join(str(x.iterations) for _, x in run.stages)
+    print(f"{nodes} nodes, predictive recipe from the measured motion: {t.describe('s')}; "
+          f"{stages} + {p.solved.iterations} iterations, {p.solved.status}, effort "
+          f"{p.terms['effort']:.3f}, stance phases per foot "
+          f"{run.measures['right']['stance_phases']}")
 
     def predictive_warm():
         runs["warm"] = problem.solve(Guess(p.q, p.v, p.a), measured.reference, Weights(),

@@ -148,3 +148,21 @@ def test_other_grids_start_from_the_coarse_solution_resampled(monkeypatch, basel
     coarse = resampled_guess(baseline.gait, SPEC.nodes + 4).q
     change = np.degrees(np.sqrt(np.mean((fine.gait.q - coarse)[:, 2:] ** 2, axis=0)))
     assert change.max() < 5.0, change
+
+
+def test_cli_predicted_scenario_writes_both_gaits(tmp_path, capsys):
+    import json
+
+    scenario = tmp_path / "afo.toml"
+    scenario.write_text('name = "orthosis both sides"\nside = "both"\npredicts = true\n'
+                        '[[edit]]\nkind = "passive"\njoint = "ankle"\nk = 100.0\nc = 1.0\n'
+                        '[predict.grid]\nnodes = 20\n[predict.check]\nresimulate = false\n')
+    out = tmp_path / "out"
+    assert main(["scenario", str(scenario), "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["predicts"] and summary["edits"][0]["kind"] == "passive"
+    assert summary["edited"]["pinocchio_check"]["max_torque_mismatch_n_m"] < 1e-6
+    for name in ("baseline_states.sto", "edited_torques.sto", "edited_grf.sto",
+                 "edited_gait7.urdf", "predicted_stick.png", "predicted_grf.png"):
+        assert (out / name).is_file(), name
+    assert "swing hip torque" in capsys.readouterr().out

@@ -106,3 +106,20 @@ def test_inverse_draws_its_plots_without_matplotlib(tmp_path, argv):
     assert done.stdout.strip().splitlines()[-1] == "0 []"
     pngs = sorted(p.name for p in out.glob("*.png"))
     assert len(pngs) >= 2 and (out / "stick.gif").is_file(), pngs
+
+
+@pytest.mark.parametrize("problem", ["problems/resynthesis.toml", "problems/collapse.toml"])
+def test_simulate_draws_its_plots_without_matplotlib(tmp_path, problem):
+    """The leg simulations write their PNG charts (angles, deviation, GRF, contributions,
+    stick overlays) with Pillow: no Matplotlib or other heavy import on that path."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    out = tmp_path / "out"
+    code = ("import sys; from predgait.cli import main; "
+            f"status = main(['simulate', {problem!r}, '--out', {str(out)!r}]); "
+            f"print(status, sorted(m for m in {HEAVY!r} if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=True, cwd=repo)
+    assert done.stdout.strip().splitlines()[-1] == "0 []"
+    assert {"angles.png", "stick.png", "stick.gif"} <= {p.name for p in out.iterdir()}

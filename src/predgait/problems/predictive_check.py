@@ -80,14 +80,33 @@ def full_stride(model: Model, gait: PredictedGait) -> dict[str, np.ndarray]:
     return {k: np.concatenate([out[k], second[k]]) for k in out}
 
 
-def gait_measures(stride: dict[str, np.ndarray], speed: float) -> dict:
+def stance_profile(fz: np.ndarray, body_weight: float) -> dict:
+    """Loading peak, mid-stance valley and push-off peak of one foot's vertical force.
+
+    The stance (force > STANCE_THRESHOLD_N, the first run after a touch-down, wrapping
+    around the stride's end) is cut in thirds: the maxima of the first and last thirds
+    and the minimum of the middle one, in body weights. A double bump has both peaks
+    above the valley.
+    """
+    on = fz > STANCE_THRESHOLD_N
+    onsets = np.flatnonzero(on & ~np.roll(on, 1))
+    if onsets.size == 0:
+        return {"loading_peak_bw": 0.0, "valley_bw": 0.0, "push_off_peak_bw": 0.0}
+    rolled, flags = np.roll(fz, -onsets[0]), np.roll(on, -onsets[0])
+    end = int(np.argmin(flags)) if not flags.all() else flags.size
+    thirds = np.array_split(rolled[:end], 3)
+    return {"loading_peak_bw": float(thirds[0].max() / body_weight),
+            "valley_bw": float(thirds[1].min() / body_weight),
+            "push_off_peak_bw": float(thirds[2].max() / body_weight)}
+
+
+def gait_measures(stride: dict[str, np.ndarray], speed: float, body_weight: float) -> dict:
     """Stance phases, step length and cadence, vertical GRF peaks of a stride.
 
     Per foot: ``stance_phases`` (runs of vertical force > STANCE_THRESHOLD_N, counting a
-    run that wraps around the cycle end once), ``stance_fraction``, ``fz_peaks_bw``
-    (local maxima of the foot's vertical force during stance above 0.5 body weight are
-    counted by the caller from ``fz``). Step length = speed * stride time / 2, cadence =
-    2 steps per stride time (steps/min).
+    run that wraps around the cycle end once), ``stance_fraction``, ``peak_fz_n`` and
+    :func:`stance_profile` (``body_weight`` N).
+    Step length = speed * stride time / 2, cadence = 2 steps per stride time (steps/min).
     """
     t = stride["t"]
     period = t[-1] - t[0]
@@ -100,22 +119,7 @@ def gait_measures(stride: dict[str, np.ndarray], speed: float) -> dict:
         if len(runs) > 1 and on[0] and on[-1]:
             runs = runs[1:]                          # the wrapped run counts once
         out[side] = {"stance_phases": len(runs), "stance_fraction": float(on.mean()),
-                     "peak_fz_n": float(fz.max())}
+                     "peak_fz_n": float(fz.max()),
+                     "vertical_grf": stance_profile(fz[:-1], body_weight)}
     return out
 
-
-def vertical_grf_peaks(fz: np.ndarray, body_weight: float) -> int:
-    """Local maxima of a stance's vertical force above 0.8 body weight (double bump: 2).
-
-    A maximum counts when it exceeds both neighbours' minima in between by 5 % BW.
-    """
-    peaks, last_min, rising = [], np.inf, False
-    for k in range(1, fz.size - 1):
-        last_min = min(last_min, fz[k])
-        if fz[k] >= fz[k - 1] and fz[k] > fz[k + 1] and fz[k] > 0.8 * body_weight:
-            if not peaks or fz[k] - last_min > 0.05 * body_weight:
-                peaks.append(k)
-                last_min = fz[k]
-            rising = True
-    del rising
-    return len(peaks)

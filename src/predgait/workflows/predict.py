@@ -181,8 +181,9 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
         from predgait.simulations.gait7_predicted import resimulate as run_engine
 
         rerun = run_engine(model, stride, spec.contact, spec.ground_z, passive_joints(springs))
-    return Prediction(gait, measured, residuals, stride, gait_measures(stride, speed), rerun,
-                      tuple(springs), tuple(stages))
+    measures = gait_measures(stride, speed, model.total_mass() * model.gravity)
+    return Prediction(gait, measured, residuals, stride, measures, rerun, tuple(springs),
+                      tuple(stages))
 
 
 def _staged_guess(spec: PredictSpec, model: Model, kw: dict) -> tuple[Guess, list]:
@@ -311,6 +312,11 @@ def summary_lines(summary: dict) -> list[str]:
                  f"{x['solve_time_s']:.1f} s" for x in summary["stages_before"]),
              f"  speed {g['speed_m_s']:.3f} m/s, stride {g['stride_time_s']:.3f} s, step "
              f"{g['step_length_m']:.3f} m, cadence {g['cadence_steps_min']:.1f} steps/min",
+             *(f"  {side} foot: {g[side]['stance_phases']} stance phase(s), "
+               f"{100 * g[side]['stance_fraction']:.0f} % of the stride; vertical GRF "
+               f"loading peak {g[side]['vertical_grf']['loading_peak_bw']:.2f} BW, valley "
+               f"{g[side]['vertical_grf']['valley_bw']:.2f}, push-off "
+               f"{g[side]['vertical_grf']['push_off_peak_bw']:.2f}" for side in ("right",)),
              "  objective terms: " + ", ".join(f"{k} {v:.4g}"
                                                 for k, v in summary["objective_terms"].items()),
              f"  Pinocchio at every node: base residual {chk['max_base_residual_n']:.2g} N, "
