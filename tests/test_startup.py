@@ -151,3 +151,19 @@ print(light, same, np.allclose(m_adam, m_pin, atol=1e-10))
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=300, check=True)
     assert done.stdout.strip().splitlines()[-1] == "True True True"
+
+
+def test_gait7_simulation_draws_its_plots_without_matplotlib(tmp_path):
+    """The gait7 run's grf.png, knee.png and stick.png are Pillow charts (it needs CasADi
+    and SciPy for its contact and knee-driven runs, not Matplotlib)."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    out = tmp_path / "out"
+    code = ("import sys; from predgait.cli import main; "
+            f"status = main(['simulate', 'problems/gait7_contact.toml', '--out', {str(out)!r}]); "
+            "print(status, 'matplotlib' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600, check=True, cwd=repo)
+    assert done.stdout.strip().splitlines()[-1] == "0 False"
+    assert {"grf.png", "knee.png", "stick.png"} <= {p.name for p in out.iterdir()}
