@@ -120,3 +120,29 @@ def test_engine_equals_the_partitioned_equations(body, swinging, free):
     expected = free_accelerations(mass, pin.nonLinearEffects(pm, data, q, v), tau,
                                   a[system.pres], list(system.free), list(system.pres))
     np.testing.assert_allclose(a_free, expected, rtol=1e-9, atol=1e-9)
+
+
+def test_leg_pivot_path_equals_the_general_partition():
+    """The leg's one-ABA pivot path (time's shifts cached, several states per time, as in
+    a modified-Euler step) equals the general partition (RNEA + CRBA solve) for the driven
+    re-synthesis: moving base, measured moments, hip load in the lab frame."""
+    from dataclasses import replace
+
+    from predgait.dynamics.drivers import LegDrivers
+    from predgait.dynamics.forward import LegSystem
+    from predgait.dynamics.inverse_trial import bundled_inverse
+
+    inverse = bundled_inverse("right")
+    rng = np.random.default_rng(3)
+    for hip_in_thigh in (False, True):
+        drivers = replace(LegDrivers.from_inverse(inverse), hip_in_thigh_frame=hip_in_thigh)
+        fast, general = LegSystem(inverse.model, drivers), LegSystem(inverse.model, drivers)
+        assert fast._pivot is not None
+        general._pivot = None
+        for t in np.linspace(0.0, 1.0, 7):
+            for _ in range(3):
+                x = np.concatenate([rng.uniform(-0.8, 0.3, 2), rng.uniform(-4.0, 4.0, 2)])
+                np.testing.assert_allclose(fast(t, x), general(t, x), rtol=1e-9, atol=1e-9)
+                q, v, a = fast.full_state(t, x)
+                np.testing.assert_allclose(fast.accelerations(t, q, v, a), general(t, x)[2:],
+                                           rtol=1e-9, atol=1e-9)

@@ -47,3 +47,29 @@ def test_chart_file_has_the_figure_size(tmp_path):
     with Image.open(path) as image:
         assert image.format == "PNG"
         assert image.size == (round(9.0 * DPI), round(3.4 * DPI))
+
+
+def test_deviation_panel_clips_to_five_thresholds_and_shades_the_band(tmp_path):
+    """A diverging run's deviation is cut at ±5 thresholds; the ±threshold band is shaded
+    and the deviation is simulated minus measured, in degrees."""
+    from predgait.report.raster import BAND
+    from predgait.report.simulation_plots import deviation_panel
+
+    t = np.linspace(0.0, 1.0, 101)
+    measured = np.zeros((101, 2))
+    simulated = np.column_stack([np.radians(100.0 * t), np.radians(-2.0 * t)])
+    panel = deviation_panel(t, simulated, (t, measured), ("ankle", "knee"), threshold_deg=5.0,
+                            time_to_threshold=0.05, time_to_fall=0.9)
+    assert panel.ylim[1] == pytest.approx(25.0)
+    assert panel.ylim[0] == pytest.approx(-5.0 * 1.05)
+    np.testing.assert_allclose(panel.lines[0].y, np.minimum(100.0 * t, 25.0))
+    np.testing.assert_allclose(panel.lines[1].y, -2.0 * t)
+    assert panel.vlines == (0.05, 0.9) and "0.900 s" in panel.title
+    path = save_chart(tmp_path / "d.png", [panel], size=(7.0, 3.8))
+    canvas = Canvas((7.0, 3.8), scale=1)
+    box = (0.75 * DPI, 0.45 * DPI, canvas.width - 0.2 * DPI, canvas.height - 0.55 * DPI)
+    axes = Axes(canvas, box, (0.0, 1.0), panel.ylim)
+    px, py = axes.to_px(0.6, 4.0)   # inside the band, away from lines, grid and legend
+    with Image.open(path) as image:
+        pixel = image.convert("RGB").getpixel((round(float(px)), round(float(py))))
+    assert pixel == Image.new("RGB", (1, 1), BAND).getpixel((0, 0))

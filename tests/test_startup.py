@@ -106,3 +106,64 @@ def test_inverse_draws_its_plots_without_matplotlib(tmp_path, argv):
     assert done.stdout.strip().splitlines()[-1] == "0 []"
     pngs = sorted(p.name for p in out.glob("*.png"))
     assert len(pngs) >= 2 and (out / "stick.gif").is_file(), pngs
+
+
+@pytest.mark.parametrize("problem", ["problems/resynthesis.toml", "problems/collapse.toml"])
+def test_simulate_draws_its_plots_without_matplotlib(tmp_path, problem):
+    """The leg simulations write their PNG charts (angles, deviation, GRF, contributions,
+    stick overlays) with Pillow: no Matplotlib or other heavy import on that path."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    out = tmp_path / "out"
+    code = ("import sys; from predgait.cli import main; "
+            f"status = main(['simulate', {problem!r}, '--out', {str(out)!r}]); "
+            f"print(status, sorted(m for m in {HEAVY!r} if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=True, cwd=repo)
+    assert done.stdout.strip().splitlines()[-1] == "0 []"
+    assert {"angles.png", "stick.png", "stick.gif"} <= {p.name for p in out.iterdir()}
+
+
+def test_adam_is_imported_without_scipy_spatial():
+    """Building the ADAM (CasADi) leg model loads no scipy.spatial; the MuJoCo factory's
+    deferred Rotation still is SciPy's (same rotation matrix), and ADAM's mass matrix
+    equals Pinocchio's CRBA."""
+    code = """
+import sys
+import numpy as np
+import pinocchio as pin
+from predgait.models.loading import load_model
+from predgait.models.symbolic import symbolic_model
+leg = load_model("leg")
+sym = symbolic_model(leg)
+light = "scipy.spatial" not in sys.modules
+q = np.array([0.1, 0.9, 0.2, -0.3, 0.4])
+m_adam = np.array(sym.mass_matrix(q))
+m_pin = pin.crba(leg.pin_model, leg.pin_model.createData(), q)
+m_pin = np.triu(m_pin) + np.triu(m_pin, 1).T
+from adam.model.mj_factory import mujoco_model
+from scipy.spatial.transform import Rotation
+same = np.allclose(mujoco_model.R.from_euler("xyz", [0.1, 0.2, 0.3]).as_matrix(),
+                   Rotation.from_euler("xyz", [0.1, 0.2, 0.3]).as_matrix())
+print(light, same, np.allclose(m_adam, m_pin, atol=1e-10))
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=True)
+    assert done.stdout.strip().splitlines()[-1] == "True True True"
+
+
+def test_gait7_simulation_draws_its_plots_without_matplotlib(tmp_path):
+    """The gait7 run's grf.png, knee.png and stick.png are Pillow charts (it needs CasADi
+    and SciPy for its contact and knee-driven runs, not Matplotlib)."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    out = tmp_path / "out"
+    code = ("import sys; from predgait.cli import main; "
+            f"status = main(['simulate', 'problems/gait7_contact.toml', '--out', {str(out)!r}]); "
+            "print(status, 'matplotlib' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600, check=True, cwd=repo)
+    assert done.stdout.strip().splitlines()[-1] == "0 False"
+    assert {"grf.png", "knee.png", "stick.png"} <= {p.name for p in out.iterdir()}

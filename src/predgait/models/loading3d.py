@@ -110,17 +110,11 @@ def fullbody_for_subject(mass: float, height: float, sex: str = DEFAULT_SEX, *,
 
 def adam_kindyn(model: Model3D, *, backend: str = "casadi"):
     """ADAM KinDynComputations (``casadi`` or ``numpy``) in the body-fixed representation."""
-    from adam.core.constants import Representations
+    from predgait.models.adam_import import kindyn_class, representations
 
-    if backend == "casadi":
-        from adam.casadi import KinDynComputations
-    elif backend == "numpy":
-        from adam.numpy import KinDynComputations
-    else:
-        raise ValueError(f"unknown ADAM backend {backend!r}")
     gravity = np.array([0.0, 0.0, -model.gravity, 0.0, 0.0, 0.0])
-    kindyn = KinDynComputations(model.urdf, list(model.joint_names), gravity=gravity)
-    kindyn.set_frame_velocity_representation(Representations.BODY_FIXED_REPRESENTATION)
+    kindyn = kindyn_class(backend)(model.urdf, list(model.joint_names), gravity=gravity)
+    kindyn.set_frame_velocity_representation(representations().BODY_FIXED_REPRESENTATION)
     return kindyn
 
 

@@ -19,9 +19,8 @@ from dataclasses import dataclass
 
 import casadi as cs
 import numpy as np
-from adam.casadi import KinDynComputations
-from adam.core.constants import Representations
 
+from predgait.models.adam_import import kindyn_class, representations
 from predgait.models.loading import Model
 
 #: Rows of ADAM's 6-D mixed base velocity (vx, vy, vz, wx, wy, wz) kept by the plane.
@@ -62,7 +61,7 @@ class SymbolicModel:
     mass_matrix: cs.Function
     bias_force: cs.Function
     forward_dynamics: cs.Function
-    kindyn: KinDynComputations
+    kindyn: object  # adam.casadi.KinDynComputations
 
     def frame_position(self, frame: str) -> cs.Function:
         """``frame_position(q) -> p``: world position of a frame or link, m (3,)."""
@@ -81,8 +80,8 @@ def symbolic_model(model: Model) -> SymbolicModel:
     """Build (and cache) the ADAM/CasADi dynamics of ``model`` with its gravity."""
     joints = list(model.joint_names)
     gravity = np.array([0.0, 0.0, -model.gravity, 0.0, 0.0, 0.0])
-    kindyn = KinDynComputations(model.urdf, joints, gravity=gravity)
-    kindyn.set_frame_velocity_representation(Representations.MIXED_REPRESENTATION)
+    kindyn = kindyn_class("casadi")(model.urdf, joints, gravity=gravity)
+    kindyn.set_frame_velocity_representation(representations().MIXED_REPRESENTATION)
     n_joints = len(joints)
     sel = _selection(n_joints)
     q = cs.SX.sym("q", 3 + n_joints)

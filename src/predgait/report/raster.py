@@ -22,6 +22,8 @@ DPI = 110
 #: Margins in inches: left, right, bottom, top (tick labels, axis labels, a title).
 MARGINS = (0.75, 0.2, 0.55, 0.45)
 GRID = "#e4e4e4"
+#: Fill of a shaded band (#2a6f97 at 12 % opacity on white).
+BAND = "#e5eef2"
 TEXT = "#222222"
 
 
@@ -54,6 +56,9 @@ class Panel:
         title, xlabel, ylabel: Texts (empty: none).
         hlines: y values of thin dark horizontal reference lines (e.g. zero).
         vlines: x values of dotted grey vertical lines (e.g. toe off).
+        ylim: (low, high) of the y axis (None: from the data); lines are clipped by
+            the caller (see :func:`predgait.report.simulation_plots.deviation_panel`).
+        band: (low, high) y range shaded light blue behind the lines (e.g. a tolerance).
     """
 
     lines: tuple[Line, ...]
@@ -62,6 +67,8 @@ class Panel:
     ylabel: str = ""
     hlines: tuple[float, ...] = ()
     vlines: tuple[float, ...] = ()
+    ylim: tuple[float, float] | None = None
+    band: tuple[float, float] | None = None
 
 
 def nice_ticks(low: float, high: float, count: int = 6) -> np.ndarray:
@@ -318,8 +325,14 @@ def save_chart(path: str | Path, panels: list[Panel], *, size: tuple[float, floa
         y0 = top + (k // columns) * height * (1 + hspace)
         xs = [line.x for line in panel.lines] + [np.asarray(panel.vlines, float)]
         ys = [line.y for line in panel.lines] + [np.asarray(panel.hlines, float)]
+        ys += [np.asarray(panel.band, float)] if panel.band else []
         axes = Axes(canvas, (x0, y0, x0 + width, y0 + height), data_limits(xs, margin=0.02),
-                    data_limits(ys))
+                    panel.ylim or data_limits(ys))
+        if panel.band:
+            _, top_px = axes.to_px(0.0, max(panel.band))
+            _, bottom_px = axes.to_px(0.0, min(panel.band))
+            canvas.draw.rectangle([x0, max(top_px, y0), x0 + width, min(bottom_px, y0 + height)],
+                                  fill=canvas.ink(BAND))
         axes.frame(title=panel.title, xlabel=panel.xlabel, ylabel=panel.ylabel)
         for y in panel.hlines:
             axes.polyline(axes.xlim, (y, y), color="#4d4d4d", width=0.6)
@@ -328,6 +341,10 @@ def save_chart(path: str | Path, panels: list[Panel], *, size: tuple[float, floa
         for line in panel.lines:
             axes.polyline(line.x, line.y, color=line.color, width=line.width, dots=line.dots)
         labelled = [(line.label, line.color) for line in panel.lines if line.label]
+        if panel.band and labelled:
+            low, high = panel.band
+            text = f"±{high:g}" if low == -high else f"{low:g}..{high:g}"
+            labelled.append((text, "#a9c5d5"))
         if labelled:
             axes.legend(labelled)
     canvas.text((canvas.width / 2, canvas.px(6.0)), title, size=13.0, anchor="ma")

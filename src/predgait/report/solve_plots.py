@@ -18,12 +18,15 @@ def save_solve_plots(folder: Path, inverse, fit, sim, drivers, *, threshold_deg:
     deviation.png: the re-simulation with the optimised inputs minus the measured motion,
     the ``threshold_deg`` band shaded, where it leaves the band and the fall marked.
     """
-    from predgait.report.simulation_plots import plot_deviation
+    from predgait.report.raster import save_chart
+    from predgait.report.simulation_plots import deviation_panel
 
-    ax = plot_deviation(sim.t, sim.q[:, 3:], (inverse.time, inverse.q[:, 3:]),
-                        ("ankle", "knee"), threshold_deg=threshold_deg,
-                        time_to_threshold=time_to_threshold, time_to_fall=sim.time_to_fall)
-    save_figure(ax.figure, folder / "deviation.png")
+    save_chart(folder / "deviation.png",
+               [deviation_panel(sim.t, sim.q[:, 3:], (inverse.time, inverse.q[:, 3:]),
+                                ("ankle", "knee"), threshold_deg=threshold_deg,
+                                time_to_threshold=time_to_threshold,
+                                time_to_fall=sim.time_to_fall)],
+               size=(7, 3.8), title="Deviation from the measured motion")
     fig, axes = new_figure(1, 2, figsize=(10, 3.6), wspace=0.25, title=True)
     window = (inverse.time >= fit.t[0]) & (inverse.time <= fit.t[-1])
     for ax, (name, i, sign) in zip(axes, JOINTS, strict=True):

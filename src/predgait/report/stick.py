@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -83,6 +84,53 @@ def plot_stick(model, t, q, *, interval: float = 0.05, ax=None, color=None, labe
     ax.set_xlabel("X (m)")
     ax.set_ylabel("Z (m)")
     return ax
+
+
+def save_stick_chart(path: str | Path, model, t, runs: Mapping[str, np.ndarray], *,
+                     interval: float = 0.05, height: float = 4.5) -> Path:
+    """Stick-figure overlays side by side as one PNG (Pillow), darker = later.
+
+    Args:
+        path: Output .png.
+        model: A model whose ``kind`` is a key of :data:`LINES` (planar figures).
+        t: (n,) s, common to the runs.
+        runs: Panel title -> (n, nq) coordinates (rows beyond a run's end are ignored).
+        interval: Time between drawn figures, s (thesis Fig. 4.2.2: 0.05 s).
+        height: Figure height, inches (the width follows from the motion's extent).
+
+    Returns:
+        ``path``.
+    """
+    from predgait.report.raster import DPI, MARGINS, TEXT, Axes, Canvas
+
+    t = np.asarray(t)
+    drawn = {}
+    for title, q in runs.items():
+        q = np.asarray(q)
+        drawn[title] = stick_points(model, q[sample_times(t[:len(q)], interval)])
+    allpts = np.concatenate([p.reshape(-1, 2) for lines in drawn.values() for p in lines])
+    allpts = allpts[np.all(np.isfinite(allpts), axis=1)]
+    lo, hi = allpts.min(axis=0) - 0.05, allpts.max(axis=0) + 0.05
+    lo[1] = min(lo[1], -0.05)
+    left, right, bottom, top = MARGINS
+    aspect = float(np.clip((hi[0] - lo[0]) / (hi[1] - lo[1]), 0.3, 3.0))
+    panel_width = (height - bottom - top) * aspect
+    gap = 0.6
+    canvas = Canvas((left + right + len(drawn) * panel_width + gap * (len(drawn) - 1), height))
+    s = DPI * canvas.scale
+    for k, (title, lines) in enumerate(drawn.items()):
+        x0 = (left + k * (panel_width + gap)) * s
+        axes = Axes(canvas, (x0, top * s, x0 + panel_width * s, canvas.height - bottom * s),
+                    (lo[0], hi[0]), (lo[1], hi[1]), equal=True)
+        axes.frame(title=title, xlabel="X (m)", ylabel="Z (m)" if k == 0 else "")
+        axes.polyline(axes.xlim, (0.0, 0.0), color=TEXT, width=0.5)
+        count = len(lines[0])
+        for j in range(count):
+            grey = round(255 * 0.75 * (1 - j / max(1, count - 1)))
+            for pts in lines:
+                axes.polyline(pts[j, :, 0], pts[j, :, 1], color=f"#{grey:02x}{grey:02x}{grey:02x}",
+                              width=1.2, dots=3.0)
+    return canvas.save_png(path)
 
 
 def write_gif(path: str | Path, model, t, q, *, reference_q=None, fps: int = 20,

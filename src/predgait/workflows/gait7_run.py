@@ -90,32 +90,29 @@ def _run_variant(spec: Gait7Spec, v: Gait7Variant, model, motion, t, cache: dict
 
 def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | None,
           interval: float) -> None:
-    from predgait.report.figures import new_figure, save_figure
-    from predgait.report.stick import plot_stick
+    from predgait.report.raster import Line, Panel, save_chart
+    from predgait.report.simulation_plots import COLORS, MEASURED
+    from predgait.report.stick import save_stick_chart
     from predgait.report.viewer import contact_grf, write_motion
 
     t = kin.run.t
     rows = np.searchsorted(motion.plate_time, t)
     z = model.coordinate_index("base_z")
-    fig, axes = new_figure(3, 1, figsize=(7, 8), sharex=True, hspace=0.12)
-    for ax, side in zip(axes, SIDES, strict=False):
-        ax.plot(t, motion.plate_fz[side][rows], "k", lw=1.5, label="force plate")
-        ax.plot(t, kin.foot_fz(side), "C0", lw=1, label="simulated (kinematic)")
-        if driven is not None:
-            ax.plot(driven.run.t, driven.foot_fz(side), "C1--", lw=1, label="knee driven")
-        ax.set_ylabel(f"{side} vertical GRF (N)")
-        ax.legend(fontsize=7)
-    axes[2].plot(motion.time, motion.q[:, z], "k", label="measured hip centre")
-    axes[2].plot(t, kin.run.q[:, z], "C0", label="simulated HAT (kinematic)")
+    runs = [("simulated (kinematic)", kin, COLORS[0])]
     if driven is not None:
-        axes[2].plot(driven.run.t, driven.run.q[:, z], "C1--", label="knee driven")
-    axes[2].set_xlim(t[0], t[-1])
-    axes[2].set_ylabel("HAT height (m)")
-    axes[2].set_xlabel("trial time (s)")
-    axes[2].legend(fontsize=7)
-    save_figure(fig, folder / "grf.png")
-    ax = plot_stick(model, t, kin.run.q, interval=interval)
-    save_figure(ax.figure, folder / "stick.png")
+        runs.append(("knee driven", driven, COLORS[1]))
+    panels = [Panel((Line(t, motion.plate_fz[side][rows], color=MEASURED, label="force plate"),
+                     *(Line(r.run.t, r.foot_fz(side), color=c, width=1.0, label=label)
+                       for label, r, c in runs)), ylabel=f"{side} vertical GRF (N)")
+              for side in SIDES]
+    window = (motion.time >= t[0]) & (motion.time <= t[-1])
+    panels.append(Panel((Line(motion.time[window], motion.q[window, z], color=MEASURED,
+                              label="measured hip centre"),
+                         *(Line(r.run.t, r.run.q[:, z], color=c, width=1.0, label=label)
+                           for label, r, c in runs)),
+                        ylabel="HAT height (m)", xlabel="trial time (s)"))
+    save_chart(folder / "grf.png", panels, size=(7, 8), columns=1, hspace=0.25)
+    save_stick_chart(folder / "stick.png", model, t, {"": kin.run.q}, interval=interval)
     measured = motion.q[np.clip(np.searchsorted(motion.time, t), 0, len(motion.time) - 1)]
     feet = contact_grf(model, kin.run.q, kin.forces, CONTACT_FRAMES,
                        [[f for f in CONTACT_FRAMES if f.endswith(f"_{s[0]}")] for s in SIDES])
@@ -124,28 +121,32 @@ def _plot(folder: Path, model, motion, kin: Gait7Result, driven: Gait7Result | N
 
 
 def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
-    """knee.png: knee angles of the knee-driven runs (x = fall) vs the kinematic run."""
-    from predgait.report.figures import new_figure, save_figure
+    """knee.png: knee angles of the knee-driven runs vs the kinematic run (grey).
 
-    fig, ax = new_figure(figsize=(7, 4))
-    for side, style in zip(SIDES, ("k-", "k--"), strict=True):
+    A dot marks where a knee-driven run stopped early (e.g. a fall).
+    """
+    from predgait.report.raster import Line, Panel, save_chart
+    from predgait.report.simulation_plots import COLORS
+
+    lines = []
+    for side, grey in zip(SIDES, ("#999999", "#cccccc"), strict=True):
         col = model.coordinate_index(f"knee_{side[0]}")
-        ax.plot(kin.run.t, np.degrees(kin.run.q[:, col]), style, lw=2, alpha=0.4,
-                label=f"{side} knee, kinematic")
+        lines.append(Line(kin.run.t, np.degrees(kin.run.q[:, col]), color=grey, width=2.5,
+                          label=f"{side} knee, kinematic"))
     for i, (row, _, driven) in enumerate(results):
         if driven is None:
             continue
+        color = COLORS[i % len(COLORS)]
         for side in row["knee_run"]["sides"]:
             col = model.coordinate_index(f"knee_{side[0]}")
             angle = np.degrees(driven.run.q[:, col])
-            ax.plot(driven.run.t, angle, color=f"C{i % 10}", lw=1,
-                    label=f"{row['name']} ({side})")
+            lines.append(Line(driven.run.t, angle, color=color, width=1.0,
+                              label=f"{row['name']} ({side})"))
             if driven.status is not Status.COMPLETED:
-                ax.plot(driven.run.t[-1], angle[-1], "x", color=f"C{i % 10}")
-    ax.set_xlabel("trial time (s)")
-    ax.set_ylabel("knee flexion (deg)")
-    ax.legend(fontsize=6)
-    save_figure(fig, folder / "knee.png")
+                lines.append(Line(driven.run.t[-1:], angle[-1:], color=color, width=0.0,
+                                  dots=6.0))
+    save_chart(folder / "knee.png", [Panel(tuple(lines), xlabel="trial time (s)",
+                                           ylabel="knee flexion (deg)")], size=(7, 4))
 
 
 def _write_states(folder: Path, name: str, model, result: Gait7Result, header: dict) -> None:

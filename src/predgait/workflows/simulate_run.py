@@ -139,14 +139,16 @@ def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
 
 
 def _plot_rod(folder: Path, spec: RodSpec, model, trial, runs: dict, main, study) -> None:
-    from predgait.report.figures import new_figure
-    from predgait.report.simulation_plots import plot_coordinates
-    from predgait.report.stick import plot_stick
+    from predgait.report.raster import save_chart
+    from predgait.report.simulation_plots import coordinate_panels
+    from predgait.report.stick import save_stick_chart
     from predgait.report.viewer import write_motion
 
     names = model.coordinate_names
-    _save(plot_coordinates({k: (s.t, s.q) for k, s in runs.items()}, names,
-                           reference=(trial.time, trial.q)), folder / "rod_trajectories.png")
+    save_chart(folder / "rod_trajectories.png",
+               coordinate_panels({k: (s.t, s.q) for k, s in runs.items()}, names,
+                                 reference=(trial.time, trial.q)),
+               size=(6, 2.2 * len(names)), columns=1, hspace=0.3)
     if study:
         from predgait.report.figures import new_figure
 
@@ -161,7 +163,7 @@ def _plot_rod(folder: Path, spec: RodSpec, model, trial, runs: dict, main, study
         ax.set_ylabel("RMS error of theta (deg)")
         ax.legend(fontsize=7)
         _save(ax, folder / "step_study.png")
-    _save(plot_stick(model, main.t, main.q, interval=0.1), folder / "stick.png")
+    save_stick_chart(folder / "stick.png", model, main.t, {"": main.q}, interval=0.1)
     write_motion(folder, model, main.t, main.q, reference_q=trial.q[:len(main.t)])
 
 
@@ -176,9 +178,9 @@ def _variant_options(base, variant: Variant):
 
 
 def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
-    from predgait.report.figures import new_figure
-    from predgait.report.simulation_plots import plot_coordinates
-    from predgait.report.stick import plot_stick
+    from predgait.report.raster import save_chart
+    from predgait.report.simulation_plots import coordinate_panels
+    from predgait.report.stick import save_stick_chart
     from predgait.report.viewer import write_motion
 
     model = load_model("leg")
@@ -203,13 +205,13 @@ def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
     write_states(folder, main)
     lin = linearize(LegSystem(model, drivers), 0.0, x0)
     if plots_wanted():
-        _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee")),
-              folder / "angles.png")
-        fig, axes = new_figure(1, len(runs), figsize=(3 * len(runs), 4), squeeze=False)
-        for ax, (name, sim) in zip(axes[0], runs.items(), strict=True):
-            plot_stick(model, sim.t, sim.q, interval=spec.stick_interval, ax=ax)
-            ax.set_title(name, fontsize=8)
-        _save(axes[0], folder / "stick.png")
+        save_chart(folder / "angles.png",
+                   coordinate_panels({k: (s.t, s.q[:, 3:]) for k, s in runs.items()},
+                                     ("ankle", "knee")), size=(6, 4.4), columns=1, hspace=0.3)
+        longest = max(runs.values(), key=lambda s: len(s.t))
+        save_stick_chart(folder / "stick.png", model, longest.t,
+                         {name: sim.q for name, sim in runs.items()},
+                         interval=spec.stick_interval)
         write_motion(folder, model, main.t, main.q)
     return _summary(folder, spec, {
         "status": "diverged" if main.partial else main.status, "message": rows[0]["message"],
@@ -229,13 +231,14 @@ def _eig(lin) -> dict:
 
 # -------------------------------------------------------------------- resynthesis
 def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dict:
+    from predgait.report.raster import save_chart
     from predgait.report.simulation_plots import (
-        plot_contributions,
-        plot_coordinates,
-        plot_deviation,
-        plot_grf,
+        contribution_panels,
+        coordinate_panels,
+        deviation_panel,
+        grf_panels,
     )
-    from predgait.report.stick import plot_stick
+    from predgait.report.stick import save_stick_chart
     from predgait.report.viewer import write_motion
 
     inv = (spec.trial or LegTrial(spec.side, spec.inverse_problem)).inverse()
@@ -295,23 +298,26 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
     parts = contribution_history(system, main)
     ref_q = np.column_stack([np.interp(main.t, inv.time, inv.q[:, i]) for i in range(5)])
     if plots_wanted():
-        _save(plot_coordinates({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, ("ankle", "knee"),
-                               reference=(inv.time[inv.time <= t1], inv.q[inv.time <= t1, 3:])),
-              folder / "angles.png")
-        _save(plot_deviation(main.t, main.q[:, 3:], (inv.time, inv.q[:, 3:]), ("ankle", "knee"),
-                             threshold_deg=spec.threshold_deg,
-                             time_to_threshold=rows[0]["time_to_threshold_s"],
-                             time_to_fall=main.time_to_fall), folder / "deviation.png")
-        _save(plot_grf(main.t, main.grf, main.cop, measured=measured_grf), folder / "grf.png")
-        _save(plot_contributions(main.t, parts, ("ankle", "knee")), folder / "contributions.png")
-        from predgait.report.figures import new_figure
-
-        fig, axes = new_figure(1, 2, figsize=(8, 4.5))
-        plot_stick(model, main.t, ref_q, interval=spec.stick_interval, ax=axes[0])
-        axes[0].set_title("measured", fontsize=8)
-        plot_stick(model, main.t, main.q, interval=spec.stick_interval, ax=axes[1])
-        axes[1].set_title("synthesized", fontsize=8)
-        _save(axes, folder / "stick.png")
+        joints = ("ankle", "knee")
+        save_chart(folder / "angles.png",
+                   coordinate_panels({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, joints,
+                                     reference=(inv.time[inv.time <= t1],
+                                                inv.q[inv.time <= t1, 3:])),
+                   size=(6, 4.4), columns=1, hspace=0.3)
+        save_chart(folder / "deviation.png",
+                   [deviation_panel(main.t, main.q[:, 3:], (inv.time, inv.q[:, 3:]), joints,
+                                    threshold_deg=spec.threshold_deg,
+                                    time_to_threshold=rows[0]["time_to_threshold_s"],
+                                    time_to_fall=main.time_to_fall)],
+                   size=(7, 3.8), title="Deviation from the measured motion")
+        save_chart(folder / "grf.png", grf_panels(main.t, main.grf, main.cop,
+                                                  measured=measured_grf),
+                   size=(6, 7), columns=1, hspace=0.3)
+        save_chart(folder / "contributions.png", contribution_panels(main.t, parts, joints),
+                   size=(6, 5.2), columns=1, hspace=0.3)
+        save_stick_chart(folder / "stick.png", model, main.t,
+                         {"measured": ref_q, "synthesized": main.q},
+                         interval=spec.stick_interval)
         measured = [np.column_stack([np.interp(main.t, inv.time, a[:, i]) for i in range(3)])
                     for a in (inv.grf, inv.cop)]
         write_motion(folder, model, main.t, main.q, reference_q=ref_q,
