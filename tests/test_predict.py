@@ -138,6 +138,11 @@ def test_cli_solve_writes_a_tracking_prediction(tmp_path, capsys):
     states = read_storage(out / "states.sto")
     assert states.time.size == 2 * NODES + 1
     assert "Pinocchio at every node" in capsys.readouterr().out
+    from predgait.report.headline import headline
+
+    head = headline(out)
+    assert head.title == "Predicted gait (gait7)" and head.ok
+    assert f"{summary['gait']['speed_m_s']:.2f} m/s" in head.sentence
 
 
 def test_cli_impossible_speed_exits_3_and_writes_nothing(tmp_path, capsys):

@@ -272,6 +272,26 @@ def _fullbody_tracking(s: dict) -> Headline:
                     numbers, sentence + ".")
 
 
+def _predict(s: dict) -> Headline:
+    g, check, rs = s["gait"], s["pinocchio_check"], s["resimulation"]
+    numbers = [("speed, stride", f"{g['speed_m_s']:.2f} m/s, {_t(g['stride_time_s'])}"),
+               ("step length, cadence", f"{g['step_length_m']:.3f} m, "
+                f"{g['cadence_steps_min']:.0f} steps/min"),
+               ("right stance", f"{100 * g['right']['stance_fraction']:.0f} % of the stride"),
+               ("Pinocchio base residual", f"{check['max_base_residual_n']:.1e} N"),
+               ("solve", f"{s['iterations']} iterations, {s['solve_time_s']:.1f} s")]
+    sentence = (f"Ipopt ({s['ipopt_status']}) found a {s['cycle']} cycle over {s['nodes']} "
+                f"nodes at {g['speed_m_s']:.2f} m/s whose dynamics hold at every node to "
+                f"{check['max_base_residual_n']:.1e} N")
+    if rs is not None:
+        numbers.append(("re-simulation with TVLQR", f"{rs['status']}, max "
+                        f"{_deg(rs['max_angle_deviation_deg'])} from the prediction"))
+        sentence += (f"; the engine re-simulates it with feedback to within "
+                     f"{_deg(rs['max_angle_deviation_deg'])}")
+    return Headline("Predicted gait (gait7)", trial_name(s["provenance"]), s["status"],
+                    numbers, sentence + ".")
+
+
 def _decomposition(s: dict) -> Headline:
     fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
     numbers = []
@@ -401,7 +421,8 @@ BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynt
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
             "solve": _solve, "scenario": _scenario, "sweep": _sweep,
             "passive_decomposition": _decomposition, "torque_feedback": _torque_feedback,
-            "passive_shooting": _shooting, "fullbody_tracking": _fullbody_tracking}
+            "passive_shooting": _shooting, "fullbody_tracking": _fullbody_tracking,
+            "predict_gait7": _predict}
 
 
 def summary_file(folder: Path) -> Path | None:
