@@ -1,5 +1,7 @@
 """Readers and writers: round trips, units, axes, and bad input messages."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -58,6 +60,16 @@ def test_trc_truncated_and_missing_file(tmp_path):
         read_trc(path)
     with pytest.raises(InputError, match="nothere.trc: file not found"):
         read_trc(tmp_path / "nothere.trc")
+
+
+@pytest.mark.parametrize("cut", ["1.2e", "-", ".", "1e+"])
+def test_trc_cut_off_number_is_named(tmp_path, cut):
+    """A file cut inside a number leaves characters of a number that is none."""
+    path = _write_trc(tmp_path / "cut.trc", n=5)
+    path.write_text(path.read_text().rstrip("\t\n").rsplit("\t", 1)[0] + "\t" + cut + "\n")
+    message = rf"cut.trc: line 11 has a non-numeric value '{re.escape(cut)}'"
+    with pytest.raises(InputError, match=message):
+        read_trc(path)
 
 
 def test_missing_marker_lists_available(tmp_path):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import re
 
 import numpy as np
 
@@ -16,6 +15,15 @@ logger = logging.getLogger(__name__)
 
 _N_HEADER = 5
 
+
+
+def _is_number(text: str) -> bool:
+    """Whether ``text`` reads as a float (a cut-off '1.2e' or '--3' does not)."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 def _split(line: str) -> list[str]:
     """Fields of a line: tab-separated if it has tabs (empty fields kept), else spaces."""
@@ -78,7 +86,7 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
             values_ = np.array([f or "nan" for f in fields[: 2 + 3 * n_markers]],
                                dtype=float).tolist()
         except ValueError:
-            bad = next(f for f in fields if f and not re.fullmatch(r"[-+.\deEnaNA]+", f))
+            bad = next(f for f in fields[: 2 + 3 * n_markers] if f and not _is_number(f))
             raise InputError(f"{path}: line {number} has a non-numeric value {bad!r}.") from None
         values_ += [np.nan] * (2 + 3 * n_markers - len(values_))
         rows.append(values_)
