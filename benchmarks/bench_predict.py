@@ -12,21 +12,31 @@ default) and 50. Per grid, min / median of the repeats (wall and CPU):
   engine re-simulation; Ipopt iterations of every stage;
 * predictive, warm: the predictive problem again from its own solution.
 
-OpenSim Moco's predictive 2D walking example needs its model file (2D_gait.osim), which
-the opensim wheel does not ship; without it, or without OPENSIM_PYTHON, the peer row
-prints "peer not available" and no ratio is printed.
+Peer: OpenSim Moco's predictive 2D walking example (benchmarks/opensim_moco_2d_walking.py,
+in the Python named by OPENSIM_PYTHON), each repeat a fresh process: the example's tracking
+solve, then its predictive solve from that solution (10 coordinates, 18 muscles, 4 contact
+spheres, 50 mesh intervals, Hermite-Simpson). Its files come from opensim-core's
+repository, OpenSim/Examples/Moco/example2DWalking (2D_gait.osim, referenceCoordinates.sto,
+referenceGRF.sto, referenceGRF.xml); neither the opensim wheel nor predgait ships them:
+put them in a folder and name it in MOCO_2D_GAIT_DIR. Without OPENSIM_PYTHON, Moco or
+that folder, the peer row prints "peer not available" and no ratio is printed. The two
+problems differ (model, actuators, grid, objective): both sides' nodes, degrees of freedom
+and iterations are printed beside the ratio, which compares the two recipes (Moco: set-up
+and both solves; predgait: build + predictive recipe, min wall of each), not equal work.
 
-Run:  .venv/bin/python benchmarks/bench_predict.py [--repeat 3] [--nodes 40 50]
+Run:  [OPENSIM_PYTHON=... MOCO_2D_GAIT_DIR=...] .venv/bin/python benchmarks/bench_predict.py
+      [--repeat 3] [--nodes 40 50]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 from dataclasses import replace
 
-from timing import NOT_AVAILABLE, time_call
+from timing import HERE, NOT_AVAILABLE, Timing, time_call
 
 from predgait.models.gait7 import build_gait7_urdf
 from predgait.models.loading import model_from_urdf
@@ -43,21 +53,61 @@ def fresh_model():
     return model_from_urdf(build_gait7_urdf(SPEC.mass, SPEC.height), source="bench")
 
 
-def peer_line() -> str:
-    """Why the Moco peer cannot run here (or that it could, were its model given)."""
-    python = os.environ.get("OPENSIM_PYTHON")
+PEER = "OpenSim Moco 2D walking"
+
+
+def run_peer(repeat: int) -> tuple[list[dict] | None, str]:
+    """The Moco example ``repeat`` times (fresh processes), or None and why not."""
+    python, folder = os.environ.get("OPENSIM_PYTHON"), os.environ.get("MOCO_2D_GAIT_DIR")
     if not python:
-        return f"OpenSim Moco 2D walking: {NOT_AVAILABLE} (OPENSIM_PYTHON not set)"
-    try:
-        subprocess.run([python, "-c", "import opensim; opensim.MocoStudy"], check=True,
-                       capture_output=True, timeout=120)
-    except (OSError, subprocess.SubprocessError):
-        return f"OpenSim Moco 2D walking: {NOT_AVAILABLE} (no opensim with Moco in {python})"
-    return (f"OpenSim Moco 2D walking: {NOT_AVAILABLE} (opensim with Moco found, but its "
-            "example model 2D_gait.osim is not shipped with the wheel; no ratio)")
+        return None, "OPENSIM_PYTHON not set"
+    if not folder or not os.path.isfile(os.path.join(folder, "2D_gait.osim")):
+        return None, ("MOCO_2D_GAIT_DIR does not name a folder with 2D_gait.osim (not "
+                      "shipped with the opensim wheel: opensim-core's "
+                      "OpenSim/Examples/Moco/example2DWalking)")
+    runs = []
+    for _ in range(repeat):
+        done = subprocess.run([python, str(HERE / "opensim_moco_2d_walking.py")],
+                              capture_output=True, text=True,
+                              env={**os.environ, "MOCO_2D_GAIT_DIR": folder})
+        if done.returncode != 0 or not done.stdout.strip():
+            last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+            return None, f"the Moco run failed in {python}: {last}"
+        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    return runs, ""
 
 
-def bench(nodes: int, repeat: int) -> None:
+def stage_timing(runs: list[dict], stages: tuple[str, ...]) -> Timing:
+    """Wall and CPU of ``stages`` summed per run."""
+    return Timing(tuple(sum(r[s]["wall"] for s in stages) for r in runs),
+                  tuple(sum(r[s]["cpu"] for s in stages) for r in runs))
+
+
+def report_peer(repeat: int, ours: dict[int, tuple[Timing, Timing]], nq: int) -> None:
+    """The Moco rows and, only when it ran here, the ratio per predgait grid."""
+    runs, why = run_peer(repeat)
+    if runs is None:
+        print(f"{PEER}: {NOT_AVAILABLE} ({why}; no ratio)")
+        return
+    first = runs[0]
+    size = f"{first['coordinates']} DOF, {first['muscles']} muscles"
+    for stage in ("tracking", "predictive"):
+        r = first[stage]
+        print(f"{PEER} (OpenSim {first['version']}), {stage}: "
+              f"{stage_timing(runs, (stage,)).describe('s')}; {r['mesh_intervals']} mesh "
+              f"intervals ({r['transcription']}), {r['time_points']} time points, {size}, "
+              f"{r['states']} states, {r['controls']} controls, "
+              f"iterations {[run[stage]['iterations'] for run in runs]}, {r['status']}")
+    moco = stage_timing(runs, ("tracking", "predictive"))
+    for nodes, (build, recipe) in ours.items():
+        print(f"ratio Moco (tracking + predictive, set-up included; {size}, "
+              f"{first['predictive']['time_points']} time points) / predgait (build + "
+              f"predictive recipe; {nq} DOF, joint torques, {nodes} intervals, {nodes + 1} "
+              f"nodes), min wall: {moco.best / (build.best + recipe.best):.1f}x (different "
+              "problems, not equal work)")
+
+
+def bench(nodes: int, repeat: int) -> tuple[Timing, Timing]:
     model = gait7_model(SPEC.mass, SPEC.height)
     motion = bundled_gait7_motion(model)
     measured = measured_cycle(model, motion, Cycle.HALF, nodes, ground_z=SPEC.ground_z,
@@ -71,8 +121,8 @@ def bench(nodes: int, repeat: int) -> None:
         problem.solver(Start.SOLUTION)
         return problem
 
-    print(f"{nodes} nodes, build (NLP + 2 Ipopt solvers): "
-          f"{time_call(build, repeat).describe('s')}")
+    built = time_call(build, repeat)
+    print(f"{nodes} nodes, build (NLP + 2 Ipopt solvers): {built.describe('s')}")
     problem = build()
     runs = {}
 
@@ -88,7 +138,7 @@ def bench(nodes: int, repeat: int) -> None:
     def predictive_cold():
         runs["predictive"] = predict(replace(SPEC, nodes=nodes, resimulate=False))
 
-    t = time_call(predictive_cold, repeat, warmup=True)     # warm-up builds the problems
+    t = recipe = time_call(predictive_cold, repeat, warmup=True)  # warm-up builds problems
     run = runs["predictive"]
     p = run.gait
     stages = " + ".join(str(x.iterations) for _, x in run.stages)
@@ -104,6 +154,7 @@ def bench(nodes: int, repeat: int) -> None:
     t = time_call(predictive_warm, repeat)
     print(f"{nodes} nodes, predictive from its own solution (warm): {t.describe('s')}; "
           f"{runs['warm'].solved.iterations} iterations, {runs['warm'].solved.status}")
+    return built, recipe
 
 
 def main():
@@ -111,9 +162,8 @@ def main():
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--nodes", type=int, nargs="+", default=[40, 50])
     args = parser.parse_args()
-    for nodes in args.nodes:
-        bench(nodes, args.repeat)
-    print(peer_line())
+    ours = {nodes: bench(nodes, args.repeat) for nodes in args.nodes}
+    report_peer(args.repeat, ours, fresh_model().nq)
 
 
 if __name__ == "__main__":
