@@ -161,7 +161,12 @@ def gait7_answers() -> dict[str, np.ndarray]:
 
 
 def fullbody_answers() -> dict[str, np.ndarray]:
-    """problems/fullbody_resynthesis.toml: every variant over a short window."""
+    """problems/fullbody_resynthesis.toml: every variant over a short window.
+
+    Every variant at the [integrator] step (RK4, 1 ms), as stored: the per-variant
+    ``step`` (0.1 ms for the free body on contacts, tests/test_fullbody_convergence.py)
+    is not applied, so the stored pre-merge answers stay an engine check.
+    """
     from predgait.simulations.forward3d import FullbodyDrive, simulate_fullbody
     from predgait.workflows.forward3d_run import inverse_for
 

@@ -221,6 +221,10 @@ def test_unknown_mode_value_names_the_key():
         parse_spec(PROBLEM, ["variants.1.pelvis=floating"])
     with pytest.raises(InputError, match=r"variants\.0\.joints"):
         parse_spec(PROBLEM, ["variants.0.joints=torque"])
+    with pytest.raises(InputError, match=r"variants\.8\.step.*outside 1e-06\.\.0\.1"):
+        parse_spec(PROBLEM, ["variants.8.step=0"])
+    steps = [m.step for m in parse_spec(PROBLEM).variants]
+    assert steps[8] == 1e-4 and steps[:8] == [None] * 8  # only the free body on contacts
 
 
 def test_missing_file_and_frame_name_their_key(tmp_path):
@@ -246,6 +250,7 @@ def test_cli_writes_states_summary_and_plot(tmp_path, capsys, assert_tidy_result
     summary = assert_tidy_result(out / "summary.json")
     assert summary["kind"] == "fullbody" and len(summary["runs"]) == 9
     first = summary["runs"][0]
+    assert summary["runs"][8]["step_s"] == 1e-4 and first["step_s"] is None
     assert first["status"] == "event" and first["deviation"]["joint_leaves_band_s"] is not None
     assert (out / "fullbody.png").stat().st_size > 10_000
     assert (out / "stick.gif").read_bytes()[:6] == b"GIF89a"

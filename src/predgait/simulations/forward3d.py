@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
@@ -82,6 +82,8 @@ class Mode:
     joints are driven by moments. ``feedback_kp`` (N m/rad) adds PD feedback toward the
     measured angles on the moment-driven joints, each damped at ``feedback_damping_ratio``
     of its own inertia (:meth:`~predgait.dynamics.partitioned.JointFeedback.damped`).
+    ``step`` (s) replaces the problem's fixed integrator step for this mode (None: keep
+    it); contact runs need a finer one than the plates (see :meth:`integrator`).
     """
 
     name: str = "main"
@@ -91,6 +93,17 @@ class Mode:
     kinematic_joints: tuple[str, ...] = ()
     feedback_kp: float = 0.0
     feedback_damping_ratio: float = 1.0
+    step: float | None = None
+
+    def integrator(self, options: IntegratorOptions) -> IntegratorOptions:
+        """``options`` with this mode's step, if it has one.
+
+        On sole springs the stick phase of the friction ramp (mu N / slip_transition,
+        ~2.6e4 N s/m at 1600 N, 0.8 and 0.05 m/s) is a stiff mode: RK4 at 1 ms lets it
+        grow into full Coulomb sliding where the converged run sticks (contact forces off
+        by up to 1.4 kN on subject01; tests/test_fullbody_convergence.py).
+        """
+        return options if self.step is None else replace(options, step=self.step)
 
 
 #: Default fall criteria: the pelvis 0.1 m below or a pelvis Cardan angle 30 deg from the

@@ -65,7 +65,8 @@ def _row(run: Forward3DRun, t0: float) -> dict:
             "joints": run.mode.joints.value, "ground": run.mode.ground.value,
             "kinematic_joints": list(run.mode.kinematic_joints), "status": run.status,
             "time_to_fall_s": run.time_to_fall, "fall_criterion": run.fall_criterion,
-            "simulated_s": float(run.t[-1] - t0), "message": run.message,
+            "simulated_s": float(run.t[-1] - t0), "step_s": run.mode.step,
+            "message": run.message,
             "growth_at_start": {"rate_per_s": rate,
                                 "e_folding_s": 1.0 / rate if rate > 1e-2 else None,
                                 "leading_state": lead},
@@ -93,9 +94,10 @@ def _run_variants(spec: FullbodySpec, bar):
     runs = []
     for mode in spec.variants:
         bar.set_description(mode.name)
-        runs.append(simulate_fullbody(drive, mode, (t0, t1), options=spec.integrator,
-                                      fall=spec.fall, contact=spec.contact,
-                                      band_deg=spec.band_deg, band_m=spec.band_m))
+        options = mode.integrator(spec.integrator)
+        runs.append(simulate_fullbody(drive, mode, (t0, t1), options=options, fall=spec.fall,
+                                      contact=spec.contact, band_deg=spec.band_deg,
+                                      band_m=spec.band_m))
         bar.update()
     return drive, inverse, runs, t0, t1
 

@@ -124,7 +124,7 @@ def _variants(table: Table) -> tuple[Mode, ...]:
     for i, item in enumerate(items):
         v = Table(item, table.path, table.text, f"variants.{i}.")
         v.check_keys(("name", "pelvis", "joints", "ground", "kinematic_joints", "feedback_kp",
-                      "feedback_damping_ratio"))
+                      "feedback_damping_ratio", "step"))
         kinematic = v.get("kinematic_joints", list, [])
         if not all(isinstance(k, str) for k in kinematic):
             raise v.error("kinematic_joints", "expected a list of joint names or prefixes, "
@@ -136,7 +136,8 @@ def _variants(table: Table) -> tuple[Mode, ...]:
                         kinematic_joints=tuple(kinematic),
                         feedback_kp=v.number("feedback_kp", low=0.0, high=1e5, default=0.0),
                         feedback_damping_ratio=v.number("feedback_damping_ratio", low=0.0,
-                                                        high=10.0, default=1.0)))
+                                                        high=10.0, default=1.0),
+                        step=v.number("step", low=1e-6, high=0.1, default=None, unit="s")))
     names = [m.name for m in out]
     if len(set(names)) != len(names):
         raise table.error("variants", "variant names must differ (they name the output files).")
