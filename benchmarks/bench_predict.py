@@ -25,7 +25,7 @@ and iterations are printed beside the ratio, which compares the two recipes (Moc
 and both solves; predgait: build + predictive recipe, min wall of each), not equal work.
 
 Run:  [OPENSIM_PYTHON=... MOCO_2D_GAIT_DIR=...] .venv/bin/python benchmarks/bench_predict.py
-      [--repeat 3] [--nodes 40 50]
+      [--repeat 3] [--nodes 40 50] [--peer-minutes 30]
 """
 
 from __future__ import annotations
@@ -56,8 +56,9 @@ def fresh_model():
 PEER = "OpenSim Moco 2D walking"
 
 
-def run_peer(repeat: int) -> tuple[list[dict] | None, str]:
-    """The Moco example ``repeat`` times (fresh processes), or None and why not."""
+def run_peer(repeat: int, minutes: float) -> tuple[list[dict] | None, str]:
+    """The Moco example ``repeat`` times (fresh processes, each at most ``minutes``), or
+    None and why not."""
     python, folder = os.environ.get("OPENSIM_PYTHON"), os.environ.get("MOCO_2D_GAIT_DIR")
     if not python:
         return None, "OPENSIM_PYTHON not set"
@@ -67,9 +68,12 @@ def run_peer(repeat: int) -> tuple[list[dict] | None, str]:
                       "OpenSim/Examples/Moco/example2DWalking)")
     runs = []
     for _ in range(repeat):
-        done = subprocess.run([python, str(HERE / "opensim_moco_2d_walking.py")],
-                              capture_output=True, text=True,
-                              env={**os.environ, "MOCO_2D_GAIT_DIR": folder})
+        try:
+            done = subprocess.run([python, str(HERE / "opensim_moco_2d_walking.py")],
+                                  capture_output=True, text=True, timeout=60 * minutes,
+                                  env={**os.environ, "MOCO_2D_GAIT_DIR": folder})
+        except subprocess.TimeoutExpired:
+            return None, f"the Moco run did not finish in {minutes:g} min"
         if done.returncode != 0 or not done.stdout.strip():
             last = (done.stderr.strip().splitlines() or ["no output"])[-1]
             return None, f"the Moco run failed in {python}: {last}"
@@ -83,9 +87,10 @@ def stage_timing(runs: list[dict], stages: tuple[str, ...]) -> Timing:
                   tuple(sum(r[s]["cpu"] for s in stages) for r in runs))
 
 
-def report_peer(repeat: int, ours: dict[int, tuple[Timing, Timing]], nq: int) -> None:
+def report_peer(repeat: int, minutes: float, ours: dict[int, tuple[Timing, Timing]],
+                nq: int) -> None:
     """The Moco rows and, only when it ran here, the ratio per predgait grid."""
-    runs, why = run_peer(repeat)
+    runs, why = run_peer(repeat, minutes)
     if runs is None:
         print(f"{PEER}: {NOT_AVAILABLE} ({why}; no ratio)")
         return
@@ -161,9 +166,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--nodes", type=int, nargs="+", default=[40, 50])
+    parser.add_argument("--peer-minutes", type=float, default=30.0,
+                        help="stop each Moco run after this many minutes (default 30)")
     args = parser.parse_args()
     ours = {nodes: bench(nodes, args.repeat) for nodes in args.nodes}
-    report_peer(args.repeat, ours, fresh_model().nq)
+    report_peer(args.repeat, args.peer_minutes, ours, fresh_model().nq)
 
 
 if __name__ == "__main__":
