@@ -21,7 +21,8 @@ The model has 10 coordinates (planar pelvis, hips, knees, ankles, lumbar), 18
 DeGrooteFregly2016 muscles and 4 smooth sphere contacts. Cold: a fresh process, both
 problems built from the files; the timed work is each problem's set-up and solve (no file
 writing, no visualisation). Moco's CasADi solver uses its default parallelism (all cores).
-Prints one JSON object on stdout: per stage wall and CPU seconds (CPU of all threads),
+Reports the end of the tracking stage on stderr (so a run stopped later says where it
+was), then one JSON object on stdout: per stage wall and CPU seconds (CPU of all threads),
 Ipopt iterations, status, mesh intervals, time points, states, controls, and the model's
 coordinates and muscles. Only opensim is imported: its bundled CasADi clashes with the casadi wheel.
 """
@@ -169,6 +170,8 @@ def main(folder):
         os.chdir(work)   # the example's relative paths (and referenceGRF.xml's) resolve here
         (track, track_solver, _), track_wall, track_cpu = timed(tracking)
         track.unseal()
+        print(f"tracking: {track_wall:.1f} s wall, {track.getNumIterations()} iterations, "
+              f"{track.getStatus()}; predictive solve started", file=sys.stderr, flush=True)
         (pred, pred_solver, model, _), pred_wall, pred_cpu = timed(lambda: prediction(track))
         pred.unseal()
         print(json.dumps({"version": osim.__version__, "coordinates": model.getNumCoordinates(),
