@@ -126,7 +126,7 @@ def _run_collocation(table, args) -> int:
     """``knee_fit``, ``torque_correction``, ``feedback_gains``: collocation, re-simulation."""
     from predgait.errors import SolveFailed
     from predgait.workflows.output import check_out
-    from predgait.workflows.solve import parse_solve, run_solve
+    from predgait.workflows.solve import deviation_wording, parse_solve, run_solve
 
     spec = parse_solve(table)
     check_out(args.out, force=args.force, inputs=[args.problem, spec.inverse_problem])
@@ -155,9 +155,5 @@ def _run_collocation(table, args) -> int:
     print("  optimiser tracking RMS: " + ", ".join(
         f"{k} {v:.2f} deg" for k, v in solution["optimiser_tracking_rms_deg"].items()))
     for name, result in check.items():
-        when = result["time_to_threshold_s"]
-        settled = result["within_threshold_from_s"]
-        print(f"  re-simulation {name}: deviation > {spec.threshold_deg:g} deg at "
-              f"{'never' if when is None else f'{when:.3f} s'}, within it from "
-              f"{'never' if settled is None else f'{settled:.3f} s'} (end {result['end_s']:.3f} s)")
+        print(f"  re-simulation {name}: {deviation_wording(result, spec.threshold_deg)}")
     return 0
