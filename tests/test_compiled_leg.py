@@ -151,19 +151,47 @@ def test_stored_functions_are_built_once(cache):
 
 
 @needs_compiler
-def test_background_compilation_ends_in_a_loadable_library(cache, monkeypatch):
+def test_background_worker_compiles_every_queued_function(cache, monkeypatch):
     import casadi as cs
 
     monkeypatch.setenv(function_cache.WHEN, "background")
     x = cs.SX.sym("x", 2)
-    function = cs.Function("rosen", [x], [(1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2])
-    assert function_cache.compiled(function, "k2") is None  # not waited for
-    deadline = time.time() + 120
-    while not function_cache.library_path("rosen", "k2").is_file() and time.time() < deadline:
+    functions = [cs.Function("rosen", [x], [(1 - x[0]) ** 2 + 100 * (x[1] - x[0] ** 2) ** 2]),
+                 cs.Function("sphere", [x], [x[0] ** 2 + x[1] ** 2])]
+    for function in functions:  # not waited for: the second is queued for the same worker
+        assert function_cache.compiled(function, "k2") is None
+    deadline = time.time() + 180
+    while list(cache.glob(".pending-*")) and time.time() < deadline:
         time.sleep(0.5)
-    loaded = function_cache.compiled(function, "k2")
-    assert loaded is not None and float(loaded([0.5, 0.5])) == float(function([0.5, 0.5]))
-    assert not list(cache.glob(".pending-*")) and not list(cache.glob(".build-*"))
+    for function in functions:
+        loaded = function_cache.compiled(function, "k2")
+        assert loaded is not None and float(loaded([0.5, 0.2])) == float(function([0.5, 0.2]))
+    assert not list(cache.glob(".build-*")) and not (cache / ".worker").exists()
+
+
+def test_passive_values_and_gains_are_parameters_not_structure(inverse, cache, monkeypatch):
+    """One step function (one library) serves every value of the elements and gains; a
+    zero (no stop damping) is structure, as in the numeric element."""
+    monkeypatch.setattr(function_cache, "compiler", lambda: None)
+
+    def key(passive, kp=50.0):
+        drivers = LegDrivers.from_inverse(inverse, passive=passive)
+        feedback = JointFeedback(np.arange(3, 5), drivers.reference, kp, 5.0)
+        return compiled_leg.fast_leg(LegSystem(inverse.model, drivers, feedback=feedback))._key
+
+    def knee(k, c, c_limit):
+        return {"knee": PassiveJoint((LinearSpringDamper(k, c),
+                                      ExponentialLimits(c_limit=c_limit)))}
+
+    assert key(knee(10.0, 20.0, 2.0)) == key(knee(100.0, 100.0, 1.0), kp=80.0)
+    assert key(knee(10.0, 20.0, 2.0)) != key(knee(10.0, 20.0, 0.0))
+    other = {"knee": PassiveJoint((LinearSpringDamper(100.0, 100.0),
+                                   ExponentialLimits(k_lower=0.5, c_limit=1.0)))}
+    options = IntegratorOptions(method=Method.MODIFIED_EULER, step=1e-3, iterations=4)
+    drivers = LegDrivers.from_inverse(inverse, passive=other)
+    fast = simulate_leg(inverse.model, drivers, (0.0, 0.4), options=options)
+    monkeypatch.setenv(function_cache.SWITCH, "off")
+    _assert_same_run(fast, simulate_leg(inverse.model, drivers, (0.0, 0.4), options=options))
 
 
 def test_prune_removes_old_then_least_recently_used(tmp_path):

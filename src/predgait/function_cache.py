@@ -1,7 +1,7 @@
 """CasADi functions kept on disk: serialised once, compiled to C in the background.
 
 Two things are slow to make and fast to reuse: a CasADi function built symbolically (the
-leg's ADAM dynamics: ~1 s with the ADAM import) and a function generated as C and
+leg's ADAM dynamics: 0.1-0.5 s with the ADAM import) and a function generated as C and
 compiled (1-14 s with gcc). Both are kept in one cache folder, keyed by a hash of what
 makes them what they are:
 
@@ -10,7 +10,8 @@ makes them what they are:
 - :func:`compiled` returns the compiled library of a function when it is there; when it
   is not, it starts compiling it in a detached background process and returns ``None``,
   so the run that first meets a function never waits for the compiler; a later run loads
-  the library. :mod:`predgait.problems.solver_cache` does the same with Ipopt solvers.
+  the library. One background worker per folder compiles the queued jobs one at a time.
+  :mod:`predgait.problems.solver_cache` does the same with Ipopt solvers.
 
 Folder: ``$PREDGAIT_CACHE_DIR``, else ``$XDG_CACHE_HOME/predgait/solvers``, else
 ``~/.cache/predgait/solvers``. Off with ``PREDGAIT_SOLVER_CACHE=off``: nothing is read or
@@ -148,42 +149,58 @@ def start_compiling(function: cs.Function, library: Path, job: dict) -> bool:
     """Compile ``function`` into ``library``: in the background unless PREDGAIT_COMPILE=now.
 
     With ``job["kind"] == "ipopt"`` ``function`` is an NLP ``(x, p) -> (f, g)`` and the
-    library holds its Ipopt solver's functions.
+    library holds its Ipopt solver's functions. The job is queued in the cache folder
+    (``.pending-*``) for the one background worker of the folder, started if none runs,
+    which compiles the queued jobs one after the other.
 
     Returns:
-        False when it could not start (or failed, in the foreground); True otherwise.
+        False when it could not be queued (or failed, in the foreground); else True.
     """
     folder = library.parent
-    marker = folder / f".pending-{library.stem}"
+    job_file = folder / f".pending-{library.stem}.json"
+    now = os.environ.get(WHEN, "").strip().lower() == "now"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        if marker.exists() and time.time() - marker.stat().st_mtime < STALE_AFTER:
-            return True  # another process is compiling it
-        prune(folder)
-        marker.write_text(str(os.getpid()))
-        function.save(str(marker.with_suffix(".casadi")))
-        marker.with_suffix(".json").write_text(json.dumps({**job, "library": str(library)}))
+        queued = _fresh(job_file)  # queued already, or being compiled
+        if not queued:
+            prune(folder)
+            function.save(str(job_file.with_suffix(".casadi")))
+            staged = job_file.with_name(f".staged-{job_file.name}")
+            staged.write_text(json.dumps({**job, "library": str(library)}))
+            os.replace(staged, job_file)  # the job file last: a queued job is whole
     except OSError as exc:
         log.warning("%s not compiled: %s", library.name, exc)
         return False
-    if os.environ.get(WHEN, "").strip().lower() == "now":
-        return _run_job(marker)
+    if now:
+        return True if queued else _run_job(job_file)
+    worker = folder / ".worker"
+    if _fresh(worker):
+        return True
     _reap()
     quiet = [(os.POSIX_SPAWN_OPEN, fd, os.devnull, os.O_RDWR, 0) for fd in (0, 1, 2)]
     try:  # detached (own session): it outlives this process; no Popen to wait for
+        worker.write_text(str(os.getpid()))
         _CHILDREN.append(os.posix_spawn(
-            sys.executable, [sys.executable, "-m", "predgait.function_cache", str(marker)],
+            sys.executable, [sys.executable, "-m", "predgait.function_cache", str(folder)],
             os.environ, file_actions=quiet, setsid=True))
     except OSError as exc:
         log.warning("%s not compiled: %s", library.name, exc)
-        marker.unlink(missing_ok=True)
+        worker.unlink(missing_ok=True)
         return False
     log.info("compiling %s in the background into %s", function.name(), library)
     return True
 
 
+def _fresh(marker: Path) -> bool:
+    """True when a job or worker file exists and is not stale."""
+    try:
+        return time.time() - marker.stat().st_mtime < STALE_AFTER
+    except OSError:
+        return False
+
+
 def _reap() -> None:
-    """Collect the finished background compilations of this process (no zombies)."""
+    """Collect the finished background workers of this process (no zombies)."""
     for pid in list(_CHILDREN):
         try:
             if os.waitpid(pid, os.WNOHANG)[0]:
@@ -192,22 +209,38 @@ def _reap() -> None:
             _CHILDREN.remove(pid)
 
 
-def _run_job(marker: Path) -> bool:
-    """Compile the job left at ``marker``; remove the job's files. True on success."""
+def _work(folder: Path) -> None:
+    """The background worker: compile the queued jobs of ``folder``, oldest first."""
+    worker, tried = folder / ".worker", set()
+    try:
+        while True:
+            jobs = [j for j in folder.glob(".pending-*.json") if j not in tried]
+            if not jobs:
+                break
+            job = min(jobs, key=lambda j: j.stat().st_mtime)
+            tried.add(job)
+            worker.touch()
+            _run_job(job)
+    finally:
+        worker.unlink(missing_ok=True)
+
+
+def _run_job(job_file: Path) -> bool:
+    """Compile the job queued as ``job_file``; remove the job's files. True on success."""
     import casadi as cs
 
     try:
-        job = json.loads(marker.with_suffix(".json").read_text())
-        function = cs.Function.load(str(marker.with_suffix(".casadi")))
+        job = json.loads(job_file.read_text())
+        function = cs.Function.load(str(job_file.with_suffix(".casadi")))
         if job["kind"] == "ipopt":
             function = cs.nlpsol(job["name"], "ipopt", function, job["options"])
         compile_into(function, Path(job["library"]))
         return True
     except (OSError, RuntimeError, KeyError, ValueError) as exc:
-        log.warning("%s not compiled: %s", marker.name, exc)
+        log.warning("%s not compiled: %s", job_file.name, exc)
         return False
     finally:
-        for path in (marker, marker.with_suffix(".casadi"), marker.with_suffix(".json")):
+        for path in (job_file, job_file.with_suffix(".casadi")):
             path.unlink(missing_ok=True)
 
 
@@ -243,6 +276,9 @@ def prune(folder: Path, *, max_bytes: int = MAX_BYTES,
 
     Libraries and functions alike, until the folder holds at most ``max_bytes``.
     """
+    for job in [*folder.glob(".pending-*"), folder / ".worker"]:  # left by killed runs
+        if job.exists() and not _fresh(job):
+            job.unlink(missing_ok=True)
     files = [p for p in folder.glob("*") if p.is_file() and p.suffix in (".so", ".casadi")
              and not p.name.startswith(".")]
     now = time.time()
@@ -255,6 +291,6 @@ def prune(folder: Path, *, max_bytes: int = MAX_BYTES,
             path.unlink(missing_ok=True)
 
 
-if __name__ == "__main__":  # the background compilation: python -m predgait.function_cache
+if __name__ == "__main__":  # the background worker: python -m predgait.function_cache DIR
     os.nice(5)
-    sys.exit(0 if _run_job(Path(sys.argv[1])) else 1)
+    _work(Path(sys.argv[1]))

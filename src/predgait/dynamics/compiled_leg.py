@@ -16,8 +16,9 @@ mapped over 100 steps per call, so Python is called once per 100 steps:
   the step times, in Python, once per time;
 - the steps run in CasADi's virtual machine, or in the compiled library once it is in
   the cache (:mod:`predgait.function_cache`: compiled in the background the first time a
-  structure is met, ~1 s of gcc);
-- the base dynamics ``leg_dynamics`` (ADAM, ~1 s to build with its import) are stored
+  structure is met, ~1 s of gcc; the forces' numbers are inputs, so one library
+  serves every value of the passive parameters and gains);
+- the base dynamics ``leg_dynamics`` (ADAM, 0.1-0.5 s to build with its import) are stored
   serialised in the same cache, keyed by the URDF and gravity.
 
 tests/test_compiled_leg.py checks the right-hand side and whole runs against the
@@ -27,6 +28,7 @@ integrator, other forces).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable
 
@@ -48,9 +50,10 @@ VERSION = "1"
 FREE, PRESCRIBED = [3, 4], [0, 1, 2]
 #: Step functions of this process, by structure key (compiled or in CasADi's VM).
 _STEPS: dict[str, cs.Function] = {}
-#: Layout of the per-time inputs u: qb, vb, ab (3 each), tau (5), hip (6), reference.
-_QB, _VB, _AB, _TAU, _HIP, _REF = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 14),
-                                   slice(14, 20), slice(20, None))
+#: Layout of the inputs u: qb, vb, ab (3 each), tau (5), hip (6), then the feedback
+#: reference and the forces' parameters (see FastLeg).
+_QB, _VB, _AB, _TAU, _HIP = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 14),
+                             slice(14, 20))
 
 
 @functools.lru_cache(maxsize=4)
@@ -102,35 +105,66 @@ class FastLeg:
         self.system, self.feedback, self.passive, self.hip = system, feedback, passive, hip
         self.torques = torques
         n_ref = 0 if feedback is None else len(feedback.rows)
-        self.nu = 20 + 2 * n_ref
+        self._ref = slice(20, 20 + 2 * n_ref)
+        self._symbols: list = []      # the forces' parameters (scalars) and their values
+        self._values: list[float] = []
         self.rhs = self._rhs_function(leg_dynamics(system.model))
         self._key = function_cache.key_of([self.rhs.serialize()])
         self._inputs = None  # (times, inputs) of the latest call
 
     # -- symbolic ---------------------------------------------------------------------
+    def _parameter(self, value):
+        """A parameter symbol holding the number ``value``; exactly 0 stays a constant.
+
+        A zero is structure (e.g. :class:`~predgait.dynamics.passive.ExponentialLimits`
+        without stop damping leaves that term out), as in the numeric forces.
+        """
+        if not isinstance(value, int | float | np.number) or value == 0:
+            return value
+        self._symbols.append(cs.SX.sym(f"p{len(self._symbols)}"))
+        self._values.append(float(value))
+        return self._symbols[-1]
+
+    def _symbolic_joint(self, joint):
+        """The passive joint with its elements' numbers as parameters (same elements)."""
+        elements = tuple(
+            dataclasses.replace(e, **{f.name: self._parameter(getattr(e, f.name))
+                                      for f in dataclasses.fields(e)})
+            if dataclasses.is_dataclass(e) else e for e in joint.elements)
+        return dataclasses.replace(joint, elements=elements)
+
     def _rhs_function(self, base: cs.Function) -> cs.Function:
-        """``leg_rhs(x, u) -> (xdot, reaction)`` with the state-dependent forces."""
-        x, u = cs.SX.sym("x", 4), cs.SX.sym("u", self.nu)
-        q, v = cs.vertcat(u[_QB], x[:2]), cs.vertcat(u[_VB], x[2:])
-        tau = [u[_TAU][i] for i in range(5)]
+        """``leg_rhs(x, u) -> (xdot, reaction)`` with the state-dependent forces.
+
+        The forces' numbers (passive parameters, gains) are inputs at the end of u, so
+        one function (and library) serves every value of them.
+        """
+        x, u_time = cs.SX.sym("x", 4), cs.SX.sym("u", self._ref.stop)
+        q, v = cs.vertcat(u_time[_QB], x[:2]), cs.vertcat(u_time[_VB], x[2:])
+        tau = [u_time[_TAU][i] for i in range(5)]
         if self.passive is not None:  # PassiveTorques.add on symbols (same table)
             for name, (rows, sign) in self.passive.rows.items():
+                joint = self._symbolic_joint(self.passive.joints[name])
                 angle = sign * sum(q[r] for r in rows)
                 rate = sign * sum(v[r] for r in rows)
-                moment = sign * self.passive.joints[name].moment(angle, rate)
+                moment = sign * joint.moment(angle, rate)
                 for row in rows:
                     tau[row] = tau[row] + moment
         if self.feedback is not None:  # JointFeedback.torque on symbols
-            fb, ref = self.feedback, u[_REF]
+            fb, ref = self.feedback, u_time[self._ref]
             n = len(fb.rows)
             kp, kd = np.broadcast_to(fb.kp, n), np.broadcast_to(fb.kd, n)
             for i, row in enumerate(fb.rows):
-                tau[row] = tau[row] + (float(kp[i]) * (ref[i] - q[row + fb.q_offset])
-                                       + float(kd[i]) * (ref[n + i] - v[row]))
+                tau[row] = tau[row] + (
+                    self._parameter(float(kp[i])) * (ref[i] - q[row + fb.q_offset])
+                    + self._parameter(float(kd[i])) * (ref[n + i] - v[row]))
         zero = cs.SX.zeros(6)
         body = self.hip is not None and self.hip.body_fixed
-        hip_lab, hip_body = (zero, u[_HIP]) if body else (u[_HIP], zero)
-        xdot, reaction = base(x, u[_QB], u[_VB], u[_AB], cs.vertcat(*tau), hip_lab, hip_body)
+        hip_lab, hip_body = (zero, u_time[_HIP]) if body else (u_time[_HIP], zero)
+        xdot, reaction = base(x, u_time[_QB], u_time[_VB], u_time[_AB], cs.vertcat(*tau),
+                              hip_lab, hip_body)
+        self.nu = self._ref.stop + len(self._symbols)
+        u = cs.vertcat(u_time, *self._symbols)
         return cs.Function("leg_rhs", [x, u], [xdot, reaction], ["x", "u"],
                            ["xdot", "reaction"])
 
@@ -194,8 +228,9 @@ class FastLeg:
             fb = self.feedback
             for k, t in enumerate(times):
                 ref = fb.reference(t)
-                out[k, _REF] = np.concatenate([ref[0][fb.rows + fb.q_offset],
-                                               ref[1][fb.rows]])
+                out[k, self._ref] = np.concatenate([ref[0][fb.rows + fb.q_offset],
+                                                    ref[1][fb.rows]])
+        out[:, self._ref.stop:] = self._values
         self._inputs = (times, out)
         return out
 
