@@ -102,19 +102,42 @@ def ipopt_solver(name: str, nlp: dict, options: dict) -> cs.Function:
     return cs.nlpsol(name, "ipopt", str(library), options)
 
 
-def _compile(solver: cs.Function, library: Path) -> None:
-    """Generate the solver's functions as C, compile, rename onto ``library``.
+def compiled_function(function: cs.Function) -> cs.Function:
+    """``function`` (any CasADi function) loaded from the compiled cache when possible.
+
+    The same cache as :func:`ipopt_solver`: keyed by the CasADi version and the serialised
+    function, compiled once with the system compiler, loaded by later runs with
+    ``cs.external``. With the cache off, or if compiling fails, ``function`` itself.
+    """
+    if not enabled():
+        return function
+    digest = hashlib.sha256()
+    for part in (cs.__version__, function.name(), function.serialize()):
+        digest.update(part.encode())
+    library = cache_folder() / f"{function.name()}-{digest.hexdigest()[:32]}.so"
+    if not library.is_file():
+        try:
+            _compile(function, library, functions=[function])
+        except (OSError, RuntimeError) as exc:
+            log.warning("function %s not cached: %s", function.name(), exc)
+            return function
+    return cs.external(function.name(), str(library))
+
+
+def _compile(solver: cs.Function, library: Path, *, functions=None) -> None:
+    """Generate the solver's functions (or ``functions``) as C, compile, rename onto ``library``.
 
     Raises:
         RuntimeError: the compiler failed (its last message).
     """
     library.parent.mkdir(parents=True, exist_ok=True)
-    log.info("compiling solver %s once into %s", solver.name(), library)
+    log.info("compiling %s once into %s", solver.name(), library)
+    if functions is None:
+        functions = [solver.oracle()] + [solver.get_function(f) for f in solver.get_function()]
     with tempfile.TemporaryDirectory(dir=library.parent, prefix=".build-") as tmp:
         generator = cs.CodeGenerator("solver.c", {"with_header": False})
-        generator.add(solver.oracle())
-        for function in solver.get_function():
-            generator.add(solver.get_function(function))
+        for function in functions:
+            generator.add(function)
         source = generator.generate(f"{tmp}/")
         built = Path(tmp) / library.name
         done = subprocess.run([compiler(), *FLAGS, source, "-o", str(built)],
