@@ -27,6 +27,7 @@ from predgait.problems.fullbody_tracking import (
     contact_inverse_dynamics,
     node_function,
     solve_tracking,
+    tracking_nlp,
 )
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "fullbody_tracking.toml"
@@ -58,6 +59,41 @@ def test_node_function_equals_pinocchio():
                                        data.oMf[fid].translation, atol=1e-12)
             vel = pin.getFrameVelocity(pm, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
             np.testing.assert_allclose(point_vel[3 * i: 3 * i + 3], vel, atol=1e-10)
+
+
+def test_assembled_derivatives_equal_automatic_differentiation():
+    """The Jacobian, gradient and Hessian assembled from one node and one interval equal
+    CasADi's derivatives of the whole NLP's f and g (4 nodes, random point)."""
+    import casadi as cs
+
+    model = load_fullbody()
+    rng = np.random.default_rng(3)
+    n = 4
+    q = np.tile(model.neutral(), (n, 1))
+    q[:, 7:] += rng.uniform(-0.3, 0.3, (n, 29))
+    q[:, 3:7] = rng.normal(size=(n, 4))
+    q[:, 3:7] /= np.linalg.norm(q[:, 3:7], axis=1, keepdims=True)
+    data = TrackingData(np.arange(n) / 60.0, q, rng.normal(size=(n, 35)),
+                        rng.normal(size=(n, 35)), rng.random((n, 4)) < 0.6,
+                        rng.normal(300, 50, (n, 2, 3)), rng.normal(0, 0.1, (n, 2, 3)),
+                        rng.normal(size=(n, 2)), ground_z=0.0, belt_velocity=0.3)
+    problem = tracking_nlp(model, data)
+    x, f, g = (problem.nlp[k] for k in ("x", "f", "g"))
+    sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", g.size1())
+    auto = cs.Function("auto", [x, sigma, lam], [cs.jacobian(g, x), cs.gradient(f, x),
+                                                 cs.triu(cs.hessian(sigma * f + cs.dot(lam, g),
+                                                                    x)[0])])
+    point = problem.x0 + rng.normal(0, 0.05, problem.x0.size)
+    weights = rng.normal(size=g.size1())
+    jac, grad, hess = (np.asarray(cs.densify(m)) for m in auto(point, 0.7, weights))
+    d = problem.derivatives
+    np.testing.assert_allclose(cs.densify(d["jac_g"](point, [])[1]), jac, atol=1e-9,
+                               rtol=1e-9)
+    np.testing.assert_allclose(np.ravel(d["grad_f"](point, [])[1]), np.ravel(grad),
+                               atol=1e-9, rtol=1e-9)
+    np.testing.assert_allclose(cs.densify(d["hess_lag"](point, [], 0.7, weights)), hess,
+                               atol=1e-7, rtol=1e-9)
+    assert np.abs(hess).max() > 1.0 and np.abs(jac).max() > 1.0
 
 
 def standing_sway(duration=0.3, settle=0.4, step=2.5e-4):

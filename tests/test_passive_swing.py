@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import passive_walk
-from predgait.problems import solver_cache
+from predgait import function_cache
 from predgait.problems.decomposition import Settings, bootstrap, fit_decomposition
 from predgait.problems.gait_samples import GaitSamples, cycle_phase
 from predgait.problems.identifiability import Status, assess
@@ -50,9 +50,10 @@ def compiled(tmp_path_factory):
     """The compiled-function cache on, in a fresh folder for the module (compiled once;
     the fits then run ~40x faster than in CasADi's virtual machine)."""
     with pytest.MonkeyPatch.context() as patch:
-        if solver_cache.compiler() is not None:
-            patch.setenv(solver_cache.SWITCH, "on")
-            patch.setenv(solver_cache.FOLDER, str(tmp_path_factory.mktemp("cache")))
+        if function_cache.compiler() is not None:
+            patch.setenv(function_cache.SWITCH, "on")
+            patch.setenv(function_cache.FOLDER, str(tmp_path_factory.mktemp("cache")))
+            patch.setenv(function_cache.WHEN, "now")
         yield
 
 
@@ -77,10 +78,10 @@ def test_thigh_driven_dynamics_is_the_free_leg_under_its_thigh(walk):
 
 
 def test_compiled_step_equals_the_in_memory_one(walk, tmp_path, monkeypatch):
-    """The RK4 sample step with its sensitivities, compiled through the solver cache."""
+    """The RK4 sample step with its sensitivities, compiled through the function cache."""
     from predgait.problems.passive_swing_dynamics import step_function
 
-    if solver_cache.compiler() is None:
+    if function_cache.compiler() is None:
         pytest.skip("no C compiler: the cache is off by design")
     model = build_model(["knee", "ankle"], fit=LINEAR_FIT)
     leg = walk[3].model
@@ -88,10 +89,11 @@ def test_compiled_step_equals_the_in_memory_one(walk, tmp_path, monkeypatch):
     args = (np.array([0.1, -0.9, 1.0, -3.0]), rng.normal(size=(4, 10)),
             np.tile(np.array([0.2, 0.9, 0.1, 1.0, 0.1, 2.0, 3.0, -1.0, 10.0])[:, None], 3),
             np.full(6, 0.3), 0.05)
-    monkeypatch.setenv(solver_cache.SWITCH, "off")
+    monkeypatch.setenv(function_cache.SWITCH, "off")
     memory = [np.array(v) for v in step_function(leg, model, 1, 0.01)(*args)]
-    monkeypatch.setenv(solver_cache.SWITCH, "on")
-    monkeypatch.setenv(solver_cache.FOLDER, str(tmp_path))
+    monkeypatch.setenv(function_cache.SWITCH, "on")
+    monkeypatch.setenv(function_cache.FOLDER, str(tmp_path))
+    monkeypatch.setenv(function_cache.WHEN, "now")
     compiled = step_function(leg, model, 1, 0.01)
     assert list(tmp_path.glob("swing_step-*.so")), "nothing compiled"
     for a, b in zip(memory, compiled(*args), strict=True):
@@ -198,7 +200,7 @@ def _solve(problem, out, *sets):
     args = [sys.executable, "-m", "predgait", "solve", str(problem), "--out", str(out)]
     for s in sets:
         args += ["--set", s]
-    env = {**os.environ, solver_cache.SWITCH: "off"}   # as every test: no compiling
+    env = {**os.environ, function_cache.SWITCH: "off"}   # as every test: no compiling
     return subprocess.run(args, capture_output=True, text=True, cwd=REPO, timeout=600, env=env)
 
 

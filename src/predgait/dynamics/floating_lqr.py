@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from predgait.blas_threads import one_blas_thread
 from predgait.dynamics.forces import Force
 from predgait.dynamics.lqr import riccati_gains
 
@@ -160,5 +161,6 @@ def floating_tvlqr(system, reference, times: np.ndarray, actuated,
     inertia = np.diag(pin.crba(system.pm, system.pm.createData(),
                                np.asarray(reference(times[0])[0], dtype=float)))[actuated]
     q, r = weights.matrices(inertia)
-    gains = riccati_gains(times, a_mats, b_mats, q, r, substeps=substeps)
+    with one_blas_thread():  # ~100 x 100 exponentials: threads only cost here
+        gains = riccati_gains(times, a_mats, b_mats, q, r, substeps=substeps)
     return FloatingLQR(system.model, actuated, reference, times, gains)

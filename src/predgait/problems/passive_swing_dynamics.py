@@ -104,12 +104,18 @@ def step_function(leg, model: PassiveModel, substeps: int, h: float):
     at the step ends and midpoints, the passive model (parameters z scaled to their
     bounds, :func:`~predgait.problems.shooting.scaled_values`) as the only joint torque;
     S = dx / d(x0, z) (4, 4 + f) carried along (forward sensitivities). Compiled through
-    :mod:`predgait.problems.solver_cache` when the cache is on.
+    :mod:`predgait.function_cache` when the cache is on (in the background: the run that
+    first meets it evaluates it in CasADi's virtual machine, ~40x slower).
     """
-    from predgait.problems import solver_cache
+    from predgait import function_cache
 
-    return _cached(("step", leg.urdf, leg.gravity, model, substeps, h, solver_cache.enabled()),
-                   lambda: solver_cache.compiled_function(_build_step(leg, model, substeps, h)))
+    def build():
+        step = _build_step(leg, model, substeps, h)
+        return function_cache.compiled(step, function_cache.key_of([step.serialize()])) \
+            or step
+
+    return _cached(("step", leg.urdf, leg.gravity, model, substeps, h,
+                    function_cache.enabled()), build)
 
 
 def _build_step(leg, model, substeps, h):
@@ -160,7 +166,7 @@ def windows_function(leg, model: PassiveModel, windows: int, steps: int, substep
                               cs.repmat(offset, 1, steps * windows))
         return cs.Function("swing_windows", [x0, u, z, offset], [states, sens])
 
-    from predgait.problems import solver_cache
+    from predgait import function_cache
 
     return _cached(("windows", leg.urdf, leg.gravity, model, windows, steps, substeps, h,
-                    solver_cache.enabled()), build)
+                    function_cache.enabled()), build)
