@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from predgait.blas_threads import one_blas_thread
 from predgait.dynamics.drivers import LegDrivers
 from predgait.errors import InputError, SolveFailed
 from predgait.problems.decomposition import Bootstrap
@@ -309,8 +310,9 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
     dof = max(windows.samples / m - (f + 4 * n) / 2, 1.0)
     start, iterations = clock.perf_counter(), 0
     for _ in range(2):
-        z, used, converged = gauss_newton(problem, z, joint_row_weights(weights, inv_var),
-                                          settings.max_iter)
+        with one_blas_thread():   # small least-squares steps: BLAS threads only cost here
+            z, used, converged = gauss_newton(problem, z, joint_row_weights(weights, inv_var),
+                                              settings.max_iter)
         iterations += used
         if not converged:
             raise SolveFailed(f"{where}: Gauss-Newton did not converge in "
@@ -346,21 +348,28 @@ def bootstrap_swing(windows: Windows, model: PassiveModel, fit: SwingFit, *,
     initial states of cycles left out are dropped from it.
     """
     labels, position = np.unique(windows.cycle, return_inverse=True)
-    longest = windows.angles.shape[1]
     f = len(model.fitted)
     rng = np.random.default_rng(seed)
-    r = fit.residual.ravel(order="F")
     prior_r, prior_j = prior_rows(model, fit.z[:f])
     lower = np.array([p.lower for p in model.fitted])
     span = np.array([p.upper - p.lower for p in model.fitted])
     rows = []
-    for _ in range(repeats):
-        counts = np.bincount(rng.integers(0, labels.size, labels.size),
-                             minlength=labels.size)[position]          # per window
-        weights = fit.weights * np.repeat(counts, longest)
-        keep = np.concatenate([np.arange(f), f + np.flatnonzero(np.repeat(counts > 0, 4))])
-        prior = (prior_r, np.hstack([prior_j, np.zeros((prior_j.shape[0], keep.size - f))]))
-        step = bounded_step(fit.jacobian[:, keep], r, joint_row_weights(weights, fit.inv_var),
-                            fit.z[keep], prior)
-        rows.append(lower + span * np.clip(fit.z[:f] + step[:f], 0.0, 1.0))
+    with one_blas_thread():
+        for _ in range(repeats):
+            rows.append(_replicate(windows, fit, rng, labels, position, (prior_r, prior_j),
+                                   f) * span + lower)
     return Bootstrap(np.array(rows).reshape(-1, f), "gait cycle", int(labels.size), 0)
+
+
+def _replicate(windows, fit, rng, labels, position, prior, f) -> np.ndarray:
+    """One replicate's parameters scaled to their bounds (:func:`bootstrap_swing`)."""
+    longest = windows.angles.shape[1]
+    prior_r, prior_j = prior
+    counts = np.bincount(rng.integers(0, labels.size, labels.size),
+                         minlength=labels.size)[position]              # per window
+    weights = fit.weights * np.repeat(counts, longest)
+    keep = np.concatenate([np.arange(f), f + np.flatnonzero(np.repeat(counts > 0, 4))])
+    prior = (prior_r, np.hstack([prior_j, np.zeros((prior_j.shape[0], keep.size - f))]))
+    step = bounded_step(fit.jacobian[:, keep], fit.residual.ravel(order="F"),
+                        joint_row_weights(weights, fit.inv_var), fit.z[keep], prior)
+    return np.clip(fit.z[:f] + step[:f], 0.0, 1.0)
