@@ -25,8 +25,6 @@ measured in the same run.
 
 from __future__ import annotations
 
-import contextlib
-import os
 import resource
 import tempfile
 import time
@@ -34,7 +32,15 @@ import timeit
 
 import numpy as np
 import pinocchio as pin
-from timing import NOT_AVAILABLE, Row, leg_segments, print_rows, run_peer_npz, time_call
+from timing import (
+    NOT_AVAILABLE,
+    Row,
+    environment,
+    leg_segments,
+    print_rows,
+    run_peer_npz,
+    time_call,
+)
 
 from predgait import function_cache
 from predgait.dynamics import compiled_leg
@@ -68,21 +74,6 @@ def right_hand_side(model) -> str:
             f"pin.aba on the same leg {aba.min():.2f} / {np.median(aba):.2f} us: "
             f"{rhs.min() / aba.min():.2f}x (min), {np.median(rhs) / np.median(aba):.2f}x "
             "(median); goal <= 3x")
-
-
-@contextlib.contextmanager
-def environment(values: dict):
-    """Environment variables set inside the block, restored after."""
-    saved = {k: os.environ.get(k) for k in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
 
 
 def _seconds(function) -> float:

@@ -22,13 +22,12 @@ problem in benchmarks/ yet, so those rows print "peer not available".
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import sys
 import tempfile
 import time
 
-from timing import REPO, Row, print_rows, time_call, time_process
+from timing import REPO, Row, environment, print_rows, time_call, time_process
 
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.inverse_trial import bundled_inverse
@@ -100,21 +99,6 @@ def rows(repeat: int) -> list[Row]:
                                "re-simulation checks, files, plots", None, NO_PEER,
                                unit="s"))
     return out
-
-
-@contextlib.contextmanager
-def environment(values: dict):
-    """Set environment variables within the block."""
-    saved = {key: os.environ.get(key) for key in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
 
 
 def grid_table() -> None:

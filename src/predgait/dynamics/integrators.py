@@ -411,24 +411,37 @@ def _fixed_step(run, t0, t1, x0, events, bar):
         F[i + 1] = f
         t = tn
         if events:
-            xa, fa, ta = X[i], F[i], times[i]
-
-            def dense(s, xa=xa, fa=fa, ta=ta, tn=tn, x=x, f=f):
-                return _hermite(ta, tn, xa, fa, x, f, s)
-
-            hit = _event_hit(events, g_prev, ta, tn, x, dense)
-            if hit is not None:
-                name, t_ev = hit
-                t_out, x_out = _output(grid[: i + 2], X[: i + 2], F[: i + 2], run.t_eval,
-                                       end=t_ev, x_end=dense(t_ev))
-                return run.result(t_out, x_out, Status.EVENT, 1 + (i + 1) * per_step,
-                                  f"event {name!r} at t = {t_ev:.6g} s", name, t_ev)
+            ended = _step_event(run, events, g_prev, times, X, F, i, per_step)
+            if ended is not None:
+                return ended
         if bar is not None and (i % stride == 0 or i == n - 1):
             bar.n = i + 1
             bar.refresh()
     t_out, x_out = _output(grid, X, F, run.t_eval)
     return run.result(t_out, x_out, Status.COMPLETED, 1 + n * per_step,
                       f"completed {n} steps to t = {t1:g} s")
+
+
+def _step_event(run, events, g_prev, times, X, F, i, per_step):
+    """The EVENT result if an event triggers over step i, else None.
+
+    Rows i and i + 1 of X and F are done; the event is located on the step's cubic
+    Hermite interpolant.
+    """
+    ta, tn = times[i], times[i + 1]
+
+    def dense(s):
+        return _hermite(ta, tn, X[i], F[i], X[i + 1], F[i + 1], s)
+
+    hit = _event_hit(events, g_prev, ta, tn, X[i + 1], dense)
+    if hit is None:
+        return None
+    name, t_ev = hit
+    grid = np.asarray(times[: i + 2])
+    t_out, x_out = _output(grid, X[: i + 2], F[: i + 2], run.t_eval, end=t_ev,
+                           x_end=dense(t_ev))
+    return run.result(t_out, x_out, Status.EVENT, 1 + (i + 1) * per_step,
+                      f"event {name!r} at t = {t_ev:.6g} s", name, t_ev)
 
 
 def _stepped(run, grid, x0, events, bar, per_step):
@@ -440,18 +453,9 @@ def _stepped(run, grid, x0, events, bar, per_step):
     g_prev = [event.function(grid[0], x0) for event in events]
     times = grid.tolist()
     for i in range(min(n, first_bad - 1) if events else 0):
-        ta, tn = times[i], times[i + 1]
-
-        def dense(s, i=i, ta=ta, tn=tn):
-            return _hermite(ta, tn, X[i], F[i], X[i + 1], F[i + 1], s)
-
-        hit = _event_hit(events, g_prev, ta, tn, X[i + 1], dense)
-        if hit is not None:
-            name, t_ev = hit
-            t_out, x_out = _output(grid[: i + 2], X[: i + 2], F[: i + 2], run.t_eval,
-                                   end=t_ev, x_end=dense(t_ev))
-            return run.result(t_out, x_out, Status.EVENT, 1 + (i + 1) * per_step,
-                              f"event {name!r} at t = {t_ev:.6g} s", name, t_ev)
+        ended = _step_event(run, events, g_prev, times, X, F, i, per_step)
+        if ended is not None:
+            return ended
     if first_bad <= n:
         i = first_bad - 1
         t_out, x_out = _output(grid[: i + 1], X[: i + 1], F[: i + 1], run.t_eval,
@@ -564,7 +568,9 @@ def _adaptive(run, t0, t1, x0, events, bar):
             last = (t_old, x_old) if filled == 0 or t_out[filled - 1] < t_old else None
             run.diverged(*_with_last(t_out[:filled], x_out[:filled], last), t_new, index, what,
                          count[0], reason)
-        dense = solver.dense_output()
+        # the interpolant only when an event is watched or an output time is passed
+        needed = events or (filled < t_out.size and t_out[filled] <= t_new)
+        dense = solver.dense_output() if needed else None
         hit = _event_hit(events, g_prev, t_old, t_new, x_new, dense) if events else None
         t_stop = t_new if hit is None else hit[1]
         end = filled + int(np.searchsorted(t_out[filled:], t_stop, side="right"))
