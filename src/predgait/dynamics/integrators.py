@@ -568,7 +568,9 @@ def _adaptive(run, t0, t1, x0, events, bar):
             last = (t_old, x_old) if filled == 0 or t_out[filled - 1] < t_old else None
             run.diverged(*_with_last(t_out[:filled], x_out[:filled], last), t_new, index, what,
                          count[0], reason)
-        dense = solver.dense_output()
+        # the interpolant only when an event is watched or an output time is passed
+        needed = events or (filled < t_out.size and t_out[filled] <= t_new)
+        dense = solver.dense_output() if needed else None
         hit = _event_hit(events, g_prev, t_old, t_new, x_new, dense) if events else None
         t_stop = t_new if hit is None else hit[1]
         end = filled + int(np.searchsorted(t_out[filled:], t_stop, side="right"))
