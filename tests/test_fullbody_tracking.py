@@ -5,8 +5,8 @@ RNEA - J^T f and its contact points; a standing sway simulated by the forward en
 with a known torque history on the engine's contact springs is recovered (torques within
 2 % RMS, motion within 0.5 deg); on subject01 the solution satisfies the equations of
 motion when re-evaluated by Pinocchio (pelvis residual < 1e-6 N) while staying close to
-the measured angles and plate forces; the forward engine re-simulating the free body on
-its contact springs falls without feedback and completes the window with the LQR.
+the measured angles and plate forces. The whole cycle with and without feedback:
+tests/test_fullbody_tracking_cycle.py.
 """
 
 from pathlib import Path
@@ -239,23 +239,6 @@ def test_subject01_stays_near_the_measured_data(subject01):
     on = solution.forces[data.contact]
     assert np.all(on[:, 2] >= -1e-9)
     assert np.all(np.abs(on[:, :2]) <= data.friction * on[:, 2:3] + 1e-6)
-
-
-def test_feedback_holds_the_free_body_that_falls_without_it(subject01):
-    """Re-simulation on the contact springs: open loop falls, LQR completes the window."""
-    from predgait.problemfile import load_problem
-    from predgait.workflows.fullbody_tracking import parse_tracking
-    from predgait.workflows.fullbody_tracking_run import hold_with_feedback
-
-    drive, data, solution = subject01
-    spec = parse_tracking(load_problem(PROBLEM, ["window.start=0.633", "window.end=0.9"]))
-    info, lqr, run = hold_with_feedback(spec, drive, data, solution)
-    without, with_fb = info["without_feedback"], info["with_feedback"]
-    assert without["status"] == "event" and without["time_to_fall_s"] < 0.1
-    assert with_fb["status"] == "completed" and with_fb["time_to_fall_s"] is None
-    assert run.t[-1] == pytest.approx(data.time[-1])
-    assert with_fb["joint_rms_from_solution_deg"] < 3.0
-    assert lqr.gains.shape == (data.nodes, 29, 70)
 
 
 def test_cli_writes_the_result(tmp_path, capsys, assert_tidy_result):

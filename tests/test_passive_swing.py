@@ -251,3 +251,11 @@ def test_bad_input_names_the_key(tmp_path, override, words):
                  "uncertainty.bootstrap=0", "filter.sensitivity_hz=[]")
     assert run.returncode == 2, run.stderr
     assert words in run.stderr and "Traceback" not in run.stderr and not out.exists()
+
+
+def test_fit_that_does_not_converge_exits_3_and_writes_nothing(tmp_path):
+    out = tmp_path / "failed"
+    run = _solve(REPO / "problems" / "passive_swing.toml", out, "simulation.max_iter=1",
+                 "uncertainty.bootstrap=0", "filter.sensitivity_hz=[]")
+    assert run.returncode == 3 and "solve failed" in run.stderr, run.stderr
+    assert "Gauss-Newton did not converge" in run.stderr and not out.exists()

@@ -26,6 +26,8 @@ _SYMBOLS = (("openblas_get_num_threads", "openblas_set_num_threads"),
 
 def _controls() -> list[tuple]:
     """(get, set) functions of every OpenBLAS loaded in this process."""
+    import scipy.linalg  # noqa: F401  (loads SciPy's OpenBLAS, which expm and solve use)
+
     maps = Path("/proc/self/maps")
     if not maps.is_file():
         return []

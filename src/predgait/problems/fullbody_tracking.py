@@ -232,12 +232,16 @@ def _initial_forces(data: TrackingData) -> np.ndarray:
     return out.reshape(data.nodes, 12)
 
 
-#: Sizes: unknowns per node (dx, v, a, f), node parameters, node constraints (base
+#: Sizes: unknowns per node (dx, v, a, f / FORCE_UNIT), node parameters, node constraints (base
 #: rows 6, contact heights 4, friction pyramid 16), interval constraints (joints 29,
 #: velocities 35, pelvis position 3, pelvis rotation 3), weights.
 NZ, NP, NG, NI, NW = 117, 129, 26, 70, 7
 #: Weight of the point forces' own cost relative to the foot-force tracking.
 REGULARISATION = 1e-4
+#: Unit of the force unknowns, N: forces of hundreds of N as numbers of order one (on
+#: subject01's cycle 63 Ipopt iterations instead of 81 with N; 500 N: 60 iterations
+#: but twice the linear-solver time).
+FORCE_UNIT = 100.0
 
 
 def _node_parameters(data: TrackingData) -> np.ndarray:
@@ -293,7 +297,7 @@ def stage_functions(model: Model3D) -> StageFunctions:
     """The node and interval functions of :class:`StageFunctions` (SX, built once)."""
     node = node_function(model)
     z, p, w = cs.SX.sym("z", NZ), cs.SX.sym("p", NP), cs.SX.sym("w", NW)
-    dx, v, a, f = z[:35], z[35:70], z[70:105], z[105:]
+    dx, v, a, f = z[:35], z[35:70], z[70:105], FORCE_UNIT * z[105:]
     q_ref, v_ref, a_ref, on = p[:36], p[36:71], p[71:106], p[106:110]
     force_t, cop, free_moment = p[110:116], p[116:122], p[122:124]
     ground_z, belt, compliance, mu, ramp = p[124], p[125], p[126], p[127], p[128]
@@ -408,8 +412,8 @@ def tracking_nlp(model: Model3D, data: TrackingData,
                  weights: TrackingWeights = TrackingWeights()) -> TrackingNLP:
     """The tracking NLP (module docstring), its derivatives from one node and one interval.
 
-    Decision vector: node-major, z_k = (dx_k, v_k, a_k, f_k) (NZ each). Constraints:
-    NG per node, then NI per interval. The constraint Jacobian, the cost gradient and
+    Decision vector: node-major, z_k = (dx_k, v_k, a_k, f_k / FORCE_UNIT) (NZ each).
+    Constraints: NG per node, then NI per interval. The constraint Jacobian, the cost gradient and
     the Hessian of the Lagrangian are assembled from one node's and one interval's
     symbolic derivatives (:func:`stage_functions`), so the symbolic work does not grow
     with the number of nodes and no derivative is taken through the mapped calls.
@@ -462,7 +466,8 @@ def tracking_nlp(model: Model3D, data: TrackingData,
     ubx[:, 105:] = np.where(on_points, np.inf, 0.0)
     return TrackingNLP(
         {"x": x, "f": cs.sum2(cost) / n, "g": g}, derivatives,
-        np.hstack([np.zeros((n, 35)), data.v, data.a, _initial_forces(data)]).ravel(),
+        np.hstack([np.zeros((n, 35)), data.v, data.a,
+                   _initial_forces(data) / FORCE_UNIT]).ravel(),
         lbx.ravel(), ubx.ravel(),
         np.concatenate([lbg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
         np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]))
@@ -499,7 +504,8 @@ def solve_tracking(model: Model3D, data: TrackingData,
 
 
 def _unpack(model, data, z, stats, seconds, build_seconds) -> TrackingSolution:
-    dx, v, a, f = z[:, :35], z[:, 35:70], z[:, 70:105], z[:, 105:].reshape(-1, 4, 3)
+    dx, v, a = z[:, :35], z[:, 35:70], z[:, 70:105]
+    f = FORCE_UNIT * z[:, 105:].reshape(-1, 4, 3)
     q = np.array([corrected_configuration(qr, d) for qr, d in zip(data.q, dx, strict=True)])
     return TrackingSolution(data.time.copy(), q, v.copy(), a.copy(), f.copy(),
                             contact_inverse_dynamics(model, q, v, a, f),

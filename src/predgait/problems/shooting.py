@@ -232,14 +232,24 @@ def passive_torques(leg, model: PassiveModel, values, x, knee_offset):
     return cs.vertcat(*extra)
 
 
-@functools.lru_cache(maxsize=8)
 def _residual_function(leg, model: PassiveModel, n: int, substeps: int, h: float):
     """``residuals(z, data) -> (r (n, 2), d vec(r) / dz (2 n, f))`` for n intervals.
 
     ``data`` = (vec x0 (4, n), vec u (rows, points n), vec end (2, n), knee offset);
-    vec(r) stacks the ankle errors of every interval, then the knee's.
+    vec(r) stacks the ankle errors of every interval, then the knee's. Compiled through
+    :mod:`predgait.function_cache` when the cache is on (in the background: the run that
+    first meets a trial's shape evaluates it in CasADi's virtual machine, ~15x slower).
     """
+    from predgait import function_cache
+
+    return _residual_function_built(leg, model, n, substeps, h, function_cache.enabled())
+
+
+@functools.lru_cache(maxsize=8)
+def _residual_function_built(leg, model, n, substeps, h, cached):
     import casadi as cs
+
+    from predgait import function_cache
 
     shoot = _interval_function(leg, model, substeps, h).map(n)
     z = cs.MX.sym("z", len(model.fitted))
@@ -249,7 +259,12 @@ def _residual_function(leg, model: PassiveModel, n: int, substeps: int, h: float
     offset = cs.MX.sym("offset")
     residual = (shoot(x0, u, cs.repmat(z, 1, n), offset) - end).T
     data = cs.vertcat(cs.vec(x0), cs.vec(u), cs.vec(end), offset)
-    return cs.Function("residuals", [z, data], [residual, cs.jacobian(cs.vec(residual), z)])
+    function = cs.Function("shooting_residuals", [z, data],
+                           [residual, cs.jacobian(cs.vec(residual), z)])
+    if not cached:
+        return function
+    return function_cache.compiled(function, function_cache.key_of([function.serialize()])) \
+        or function
 
 
 def _data(intervals: Intervals) -> np.ndarray:
