@@ -260,6 +260,12 @@ class FastLeg:
 
         return run
 
+    def grid_solver(self, options: IntegratorOptions):
+        """The CVODES run of :mod:`predgait.dynamics.cvodes_leg`, or None (see there)."""
+        from predgait.dynamics.cvodes_leg import cvodes_solver
+
+        return cvodes_solver(self, options)
+
     def recover(self, t: np.ndarray, x: np.ndarray):
         """(q, v, a, reaction) of every output row (n, 5), (n, 5), (n, 5), (n, 3)."""
         n = len(t)
