@@ -149,6 +149,14 @@ def test_force_on_the_plate_is_negated(tmp_path, caplog):
     assert "force on the plate" in caplog.text
 
 
+def test_c3d_markers_at_zero_are_missing(tmp_path):
+    xyz = body()
+    xyz[7, 2] = 0.0  # a writer storing a missing marker as zeros with residual 0
+    markers = read_c3d(write_c3d(tmp_path / "gap.c3d", C3DSpec(xyz=xyz, names=NAMES))).markers
+    assert np.isnan(markers.get("HEEL")[7]).all()
+    assert np.isfinite(markers.get("HEEL")[[6, 8]]).all()
+
+
 def test_unusable_c3d_files_fail_loudly(tmp_path):
     no_markers = C3DSpec(xyz=np.zeros((N_FRAMES, 0, 3)), names=())
     with pytest.raises(InputError, match="no marker data"):
@@ -189,9 +197,11 @@ def test_trc_with_padded_header_reads_in_metres(tmp_path):
     # Rajagopal's TRC pads the header line with double tabs; OpenSim TRCs are Y-up.
     rows = [[10.0 * i, 1700.0, 0.0, 10.0 * i - 50, 50.0, 100.0, 10.0 * i + 150, 50.0, 100.0]
             for i in range(N_FRAMES)]
+    rows[4][6:9] = [0.0, 0.0, 0.0]  # Hamner's TRC writes a missing marker as zeros
     markers = read_trc(_trc(tmp_path / "walk.trc", rows))
     assert markers.rate == 100.0
     np.testing.assert_allclose(markers.get("HEEL")[1], [-0.04, -0.1, 0.05], atol=1e-12)
+    assert np.isnan(markers.get("TOE")[4]).all() and not np.isnan(markers.get("TOE")[5]).any()
 
 
 def test_z_up_trc_is_refused(tmp_path):

@@ -32,6 +32,7 @@ from predgait.data._io import (
     duplicate_labels,
     length_factor,
     open_input,
+    zeros_as_missing,
 )
 from predgait.data.frames import (
     FileAxes,
@@ -317,6 +318,7 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     xyz = np.transpose(points, (2, 1, 0)) * factor
     residuals = c3d["data"]["meta_points"]["residuals"][0].T  # (n, m)
     xyz[residuals < 0] = np.nan
+    zeros_as_missing(xyz, source=str(path))
     check_magnitude(xyz, np.arange(xyz.shape[0]) / rate, "marker", source=str(path),
                     names=labels)
     markers = Markers(time=np.arange(xyz.shape[0]) / rate, names=tuple(labels[:n_markers]),

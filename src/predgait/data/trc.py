@@ -6,7 +6,13 @@ import logging
 
 import numpy as np
 
-from predgait.data._io import check_magnitude, duplicate_labels, length_factor, read_input
+from predgait.data._io import (
+    check_magnitude,
+    duplicate_labels,
+    length_factor,
+    read_input,
+    zeros_as_missing,
+)
 from predgait.data.frames import FileAxes, Forward, check_vertical, lab_rotation, rotate_markers
 from predgait.data.trial import Markers, uniform_time
 from predgait.errors import InputError
@@ -106,7 +112,8 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
         frame = int(np.flatnonzero(np.isnan(data[:, 1]))[0]) + 1
         raise InputError(f"{path}: data row {frame} has no time value.")
     time = uniform_time(data[:, 1], rate, source=str(path))
-    xyz = data[:, 2:].reshape(len(rows), n_markers, 3) * factor
+    xyz = zeros_as_missing(data[:, 2:].reshape(len(rows), n_markers, 3) * factor,
+                           source=str(path))
     check_magnitude(xyz, time, "marker", source=str(path), names=names)
     rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
     check_vertical(np.einsum("ij,nmj->nmi", rotation, xyz), source=str(path),
