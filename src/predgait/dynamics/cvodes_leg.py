@@ -20,8 +20,8 @@ CVODES reports the states on the output grid only (``IntegratorOptions.step`` or
 detected at output-grid resolution and located on their cubic Hermite interpolant,
 not root-found by CVODES (:func:`predgait.dynamics.integrators.integrate`). The
 derivatives on the rows (for the interpolant) come from the same right-hand side.
-The steps run in CasADi's virtual machine (the expression is expanded to SX once per
-run); tests/test_cvodes_leg.py checks runs against SciPy at tight tolerance on the
+The steps run in CasADi's SX virtual machine (the right-hand side and the splines inlined
+in one expression); tests/test_cvodes_leg.py checks runs against SciPy at tight tolerance on the
 Pinocchio engine.
 """
 
@@ -66,44 +66,43 @@ class _TimeInputs:
 
 def time_inputs(fast: FastLeg, t: cs.SX) -> cs.SX | None:
     """The leg's inputs u(t) (the layout of :meth:`FastLeg.inputs`) on t, or None."""
-    parts = _TimeInputs(t)
-    drivers = fast.system.drivers
-    u = [cs.SX.zeros(1) for _ in range(fast.nu)]
+    parts, drivers = _TimeInputs(t), fast.system.drivers
+    constant = np.zeros(fast.nu)   # the constant inputs, summed here
+    varying = []                   # (rows, sign, expression) of the others
 
-    def put(rows: slice | np.ndarray, function, sign: float = 1.0) -> bool:
+    def put(rows, function, sign: float = 1.0) -> bool:
+        if isinstance(function, Constant):
+            constant[rows] += sign * function.value
+            return True
         value = parts.of(function)
-        if value is None:
-            return False
-        indices = range(fast.nu)[rows] if isinstance(rows, slice) else rows
-        for k, index in enumerate(indices):
-            u[index] = u[index] + sign * value[k]
-        return True
+        varying.append((np.arange(fast.nu)[rows].tolist(), sign, value))
+        return value is not None
 
+    tau, hip = np.arange(fast.nu)[_TAU], np.arange(fast.nu)[_HIP]
     written = [put(_QB, drivers.prescribed_q), put(_VB, drivers.prescribed_qd),
-               put(_AB, drivers.prescribed_qdd)]
-    tau_rows = np.arange(fast.nu)[_TAU]
-    written += [put(tau_rows[force.rows], force.history) for force in fast.torques]
+               put(_AB, drivers.prescribed_qdd),
+               *(put(tau[force.rows], force.history) for force in fast.torques)]
     if fast.passive is not None and fast.passive.offset is not None:
         written.append(put(_TAU, fast.passive.offset, -1.0))
     if fast.hip is not None:
-        hip = np.arange(fast.nu)[_HIP]
         written += [put(hip[:3], fast.hip.force), put(hip[3:], fast.hip.moment)]
     if fast.feedback is not None:
         fb, owner = fast.feedback, getattr(fast.feedback.reference, "__self__", None)
         if not isinstance(owner, LegDrivers) or fb.reference.__func__ is not LegDrivers.reference:
             return None
-        ref, rows = np.arange(fast.nu)[fast._ref], np.asarray(fb.rows)
         q_ref, v_ref = parts.of(owner.reference_q), parts.of(owner.reference_qd)
         if q_ref is None or v_ref is None:
             return None
-        for k, row in enumerate(rows):
-            u[ref[k]] = q_ref[int(row) + fb.q_offset]
-            u[ref[len(rows) + k]] = v_ref[int(row)]
+        rows, ref = np.asarray(fb.rows, dtype=int), np.arange(fast.nu)[fast._ref]
+        varying += [(ref[: rows.size].tolist(), 1.0, q_ref[(rows + fb.q_offset).tolist()]),
+                    (ref[rows.size:].tolist(), 1.0, v_ref[rows.tolist()])]
     if not all(written):
         return None
-    for k, value in enumerate(fast._values):
-        u[fast._ref.stop + k] = cs.SX(value)
-    return cs.vertcat(*u)
+    constant[fast._ref.stop:] = fast._values
+    u = cs.SX(constant)
+    for rows, sign, value in varying:
+        u[rows] = u[rows] + sign * value
+    return u
 
 
 class CvodesLeg:
@@ -114,11 +113,9 @@ class CvodesLeg:
     """
 
     def __init__(self, fast: FastLeg, u_of_t: cs.SX, t: cs.SX, options: IntegratorOptions):
-        x = cs.SX.sym("x", 4)
-        ode = cs.Function("leg_ode", [x, t], [fast.rhs(x, u_of_t)[0]]).expand()
         self.fast, self.options = fast, options
-        self._x, self._t = cs.SX.sym("x", 4), cs.SX.sym("t")
-        self._ode = ode(self._x, self._t)
+        self._x, self._t = cs.SX.sym("x", 4), t
+        self._ode = fast.rhs(self._x, u_of_t)[0]   # SX: the leg and its inputs inlined
 
     def __call__(self, grid: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
         """Run from (grid[0], x0) to grid[-1]; GridSolverFailed when CVODES stops."""
