@@ -234,3 +234,25 @@ def test_mot_with_side_infix_columns_and_external_loads(tmp_path):
     np.testing.assert_allclose(right.force[0], [50.0, 10.0, 700.0])
     np.testing.assert_allclose(right.cop[0], [0.3, -0.1, 0.0])
     np.testing.assert_allclose(right.free_moment[0], [0.0, 0.0, 2.0])
+
+
+def test_grf_cop_in_mm_is_named_in_the_error(tmp_path):
+    # A lab's MOT with the COP in mm (OpenSim expects m): the plates then lie hundreds of
+    # metres from the foot, and the error says so instead of only "no contact".
+    from predgait.dynamics.inverse_trial import bundled_options, run_inverse, with_options
+
+    options = bundled_options()
+    lines = options.grf.read_text().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.strip().lower() == "endheader") + 1
+    labels = lines[start].split("\t")
+    cop = [j for j, label in enumerate(labels) if "force_p" in label]
+    rows = []
+    for line in lines[start + 1:]:
+        values = line.split("\t")
+        for j in cop:
+            values[j] = f"{float(values[j]) * 1000.0:.6g}"
+        rows.append("\t".join(values))
+    mot = tmp_path / "grf_mm.mot"
+    mot.write_text("\n".join(lines[: start + 1] + rows) + "\n")
+    with pytest.raises(InputError, match=r"grf_mm\.mot: no plate .* COP lies \d+ m from the heel"):
+        run_inverse(with_options(options, grf=mot))

@@ -364,6 +364,20 @@ def _foot_grf(plates: tuple[ForcePlate, ...], time: np.ndarray, heel: np.ndarray
     return force, cop, free + moment_o - np.cross(cop, force)
 
 
+def _cop_hint(plates: tuple[ForcePlate, ...], heel: np.ndarray, threshold: float) -> str:
+    """Why no contact was found: how far the loaded COPs lie from the foot (units, axes)."""
+    loaded = [p.cop[p.force[:, 2] >= threshold, :2] for p in plates]
+    loaded = [c for c in loaded if len(c)]
+    if not loaded:
+        return " (no plate is loaded in the trial: check the force's sign and axes)"
+    distance = np.linalg.norm(np.median(np.concatenate(loaded), axis=0)
+                              - np.nanmedian(heel[:, :2], axis=0))
+    if distance < 5.0:
+        return ""
+    return (f" (the loaded plates' COP lies {distance:.3g} m from the heel marker: check the "
+            "COP columns' units, OpenSim's are m, and the axes)")
+
+
 def _kinematic_events(time: np.ndarray, points: Mapping[str, np.ndarray], side: Side) -> Events:
     """Zeni et al. (2008) events with the hip centre as the pelvis reference."""
     names = ("heel", "toe", "hip")
@@ -437,7 +451,8 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     has_grf = bool(trial.plates)
     if has_grf and not np.any(force[:, 2] >= options.threshold):
         raise InputError(f"{options.grf or trial.source}: no plate has a contact (vertical "
-                         f"force >= {options.threshold:g} N) under the {options.side} foot.")
+                         f"force >= {options.threshold:g} N) under the {options.side} foot"
+                         f"{_cop_hint(trial.plates, points['heel'], options.threshold)}.")
     contact = (force[:, 2] != 0)[:, None]
     loads = [LoadHistory("foot", np.where(contact, force, 0.0), cop, np.where(contact, free, 0.0))]
     inv: LegInverse = leg_inverse_dynamics(model, q, qd, qdd, loads)
