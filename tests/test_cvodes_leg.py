@@ -103,6 +103,7 @@ def test_falls_back_to_rk45_with_a_warning(inverse, cache, monkeypatch, caplog):
     with caplog.at_level(logging.WARNING):
         sim = simulate_leg(inverse.model, thigh, (0.0, 0.1), options=CVODES)
     assert sim.status == "completed" and "rk45" in sim.message
+    assert sim.options.method is Method.RK45   # what ran, for summaries
     assert "running rk45 instead" in caplog.text
     caplog.clear()
     monkeypatch.setenv(function_cache.SWITCH, "off")

@@ -34,7 +34,7 @@ free coordinates are solved in closed form.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
@@ -500,7 +500,8 @@ def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
         t=run.t, q=q, qd=v, qdd=a, reaction=reaction, coordinate_names=names,
         free=tuple(names[i] for i in system.free), status=run.status,
         event=run.event_name, time_to_fall=fall, partial=error is not None,
-        message=run.message, options=options, n_rhs_evaluations=run.n_rhs_evaluations)
+        message=run.message, options=replace(options, method=run.method),  # cvodes -> rk45
+        n_rhs_evaluations=run.n_rhs_evaluations)
     if error is not None:
         raise SimulationDiverged(str(error), partial=result)
     return result
