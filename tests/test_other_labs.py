@@ -157,6 +157,22 @@ def test_c3d_markers_at_zero_are_missing(tmp_path):
     assert np.isfinite(markers.get("HEEL")[[6, 8]]).all()
 
 
+def test_more_than_255_markers_use_labels2(tmp_path):
+    xyz = np.concatenate([body()] + [body() + 10.0 * k for k in range(1, 75)], axis=1)
+    names = tuple(f"M{i}" for i in range(xyz.shape[1]))  # 300: LABELS holds 255, LABELS2 45
+    markers = read_c3d(write_c3d(tmp_path / "many.c3d", C3DSpec(xyz=xyz, names=names))).markers
+    assert markers.names == names
+    np.testing.assert_allclose(markers.get("M299")[0], (xyz[0, 299] - [0, 0, 0]) / 1000.0)
+
+
+def test_wrong_length_unit_is_refused(tmp_path):
+    leg = body(travel=300.0)[:, 1:]  # hip, heel, toe: 0.85 m tall, in mm
+    with pytest.raises(InputError, match=r"span 850 m .* check the length unit POINT:UNITS 'm'"):
+        read_c3d(write_c3d(tmp_path / "m.c3d", C3DSpec(xyz=leg, names=NAMES[1:], unit="m")))
+    with pytest.raises(InputError, match=r"span 0.00165 m .* POINT:UNITS 'mm'"):
+        read_c3d(write_c3d(tmp_path / "mm.c3d", C3DSpec(xyz=body() / 1000.0, names=NAMES)))
+
+
 def test_unusable_c3d_files_fail_loudly(tmp_path):
     no_markers = C3DSpec(xyz=np.zeros((N_FRAMES, 0, 3)), names=())
     with pytest.raises(InputError, match="no marker data"):
@@ -202,6 +218,15 @@ def test_trc_with_padded_header_reads_in_metres(tmp_path):
     assert markers.rate == 100.0
     np.testing.assert_allclose(markers.get("HEEL")[1], [-0.04, -0.1, 0.05], atol=1e-12)
     assert np.isnan(markers.get("TOE")[4]).all() and not np.isnan(markers.get("TOE")[5]).any()
+
+
+def test_trc_in_mm_declared_m_is_refused(tmp_path):
+    rows = [[10.0 * i, 900.0, 0.0, 10.0 * i - 50, 50.0, 100.0, 10.0 * i + 150, 50.0, 100.0]
+            for i in range(N_FRAMES)]
+    path = _trc(tmp_path / "walk.trc", rows)
+    path.write_text(path.read_text().replace("\t mm\t", "\t m\t"))
+    with pytest.raises(InputError, match=r"walk\.trc: the markers span 850 m .* Units 'm'"):
+        read_trc(path)
 
 
 def test_z_up_trc_is_refused(tmp_path):

@@ -259,6 +259,16 @@ def _file_up(plates: list[ForcePlate], axes: FileAxes, source: str) -> np.ndarra
     return axis_up_rotation(up_from_plates(normals, source=f"{source} FORCE_PLATFORM:CORNERS"))
 
 
+def _point_labels(params) -> list[str]:
+    """Marker labels: POINT:LABELS, then LABELS2, LABELS3, ... (more than 255 markers)."""
+    labels = [str(n).strip() for n in _param(params, "POINT", "LABELS", [])]
+    more = 2
+    while f"LABELS{more}" in params["POINT"]:
+        labels += [str(n).strip() for n in _param(params, "POINT", f"LABELS{more}", [])]
+        more += 1
+    return labels
+
+
 def _on_the_foot(plate: ForcePlate, source: str) -> ForcePlate:
     """The plate with its wrench negated if the file stores the force on the plate."""
     fz = plate.force[:, 2]
@@ -295,11 +305,14 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     except Exception as exc:  # ezc3d raises RuntimeError/IOError for bad files
         raise InputError(f"{path}: ezc3d could not read it as C3D ({exc}).") from None
     params = c3d["parameters"]
-    labels = [str(n).strip() for n in _param(params, "POINT", "LABELS", [])]
+    labels = _point_labels(params)
     n_read, n_markers = c3d["data"]["points"].shape[2], c3d["data"]["points"].shape[1]
     if n_markers == 0:
         raise InputError(f"{path}: no marker data (POINT:USED = 0); predgait needs marker "
                          "trajectories: export the trial with its markers.")
+    if len(labels) < n_markers:
+        raise InputError(f"{path}: {n_markers} markers but POINT:LABELS names {len(labels)}; "
+                         "re-export the trial with every marker labelled.")
     expected = header_frames
     if expected is not None and n_read < expected:
         raise InputError(f"{path}: {n_read} frames read but the header says {expected}; the "
@@ -312,7 +325,8 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     if not rate > 0:
         raise InputError(f"{path}: POINT:RATE is {rate!r} Hz; re-export the trial with its "
                          "frame rate.")
-    unit = (list(_param(params, "POINT", "UNITS", [])) or ["mm"])[0]
+    stated = list(_param(params, "POINT", "UNITS", []))
+    unit = (stated or ["mm"])[0]
     factor = length_factor(unit, source=str(path), field="POINT:UNITS")
     points = c3d["data"]["points"][:3]  # (3, m, n)
     xyz = np.transpose(points, (2, 1, 0)) * factor
@@ -333,7 +347,8 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     check_vertical(z_up, source=str(path), convention=(
         "Z-up (a C3D file without force plates)" if axes is FileAxes.AUTO and not plate_list
         else "vertical along the force plates' normal" if axes is FileAxes.AUTO
-        else f"axes {axes.value!r}"))
+        else f"axes {axes.value!r}"),
+        unit_field=f"POINT:UNITS {unit!r}" + ("" if stated else " (not stated: mm assumed)"))
     trial = Trial(markers=markers, plates=tuple(plate_list), source=str(path))
     rotation = lab_rotation(FileAxes.Z_UP, forward, xyz=z_up, source=str(path)) @ up
     trial = rotate_trial(trial, rotation)
