@@ -8,6 +8,7 @@ the reader must give them back in the lab frame (X forward, Y left, Z up; m, N, 
 """
 
 import logging
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -281,3 +282,39 @@ def test_grf_cop_in_mm_is_named_in_the_error(tmp_path):
     mot.write_text("\n".join(lines[: start + 1] + rows) + "\n")
     with pytest.raises(InputError, match=r"grf_mm\.mot: no plate .* COP lies \d+ m from the heel"):
         run_inverse(with_options(options, grf=mot))
+
+
+WALKING5 = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_walking5_c3d" / \
+    "walking5.c3d"
+
+
+def test_walking5_written_y_up_with_the_other_origin_sign_reads_the_same(tmp_path):
+    # The real trial as a Y-up lab (BTS-like) whose plates' ORIGIN has the other sign.
+    import ezc3d
+
+    c3d = ezc3d.c3d(str(WALKING5))
+    to_y_up = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    points = c3d["data"]["points"]
+    points[:3] = np.einsum("ij,jmn->imn", to_y_up, points[:3])
+    c3d["data"]["points"] = points
+    plates = c3d["parameters"]["FORCE_PLATFORM"]
+    plates["CORNERS"]["value"] = np.einsum("ij,jkp->ikp", to_y_up,
+                                           np.asarray(plates["CORNERS"]["value"], dtype=float))
+    plates["ORIGIN"]["value"] = -np.asarray(plates["ORIGIN"]["value"], dtype=float)
+    c3d.write(str(tmp_path / "walking5_y_up.c3d"))
+    original, turned = read_c3d(WALKING5), read_c3d(tmp_path / "walking5_y_up.c3d")
+    np.testing.assert_allclose(turned.markers.xyz, original.markers.xyz, atol=1e-6)
+    for a, b in zip(original.plates, turned.plates, strict=True):
+        np.testing.assert_allclose(b.force, a.force, atol=1e-6)
+        np.testing.assert_allclose(b.cop, a.cop, atol=1e-6)
+        np.testing.assert_allclose(b.free_moment, a.free_moment, atol=1e-6)
+
+
+def test_a_trial_too_short_says_so(tmp_path):
+    from predgait.dynamics.inverse_trial import InverseOptions, run_inverse
+
+    path = write_c3d(tmp_path / "two.c3d", C3DSpec(xyz=body()[:2], names=NAMES))
+    points = {"hip": "HIP", "knee": "HIP", "ankle": "HEEL", "heel": "HEEL", "toe": "TOE"}
+    with pytest.raises(InputError, match=r"two\.c3d: the trial has 2 frames; inverse dynamics "
+                                         r"needs at least 20"):
+        run_inverse(InverseOptions(markers=path, mass=70.0, height=1.75, points=points))
