@@ -100,8 +100,9 @@ def test_compiled_step_equals_the_in_memory_one(walk, tmp_path, monkeypatch):
         np.testing.assert_allclose(np.array(b), a, rtol=1e-12, atol=1e-12)
 
 
-def test_exact_motion_gives_the_parameters_back(walk, compiled):
-    """Exact states and accelerations at 100 Hz (no markers, no filter): within 1.5 %."""
+@pytest.fixture(scope="module")
+def exact(walk):
+    """The windows of the exact simulated states and accelerations at 100 Hz."""
     t, q, states, ref, system = walk
     index = np.arange(0, len(t), 5)
     qdd = np.array([system.rhs(t[i], states[i])[5:] for i in index])
@@ -112,13 +113,34 @@ def test_exact_motion_gives_the_parameters_back(walk, compiled):
                               model=ref.model)
     percent, cycle, _ = cycle_phase(t[index], ref.strikes[:-1], where="truth")
     samples = GaitSamples(t[index], percent, cycle, {}, {}, {}, correlation_time=0.01)
-    windows = Windows.from_inverse(inverse, samples, SWING)
+    return ref.model, Windows.from_inverse(inverse, samples, SWING)
+
+
+def test_exact_motion_gives_the_parameters_back(exact, compiled):
+    """Exact states and accelerations at 100 Hz (no markers, no filter): within 1.5 %."""
+    leg, windows = exact
     assert len(windows) == 6 and windows.substeps == 1
     model = build_model(["knee", "ankle"], fit=LINEAR_FIT)
-    fit = fit_swing(ref.model, windows, model, SWING)      # from the literature defaults
+    fit = fit_swing(leg, windows, model, SWING)      # from the literature defaults
     for key, true in passive_walk.TRUTH.items():
         assert abs(fit.values[key] / true - 1) < 0.015, (key, fit.values[key])
     assert max(fit.noise_sd.values()) < np.radians(0.01)
+
+
+def test_a_stop_the_swing_never_reaches_is_not_identifiable(exact, monkeypatch):
+    """The knee flexion stop (137 deg) in the fit as well: reported not identifiable."""
+    monkeypatch.setenv(function_cache.SWITCH, "off")   # one fit: not worth compiling
+    leg, windows = exact
+    model = build_model(["knee", "ankle"], fit={**LINEAR_FIT,
+                                                "knee": ["k", "c", "theta0", "k_upper"]})
+    fit = fit_swing(leg, windows, model, SWING, start=passive_walk.TRUTH)
+    reports = {r.key: r for r in assess(model, fit, bootstrap_swing(windows, model, fit,
+                                                                     repeats=40))[0]}
+    assert reports["knee.k_upper"].status is Status.NOT_IDENTIFIABLE
+    assert reports["knee.k_upper"].interval95 is None
+    assert "bounds" in reports["knee.k_upper"].reasons[0]
+    assert reports["knee.k"].status is Status.IDENTIFIED
+    assert abs(reports["knee.k"].value / passive_walk.TRUTH["knee.k"] - 1) < 0.02
 
 
 def test_known_passive_walk_through_the_real_pipeline(tmp_path, walk, compiled):
