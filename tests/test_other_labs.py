@@ -338,3 +338,19 @@ def test_moment_units_that_put_the_cop_off_the_plate_are_refused(tmp_path):
     with pytest.raises(InputError, match=r"nm\.c3d: plate 1 \(TYPE 2\): the centre of pressure "
                                          r"lies .* beyond the plate's edge .* ANALOG:UNITS"):
         read_c3d(tmp_path / "nm.c3d")
+
+
+def test_type1_plate_with_cop_channels(tmp_path):
+    # TYPE 1: Fx, Fy, Fz, COPx, COPy (from the surface centre) and Tz, plate frame.
+    x_p, y_p = np.eye(3)[1], np.eye(3)[0]
+    centre = np.array([300.0, 250.0, 0.0])
+    values = [15.0, -40.0, -690.0, 70.0, -20.0, 1200.0]  # N, N, N, mm, mm, N mm
+    plate = PlateSpec(1, np.tile(values, (N_FRAMES * 10, 1)), corners_about(centre, x_p, y_p),
+                      (0.0, 0.0, 0.0), units=("N", "N", "N", "mm", "mm", "Nmm"))
+    p = read_c3d(write_c3d(tmp_path / "t1.c3d", C3DSpec(xyz=body(), names=NAMES,
+                                                        plates=(plate,)))).plates[0]
+    rot = np.column_stack([x_p, y_p, np.cross(x_p, y_p)])  # plate z = -Z
+    np.testing.assert_allclose(p.force[0], rot @ values[:3], atol=1e-4)  # (-40, 15, 690)
+    np.testing.assert_allclose(p.cop[0], (centre + rot @ [70.0, -20.0, 0.0]) / 1000.0,
+                               atol=1e-6)
+    np.testing.assert_allclose(p.free_moment[0], [0.0, 0.0, -1.2], atol=1e-6)

@@ -150,8 +150,9 @@ def _plate_wrench(kind: int, raw: np.ndarray, origin: np.ndarray, cal: np.ndarra
     """
     what = f"plate {p + 1} moments"
     if kind == 1:  # Fx, Fy, Fz, COPx, COPy (from the surface centre), Tz
-        cop_factor = _unit_factor(units, index[3], LENGTH_UNITS, "mm" if length == 1e-3 else "m",
-                                  source=source, what=f"plate {p + 1} COP")
+        point_unit = {1e-3: "mm", 1e-2: "cm"}.get(length, "m")
+        cop_factor = _unit_factor(units, index[3], LENGTH_UNITS, point_unit, source=source,
+                                  what=f"plate {p + 1} COP")
         tz_factor = _unit_factor(units, index[5], _MOMENT_UNITS, "Nmm", source=source, what=what)
         zeros = np.zeros(len(raw))
         cop = np.column_stack([raw[:, 3] * cop_factor, raw[:, 4] * cop_factor, zeros])
