@@ -150,8 +150,9 @@ def _plate_wrench(kind: int, raw: np.ndarray, origin: np.ndarray, cal: np.ndarra
     """
     what = f"plate {p + 1} moments"
     if kind == 1:  # Fx, Fy, Fz, COPx, COPy (from the surface centre), Tz
-        cop_factor = _unit_factor(units, index[3], LENGTH_UNITS, "mm" if length == 1e-3 else "m",
-                                  source=source, what=f"plate {p + 1} COP")
+        point_unit = {1e-3: "mm", 1e-2: "cm"}.get(length, "m")
+        cop_factor = _unit_factor(units, index[3], LENGTH_UNITS, point_unit, source=source,
+                                  what=f"plate {p + 1} COP")
         tz_factor = _unit_factor(units, index[5], _MOMENT_UNITS, "Nmm", source=source, what=what)
         zeros = np.zeros(len(raw))
         cop = np.column_stack([raw[:, 3] * cop_factor, raw[:, 4] * cop_factor, zeros])
@@ -170,6 +171,38 @@ def _plate_wrench(kind: int, raw: np.ndarray, origin: np.ndarray, cal: np.ndarra
     # lies below the surface, i.e. at +z in the plate frame (z down), as ezc3d also assumes.
     origin = (-origin if origin[2] < 0 else origin) * length
     return (*plate_wrench_to_cop(raw[:, :3], raw[:, 3:] * m_factor, origin), raw[:, :3])
+
+
+#: N; samples loaded at least this much must have their COP on the plate.
+COP_CHECK_FORCE = 100.0
+#: m; how far beyond the plate's edge such a COP may lie (noise, the foot's edge).
+COP_MARGIN = 0.1
+
+
+def _check_cop_on_plate(cop: np.ndarray, force: np.ndarray, corners: np.ndarray,
+                        time: np.ndarray, what: str) -> None:
+    """Refuse a plate whose loaded COP lies off the plate (moment units, ORIGIN, channels).
+
+    Args:
+        cop: (k, 3) m from the surface centre, plate frame.
+        force: (k, 3) N, plate frame.
+        corners: (4, 3) m from the surface centre, plate frame.
+        time: (k,) s.
+        what: file and plate, for the message.
+    """
+    loaded = np.abs(force[:, 2]) >= COP_CHECK_FORCE
+    if loaded.sum() < 10:
+        return
+    half = np.abs(corners[:, :2]).max(axis=0)
+    beyond = np.max(np.abs(cop[:, :2]) - half, axis=1)
+    off = loaded & (beyond > COP_MARGIN)
+    if off.mean() > 0.1 * loaded.mean():
+        first = int(np.flatnonzero(off)[0])
+        raise InputError(
+            f"{what}: the centre of pressure lies {beyond[first]:.2f} m beyond the plate's "
+            f"edge at t = {time[first]:.3f} s (and at {off.sum()} of {loaded.sum()} loaded "
+            "samples); check the moment channels' ANALOG:UNITS, FORCE_PLATFORM:ORIGIN and "
+            "FORCE_PLATFORM:CHANNEL.")
 
 
 def _plates(params, analogs: np.ndarray, rate: float, point_factor: float,
@@ -214,6 +247,8 @@ def _plates(params, analogs: np.ndarray, rate: float, point_factor: float,
         rotation = plate_axes(c_file)
         centre = c_file.mean(axis=0)
         check_magnitude(force_p, time, "force", source=f"{source} (plate {p + 1})")
+        _check_cop_on_plate(cop_p, force_p, (c_file - centre) @ rotation, time,
+                            f"{source}: plate {p + 1} (TYPE {kind})")
         plates.append(ForcePlate(
             time=time, force=force_p @ rotation.T, cop=centre + cop_p @ rotation.T,
             free_moment=free_p @ rotation.T, name=str(p + 1), corners=c_file,
