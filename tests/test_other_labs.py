@@ -8,6 +8,7 @@ the reader must give them back in the lab frame (X forward, Y left, Z up; m, N, 
 """
 
 import logging
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -157,6 +158,22 @@ def test_c3d_markers_at_zero_are_missing(tmp_path):
     assert np.isfinite(markers.get("HEEL")[[6, 8]]).all()
 
 
+def test_more_than_255_markers_use_labels2(tmp_path):
+    xyz = np.concatenate([body()] + [body() + 10.0 * k for k in range(1, 75)], axis=1)
+    names = tuple(f"M{i}" for i in range(xyz.shape[1]))  # 300: LABELS holds 255, LABELS2 45
+    markers = read_c3d(write_c3d(tmp_path / "many.c3d", C3DSpec(xyz=xyz, names=names))).markers
+    assert markers.names == names
+    np.testing.assert_allclose(markers.get("M299")[0], (xyz[0, 299] - [0, 0, 0]) / 1000.0)
+
+
+def test_wrong_length_unit_is_refused(tmp_path):
+    leg = body(travel=300.0)[:, 1:]  # hip, heel, toe: 0.85 m tall, in mm
+    with pytest.raises(InputError, match=r"span 850 m .* check the length unit POINT:UNITS 'm'"):
+        read_c3d(write_c3d(tmp_path / "m.c3d", C3DSpec(xyz=leg, names=NAMES[1:], unit="m")))
+    with pytest.raises(InputError, match=r"span 0.00165 m .* POINT:UNITS 'mm'"):
+        read_c3d(write_c3d(tmp_path / "mm.c3d", C3DSpec(xyz=body() / 1000.0, names=NAMES)))
+
+
 def test_unusable_c3d_files_fail_loudly(tmp_path):
     no_markers = C3DSpec(xyz=np.zeros((N_FRAMES, 0, 3)), names=())
     with pytest.raises(InputError, match="no marker data"):
@@ -204,6 +221,15 @@ def test_trc_with_padded_header_reads_in_metres(tmp_path):
     assert np.isnan(markers.get("TOE")[4]).all() and not np.isnan(markers.get("TOE")[5]).any()
 
 
+def test_trc_in_mm_declared_m_is_refused(tmp_path):
+    rows = [[10.0 * i, 900.0, 0.0, 10.0 * i - 50, 50.0, 100.0, 10.0 * i + 150, 50.0, 100.0]
+            for i in range(N_FRAMES)]
+    path = _trc(tmp_path / "walk.trc", rows)
+    path.write_text(path.read_text().replace("\t mm\t", "\t m\t"))
+    with pytest.raises(InputError, match=r"walk\.trc: the markers span 850 m .* Units 'm'"):
+        read_trc(path)
+
+
 def test_z_up_trc_is_refused(tmp_path):
     rows = [[10.0 * i, 0.0, 1700.0, 10.0 * i - 50, 100.0, 50.0, 10.0 * i + 150, 100.0, 50.0]
             for i in range(N_FRAMES)]
@@ -234,6 +260,13 @@ def test_mot_with_side_infix_columns_and_external_loads(tmp_path):
     np.testing.assert_allclose(right.force[0], [50.0, 10.0, 700.0])
     np.testing.assert_allclose(right.cop[0], [0.3, -0.1, 0.0])
     np.testing.assert_allclose(right.free_moment[0], [0.0, 0.0, 2.0])
+    # The same columns written Z-up (vertical force in the z column) are refused.
+    z_up = [row[:2] + [row[3], row[2]] + row[4:] for row in rows]
+    mot.write_text(header + "\t".join(labels) + "\n" + "\n".join(
+        "\t".join(f"{v:g}" for v in row) for row in z_up) + "\n")
+    with pytest.raises(InputError, match=r"grf_walk\.mot: plate r's force peaks at 702 N "
+                                         r"horizontally but 10 N vertically"):
+        read_grf_mot(mot)
 
 
 def test_grf_cop_in_mm_is_named_in_the_error(tmp_path):
@@ -256,3 +289,68 @@ def test_grf_cop_in_mm_is_named_in_the_error(tmp_path):
     mot.write_text("\n".join(lines[: start + 1] + rows) + "\n")
     with pytest.raises(InputError, match=r"grf_mm\.mot: no plate .* COP lies \d+ m from the heel"):
         run_inverse(with_options(options, grf=mot))
+
+
+WALKING5 = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_walking5_c3d" / \
+    "walking5.c3d"
+
+
+def test_walking5_written_y_up_with_the_other_origin_sign_reads_the_same(tmp_path):
+    # The real trial as a Y-up lab (BTS-like) whose plates' ORIGIN has the other sign.
+    import ezc3d
+
+    c3d = ezc3d.c3d(str(WALKING5))
+    to_y_up = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    points = c3d["data"]["points"]
+    points[:3] = np.einsum("ij,jmn->imn", to_y_up, points[:3])
+    c3d["data"]["points"] = points
+    plates = c3d["parameters"]["FORCE_PLATFORM"]
+    plates["CORNERS"]["value"] = np.einsum("ij,jkp->ikp", to_y_up,
+                                           np.asarray(plates["CORNERS"]["value"], dtype=float))
+    plates["ORIGIN"]["value"] = -np.asarray(plates["ORIGIN"]["value"], dtype=float)
+    c3d.write(str(tmp_path / "walking5_y_up.c3d"))
+    original, turned = read_c3d(WALKING5), read_c3d(tmp_path / "walking5_y_up.c3d")
+    np.testing.assert_allclose(turned.markers.xyz, original.markers.xyz, atol=1e-6)
+    for a, b in zip(original.plates, turned.plates, strict=True):
+        np.testing.assert_allclose(b.force, a.force, atol=1e-6)
+        np.testing.assert_allclose(b.cop, a.cop, atol=1e-6)
+        np.testing.assert_allclose(b.free_moment, a.free_moment, atol=1e-6)
+
+
+def test_a_trial_too_short_says_so(tmp_path):
+    from predgait.dynamics.inverse_trial import InverseOptions, run_inverse
+
+    path = write_c3d(tmp_path / "two.c3d", C3DSpec(xyz=body()[:2], names=NAMES))
+    points = {"hip": "HIP", "knee": "HIP", "ankle": "HEEL", "heel": "HEEL", "toe": "TOE"}
+    with pytest.raises(InputError, match=r"two\.c3d: the trial has 2 frames; inverse dynamics "
+                                         r"needs at least 20"):
+        run_inverse(InverseOptions(markers=path, mass=70.0, height=1.75, points=points))
+
+
+def test_moment_units_that_put_the_cop_off_the_plate_are_refused(tmp_path):
+    # walking5's moments are N mm; labelled N m, its COP would lie metres off the plates.
+    import ezc3d
+
+    c3d = ezc3d.c3d(str(WALKING5))
+    units = list(c3d["parameters"]["ANALOG"]["UNITS"]["value"])
+    c3d["parameters"]["ANALOG"]["UNITS"]["value"] = ["Nm" if u == "Nmm" else u for u in units]
+    c3d.write(str(tmp_path / "nm.c3d"))
+    with pytest.raises(InputError, match=r"nm\.c3d: plate 1 \(TYPE 2\): the centre of pressure "
+                                         r"lies .* beyond the plate's edge .* ANALOG:UNITS"):
+        read_c3d(tmp_path / "nm.c3d")
+
+
+def test_type1_plate_with_cop_channels(tmp_path):
+    # TYPE 1: Fx, Fy, Fz, COPx, COPy (from the surface centre) and Tz, plate frame.
+    x_p, y_p = np.eye(3)[1], np.eye(3)[0]
+    centre = np.array([300.0, 250.0, 0.0])
+    values = [15.0, -40.0, -690.0, 70.0, -20.0, 1200.0]  # N, N, N, mm, mm, N mm
+    plate = PlateSpec(1, np.tile(values, (N_FRAMES * 10, 1)), corners_about(centre, x_p, y_p),
+                      (0.0, 0.0, 0.0), units=("N", "N", "N", "mm", "mm", "Nmm"))
+    p = read_c3d(write_c3d(tmp_path / "t1.c3d", C3DSpec(xyz=body(), names=NAMES,
+                                                        plates=(plate,)))).plates[0]
+    rot = np.column_stack([x_p, y_p, np.cross(x_p, y_p)])  # plate z = -Z
+    np.testing.assert_allclose(p.force[0], rot @ values[:3], atol=1e-4)  # (-40, 15, 690)
+    np.testing.assert_allclose(p.cop[0], (centre + rot @ [70.0, -20.0, 0.0]) / 1000.0,
+                               atol=1e-6)
+    np.testing.assert_allclose(p.free_moment[0], [0.0, 0.0, -1.2], atol=1e-6)

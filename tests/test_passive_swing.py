@@ -77,8 +77,9 @@ def test_thigh_driven_dynamics_is_the_free_leg_under_its_thigh(walk):
     assert checked > 20
 
 
-def test_compiled_step_equals_the_in_memory_one(walk, tmp_path, monkeypatch):
-    """The RK4 sample step with its sensitivities, compiled through the function cache."""
+def test_compiled_step_equals_the_in_memory_one(walk, compiled):
+    """The RK4 sample step with its sensitivities, compiled through the function cache
+    (the module's cache folder: the other fits here load this library)."""
     from predgait.problems.passive_swing_dynamics import step_function
 
     if function_cache.compiler() is None:
@@ -89,19 +90,19 @@ def test_compiled_step_equals_the_in_memory_one(walk, tmp_path, monkeypatch):
     args = (np.array([0.1, -0.9, 1.0, -3.0]), rng.normal(size=(4, 10)),
             np.tile(np.array([0.2, 0.9, 0.1, 1.0, 0.1, 2.0, 3.0, -1.0, 10.0])[:, None], 3),
             np.full(6, 0.3), 0.05)
-    monkeypatch.setenv(function_cache.SWITCH, "off")
-    memory = [np.array(v) for v in step_function(leg, model, 1, 0.01)(*args)]
-    monkeypatch.setenv(function_cache.SWITCH, "on")
-    monkeypatch.setenv(function_cache.FOLDER, str(tmp_path))
-    monkeypatch.setenv(function_cache.WHEN, "now")
-    compiled = step_function(leg, model, 1, 0.01)
-    assert list(tmp_path.glob("swing_step-*.so")), "nothing compiled"
-    for a, b in zip(memory, compiled(*args), strict=True):
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv(function_cache.SWITCH, "off")
+        memory = [np.array(v) for v in step_function(leg, model, 1, 0.01)(*args)]
+    compiled_step = step_function(leg, model, 1, 0.01)
+    folder = Path(os.environ[function_cache.FOLDER])
+    assert list(folder.glob("swing_step-*.so")), "nothing compiled"
+    for a, b in zip(memory, compiled_step(*args), strict=True):
         np.testing.assert_allclose(np.array(b), a, rtol=1e-12, atol=1e-12)
 
 
-def test_exact_motion_gives_the_parameters_back(walk, compiled):
-    """Exact states and accelerations at 100 Hz (no markers, no filter): within 1.5 %."""
+@pytest.fixture(scope="module")
+def exact(walk):
+    """The windows of the exact simulated states and accelerations at 100 Hz."""
     t, q, states, ref, system = walk
     index = np.arange(0, len(t), 5)
     qdd = np.array([system.rhs(t[i], states[i])[5:] for i in index])
@@ -112,13 +113,34 @@ def test_exact_motion_gives_the_parameters_back(walk, compiled):
                               model=ref.model)
     percent, cycle, _ = cycle_phase(t[index], ref.strikes[:-1], where="truth")
     samples = GaitSamples(t[index], percent, cycle, {}, {}, {}, correlation_time=0.01)
-    windows = Windows.from_inverse(inverse, samples, SWING)
+    return ref.model, Windows.from_inverse(inverse, samples, SWING)
+
+
+def test_exact_motion_gives_the_parameters_back(exact, compiled):
+    """Exact states and accelerations at 100 Hz (no markers, no filter): within 1.5 %."""
+    leg, windows = exact
     assert len(windows) == 6 and windows.substeps == 1
     model = build_model(["knee", "ankle"], fit=LINEAR_FIT)
-    fit = fit_swing(ref.model, windows, model, SWING)      # from the literature defaults
+    fit = fit_swing(leg, windows, model, SWING)      # from the literature defaults
     for key, true in passive_walk.TRUTH.items():
         assert abs(fit.values[key] / true - 1) < 0.015, (key, fit.values[key])
     assert max(fit.noise_sd.values()) < np.radians(0.01)
+
+
+def test_a_stop_the_swing_never_reaches_is_not_identifiable(exact, monkeypatch):
+    """The knee flexion stop (137 deg) in the fit as well: reported not identifiable."""
+    monkeypatch.setenv(function_cache.SWITCH, "off")   # one fit: not worth compiling
+    leg, windows = exact
+    model = build_model(["knee", "ankle"], fit={**LINEAR_FIT,
+                                                "knee": ["k", "c", "theta0", "k_upper"]})
+    fit = fit_swing(leg, windows, model, SWING, start=passive_walk.TRUTH)
+    reports = {r.key: r for r in assess(model, fit, bootstrap_swing(windows, model, fit,
+                                                                     repeats=40))[0]}
+    assert reports["knee.k_upper"].status is Status.NOT_IDENTIFIABLE
+    assert reports["knee.k_upper"].interval95 is None
+    assert "bounds" in reports["knee.k_upper"].reasons[0]
+    assert reports["knee.k"].status is Status.IDENTIFIED
+    assert abs(reports["knee.k"].value / passive_walk.TRUTH["knee.k"] - 1) < 0.02
 
 
 def test_known_passive_walk_through_the_real_pipeline(tmp_path, walk, compiled):

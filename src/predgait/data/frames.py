@@ -121,14 +121,20 @@ def up_from_plates(normals: np.ndarray, *, source: str) -> np.ndarray:
 #: horizontal extent (median over frames); a standing or walking body is taller than wide.
 MIN_VERTICAL_SHARE = 0.5
 
+#: Range (m) of the widest extent (median over frames) of a body's markers.
+BODY_EXTENT = (0.05, 5.0)
 
-def check_vertical(xyz: np.ndarray, *, source: str, convention: str) -> None:
-    """Refuse markers whose lab Z does not look vertical (a file with another up axis).
+
+def check_vertical(xyz: np.ndarray, *, source: str, convention: str, unit_field: str = ""
+                   ) -> None:
+    """Refuse markers whose lab Z does not look vertical, or whose size is not a body's.
 
     Args:
-        xyz: (n, m, 3) markers already mapped to the lab frame.
+        xyz: (n, m, 3) markers already mapped to the lab frame, m.
         source: file name for the message.
         convention: what was assumed, e.g. "Z-up (C3D without force plates)".
+        unit_field: the file's length-unit field, named when the size is implausible
+            (e.g. ``POINT:UNITS 'mm'``); no size check when empty.
     """
     if xyz.shape[1] < 3:
         return
@@ -137,6 +143,11 @@ def check_vertical(xyz: np.ndarray, *, source: str, convention: str) -> None:
         extent = finite_median(np.nanmax(xyz, axis=1) - np.nanmin(xyz, axis=1))
     if not np.all(np.isfinite(extent)):
         return
+    low, high = BODY_EXTENT
+    if unit_field and not low <= extent.max() <= high:
+        raise InputError(
+            f"{source}: the markers span {extent.max():.3g} m (median over frames) but a body "
+            f"spans {low:g} to {high:g} m; check the length unit {unit_field}.")
     widest = int(np.argmax(extent[:2]))
     if extent[2] < MIN_VERTICAL_SHARE * extent[widest]:
         raise InputError(

@@ -117,6 +117,7 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
     check_magnitude(xyz, time, "marker", source=str(path), names=names)
     rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
     check_vertical(np.einsum("ij,nmj->nmi", rotation, xyz), source=str(path),
-                   convention=f"axes {FileAxes(axes).value!r} (OpenSim TRC files are Y-up)")
+                   convention=f"axes {FileAxes(axes).value!r} (OpenSim TRC files are Y-up)",
+                   unit_field=f"Units {header['Units']!r} (header line 3)")
     markers = Markers(time=time, names=tuple(names), xyz=xyz, rate=rate, source=str(path))
     return rotate_markers(markers, rotation)

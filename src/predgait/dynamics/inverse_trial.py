@@ -58,6 +58,9 @@ BUNDLED = "bundled:subject01"
 #: Largest median horizontal distance (m) of a contact's COP from the foot's heel-toe
 #: segment for the contact to load that foot.
 NEAR_FOOT = 0.1
+
+#: Fewest marker frames the pipeline analyses (the 5-point differences, the filter).
+MIN_FRAMES = 20
 #: N, default contact threshold: a contact must reach it; it lasts while the force stays
 #: above ``RELEASE_FRACTION`` of it (:func:`predgait.data.resample.contact_frames`).
 THRESHOLD = 10.0
@@ -412,9 +415,12 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     """
     trial, turn = read_trial(options) if loaded is None else loaded
     needed = _needed_markers(options.points)
+    if trial.markers.n_frames < MIN_FRAMES:
+        raise InputError(f"{trial.source}: the trial has {trial.markers.n_frames} frames; "
+                         f"inverse dynamics needs at least {MIN_FRAMES} (a gait cycle).")
     markers = fill_gaps(trial.markers, names=needed, max_gap_frames=options.max_gap_frames,
                         edges="trim")
-    if markers.n_frames < 20:
+    if markers.n_frames < MIN_FRAMES:
         raise InputError(f"{trial.source}: only {markers.n_frames} frames have all of "
                          f"{', '.join(needed)}; check the marker names.")
     cutoff, cutoff_note = marker_cutoff(markers.select(needed), options.cutoff)
