@@ -4,12 +4,19 @@
    the same leg and state, timed interleaved (goal: at most 3x).
 2. 1 s of the driven re-synthesis (bundled subject01, right leg: measured moments and hip
    load, foot prescribed) at h = 1 ms, modified Euler, 10 iterations (10 000 right-hand
-   sides; goal: at most 0.1 s of compute).
+   sides; goal: at most 0.1 s of compute), ``simulate_leg`` three ways in the same run:
+   the Pinocchio engine (solver cache off), the CasADi steps in CasADi's virtual machine
+   and compiled (dynamics/compiled_leg.py, a temporary cache folder). Also the one-time
+   costs: building the ADAM dynamics, loading them from the cache, compiling the steps.
+   No OpenSim set-up does the same work: "peer not available".
 3. The same leg collapsing for 1 s from the collapse start, adaptive at accuracy 1e-5:
-   predgait (SciPy RK45 on the engine's right-hand side) against OpenSim 4.6's Manager
-   (Runge-Kutta-Merson, accuracy 1e-5, same leg built with the OpenSim API, foot welded,
-   in the Python named by OPENSIM_PYTHON: opensim_leg.py), timed in the same run (goal:
-   at most 1x OpenSim's time); "peer not available" when it cannot run.
+   predgait (SciPy RK45 on the engine's right-hand side, the product path; and CasADi's
+   CVODES on the leg's CasADi right-hand side at tolerance 1e-5 and 1e-7, one call from
+   Python, system built in each repeat) against OpenSim 4.6's Manager (Runge-Kutta-Merson,
+   accuracy 1e-5, same leg built with the OpenSim API, foot welded, in the Python named by
+   OPENSIM_PYTHON: opensim_leg.py), timed in the same run (goal: at most 1x OpenSim's
+   time); "peer not available" when it cannot run. Each row gives the end error against
+   Radau at 1e-11.
 
 Run:  python benchmarks/bench_forward.py
 Figures depend on the machine and its load; ratios are only printed between figures
@@ -18,12 +25,19 @@ measured in the same run.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import resource
+import tempfile
+import time
 import timeit
 
 import numpy as np
 import pinocchio as pin
 from timing import NOT_AVAILABLE, Row, leg_segments, print_rows, run_peer_npz, time_call
 
+from predgait import function_cache
+from predgait.dynamics import compiled_leg
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forward import LegSystem, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
@@ -56,19 +70,83 @@ def right_hand_side(model) -> str:
             "(median); goal <= 3x")
 
 
-def resynthesis(repeat: int = 5) -> str:
-    """Item 2: 1 s of the driven re-synthesis, modified Euler h = 1 ms x 10."""
+@contextlib.contextmanager
+def environment(values: dict):
+    """Environment variables set inside the block, restored after."""
+    saved = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+def _seconds(function) -> float:
+    """CPU seconds of ``function()``, this process and its finished children (gcc)."""
+    def cpu():
+        child = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return time.process_time() + child.ru_utime + child.ru_stime
+
+    start = cpu()
+    function()
+    return cpu() - start
+
+
+def resynthesis_rows(repeat: int = 5) -> list[Row]:
+    """Item 2: 1 s of the driven re-synthesis, modified Euler h = 1 ms x 10, three ways."""
     inverse = bundled_inverse("right")
     drivers = LegDrivers.from_inverse(inverse)
     options = IntegratorOptions(method=Method.MODIFIED_EULER, step=1e-3, iterations=10)
     sims = []
-    timing = time_call(lambda: sims.append(simulate_leg(inverse.model, drivers, (0.0, 1.0),
-                                                        options=options)), repeat)
-    sim = sims[-1]
-    return (f"2. driven re-synthesis 1 s, h = 1 ms, modified Euler x10 "
-            f"({sim.n_rhs_evaluations} right-hand sides, {sim.status}): "
-            f"{timing.describe('ms')}; goal <= 100 ms: "
-            f"{'met' if timing.best <= 0.1 else 'NOT met'}")
+
+    def run():
+        sims.append(simulate_leg(inverse.model, drivers, (0.0, 1.0), options=options))
+
+    work = ("2. driven re-synthesis 1 s, h = 1 ms, modified Euler x10 (10 000 right-hand "
+            "sides; goal <= 100 ms)")
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        cache = {function_cache.FOLDER: folder, function_cache.SWITCH: "on",
+                 function_cache.WHEN: "now"}
+        with environment({function_cache.SWITCH: "off"}):
+            pinocchio = time_call(run, repeat, warmup=True)
+        rows.append(Row(f"{work}: Pinocchio engine", pinocchio,
+                        f"simulate_leg, cache off, {sims[-1].status}", None,
+                        "no same-work OpenSim set-up"))
+        reference = sims[-1].q
+        with environment(cache):
+            compiled_leg.leg_dynamics.cache_clear()
+            build = _seconds(lambda: compiled_leg.leg_dynamics(inverse.model))
+            compiled_leg.leg_dynamics.cache_clear()
+            load = _seconds(lambda: compiled_leg.leg_dynamics(inverse.model))
+            compiler, found = function_cache.compiler, function_cache.compiler()
+            function_cache.compiler = lambda: None   # the virtual machine only
+            try:
+                compiled_leg._STEPS.clear()
+                vm = time_call(run, repeat, warmup=True)
+            finally:
+                function_cache.compiler = compiler
+            rows.append(Row(f"{work}: CasADi steps, virtual machine", vm,
+                            f"max |q - Pinocchio's| {np.abs(sims[-1].q - reference).max():.1e}"
+                            f"; one-time per machine: ADAM build {build:.2f} s CPU, later "
+                            f"processes load it from the cache in {load * 1e3:.1f} ms", None,
+                            "no same-work OpenSim set-up"))
+            if found:
+                compiled_leg._STEPS.clear()
+                first = _seconds(run)  # compiles the steps in the foreground, once
+                compiled = time_call(run, repeat)
+                rows.append(Row(f"{work}: CasADi steps, compiled", compiled,
+                                f"max |q - Pinocchio's| "
+                                f"{np.abs(sims[-1].q - reference).max():.1e}; first run, "
+                                f"compiling with gcc -O1, {first:.2f} s CPU with gcc's (in "
+                                "the background by default)", None, "no same-work OpenSim set-up"))
+        compiled_leg.leg_dynamics.cache_clear()
+        compiled_leg._STEPS.clear()
+    return rows
 
 
 def opensim_manager(model, repeat: int = 3) -> dict:
@@ -77,8 +155,20 @@ def opensim_manager(model, repeat: int = 3) -> dict:
                         repeat=repeat, **leg_segments(model))
 
 
+def cvodes(model, drivers, tolerance: float):
+    """CasADi's CVODES over 1 s from X0 on the leg's CasADi right-hand side; returns xf."""
+    import casadi as cs
+
+    fast = compiled_leg.fast_leg(LegSystem(model, drivers))
+    x = cs.SX.sym("x", 4)
+    ode = fast.rhs(x, fast.inputs(np.zeros(1))[0])[0]   # time-independent drivers
+    integrator = cs.integrator("leg", "cvodes", {"x": x, "ode": ode}, 0.0, 1.0,
+                               {"abstol": tolerance, "reltol": tolerance})
+    return np.asarray(integrator(x0=X0)["xf"]).ravel()
+
+
 def rows(repeat: int) -> list[Row]:
-    """Item 3: leg forward 1 s, adaptive 1e-5, SciPy RK45 against the Manager (run_all.py)."""
+    """Items 2 and 3 (for run_all.py)."""
     model = load_model("leg")
     drivers = LegDrivers.still()
     reference = simulate_leg(model, drivers, (0.0, 1.0), X0, options=IntegratorOptions(
@@ -94,16 +184,30 @@ def rows(repeat: int) -> list[Row]:
         peer_does += f" ({NOT_AVAILABLE}: {peer['error']})"
     else:
         peer_does += f", end error {np.abs(peer['xf'][:2] - reference).max():.1e} rad"
-    return [Row("3. leg forward 1 s from the thesis collapse start, adaptive 1e-5 "
-                "(goal: OpenSim/predgait >= 1)", ours,
-                f"SciPy RK45 on the engine's right-hand side, {sim.n_rhs_evaluations} rhs, "
-                f"end error {error:.1e} rad", peer.get("timing"), peer_does)]
+    work = "3. leg forward 1 s from the thesis collapse start, adaptive"
+    out = [Row(f"{work} 1e-5 (goal: OpenSim/predgait >= 1)", ours,
+               f"SciPy RK45 on the engine's right-hand side (simulate_leg), "
+               f"{sim.n_rhs_evaluations} rhs, end error {error:.1e} rad", peer.get("timing"),
+               peer_does)]
+    with tempfile.TemporaryDirectory() as folder, environment(
+            {function_cache.FOLDER: folder, function_cache.SWITCH: "on"}):
+        compiled_leg.leg_dynamics(model)   # once per machine (the model build, not timed)
+        for tolerance in (1e-5, 1e-7):
+            timing = time_call(lambda tolerance=tolerance: cvodes(model, drivers, tolerance),
+                               repeat)
+            end = np.abs(cvodes(model, drivers, tolerance)[:2] - reference).max()
+            out.append(Row(f"{work} {tolerance:g} (CVODES; not reachable from "
+                           "`predgait simulate`)", timing,
+                           f"CasADi CVODES on the leg's CasADi right-hand side, tolerance "
+                           f"{tolerance:g}, end error {end:.1e} rad", peer.get("timing"),
+                           peer_does + " (the same peer run as the row above)"))
+        compiled_leg.leg_dynamics.cache_clear()
+    return [*resynthesis_rows(repeat), *out]
 
 
 def main() -> None:
     model = load_model("leg")
     print(right_hand_side(model))
-    print(resynthesis())
     print_rows(rows(5))
 
 

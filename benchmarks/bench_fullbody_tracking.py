@@ -6,8 +6,9 @@ once per model, reused), with nodes and iterations; then, for the cycle, the LQR
 (linearisation at every node + Riccati) and the two forward re-simulations on the
 contact springs (RK4). Goal of the issue: a whole cycle in under 60 s on 2 cores.
 
-Solvers: only CasADi/Ipopt was measured. Crocoddyl (DDP) was not installed nor measured in
-this work: no same-work comparison is printed. Peer (OpenSim Moco 3D tracking): not run,
+Solver peer: Crocoddyl FDDP on the same stance (crocoddyl_stance.py, in fresh processes of
+CROCODDYL_PYTHON or this Python), its table printed after the rows; "crocoddyl not
+installed" (or why it cannot run) otherwise. Peer (OpenSim Moco 3D tracking): not run,
 "peer not available".
 
 Run:  python benchmarks/bench_fullbody_tracking.py [--repeat N]
@@ -68,8 +69,11 @@ def _solve_timings(spec, drive, data, repeat: int) -> tuple[Timing, Timing, obje
     return time_call(cold, repeat), time_call(warm, repeat), solutions[-1]
 
 
-def rows(repeat: int = 1) -> list[Row]:
-    """Stance and cycle, cold and warm; the cycle's feedback (for run_all.py)."""
+def rows(repeat: int = 1, notes: list[str] | None = None) -> list[Row]:
+    """Stance and cycle, cold and warm; the cycle's feedback (for run_all.py).
+
+    ``notes``, when given, receives the stance's Crocoddyl comparison lines.
+    """
     out = []
     for name, window in (("one stance 0.633-0.9 s", STANCE), ("one gait cycle", None)):
         spec, drive, data = _setup(window)
@@ -80,6 +84,10 @@ def rows(repeat: int = 1) -> list[Row]:
                        does, None, "OpenSim Moco: " + NOT_AVAILABLE, unit="s"))
         out.append(Row(f"whole-body tracking, {name}, warm (symbolic functions cached)", warm,
                        does, None, "OpenSim Moco: " + NOT_AVAILABLE, unit="s"))
+        if window == STANCE and notes is not None:
+            from crocoddyl_stance import comparison
+
+            notes += comparison(drive, data, solution, cold, warm, repeat)
     from predgait.workflows.fullbody_tracking_run import hold_with_feedback
 
     runs = []
@@ -100,5 +108,6 @@ def rows(repeat: int = 1) -> list[Row]:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=1)
-    print("Crocoddyl: not measured (not installed in this work); CasADi/Ipopt only.")
-    print_rows(rows(parser.parse_args().repeat))
+    notes: list[str] = []
+    print_rows(rows(parser.parse_args().repeat, notes))
+    print("\n".join(notes))

@@ -89,7 +89,8 @@ def rows(repeat: int, *, peer_minutes: float = 10.0, peer_repeat: int = 1) -> li
     other = NodeData.from_drivers(drivers, -0.1, 0.9, grid)
     out = []
     with tempfile.TemporaryDirectory() as folder:
-        cache = {solver_cache.FOLDER: folder, solver_cache.SWITCH: "on"}
+        cache = {solver_cache.FOLDER: folder, solver_cache.SWITCH: "on",
+                 "PREDGAIT_COMPILE": "now"}  # compiled in the foreground: timed here
         for name, function, problem in (("knee_fit", fit_knee, "knee_fit.toml"),
                                         ("torque_correction", correct_torques,
                                          "torque_correction.toml")):

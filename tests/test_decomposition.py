@@ -21,6 +21,7 @@ from predgait.problems.decomposition import Settings, bootstrap, fit_decompositi
 from predgait.problems.gait_samples import GaitSamples, cycle_phase
 from predgait.problems.identifiability import Status, assess
 from predgait.problems.passive_model import build_model
+from predgait.workflows.solve import deviation_wording
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -233,6 +234,25 @@ def test_knee_fit_says_what_it_is_and_prints_no_meaningless_interval(tmp_path):
             assert f"{name}: 95 % interval not meaningful" in run.stdout
         else:
             assert isinstance(half, float)
+    assert "never" not in run.stdout and "within it from 0.000" not in run.stdout
+    for name, result in solution["resimulation_check"].items():
+        assert f"re-simulation {name}: {deviation_wording(result, 2.0)}" in run.stdout
+
+
+def test_resimulation_wording_says_what_happened():
+    """Issue 19: "deviation > 2 deg at never, within it from 0.000 s" read as nonsense."""
+    def run(left, back, end=1.2, status="completed"):
+        return {"time_to_threshold_s": left, "within_threshold_from_s": back, "end_s": end,
+                "status": status}
+
+    assert deviation_wording(run(None, 0.0), 2.0) == \
+        "stays within 2 deg for the whole window (to 1.200 s)"
+    assert deviation_wording(run(0.41, None), 2.0) == \
+        "leaves 2 deg at 0.410 s and is not back within it by the end (1.200 s)"
+    assert deviation_wording(run(0.41, 0.95), 5.0) == \
+        "leaves 5 deg at 0.410 s, back within it from 0.950 s (end 1.200 s)"
+    assert deviation_wording(run(None, None, 0.3, "diverged"), 2.0) == \
+        "stays within 2 deg until the run stops at 0.300 s (diverged)"
 
 
 def test_known_passive_walk_through_the_real_pipeline(tmp_path):

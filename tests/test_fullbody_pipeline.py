@@ -31,6 +31,16 @@ def test_subject01_whole_body(tmp_path, assert_tidy_result):
                                                                  "L.Shank", "R.Midfoot"))]
     assert max(info["ik_marker_rms_m"][m] for m in legs) < 0.015
     assert info["ik_rms_m"]["mean"] < 0.06
+    # The mean is the arms' (T-pose static trial); the pelvis and legs fit to under a
+    # centimetre. Their region RMS is the RMS over the pelvis, thigh, shank and foot markers.
+    per_marker = info["ik_marker_rms_m"]
+    lower = [m for m in per_marker if any(part in m for part in (
+        "ASIS", "Sacral", "Thigh", "Shank", "Heel", "Toe", "Midfoot"))]
+    region = info["ik_rms_by_region_m"]
+    assert len(lower) == 23
+    assert region["pelvis_and_legs"] == pytest.approx(
+        np.sqrt(np.mean([per_marker[m] ** 2 for m in lower])), rel=1e-6)
+    assert region["pelvis_and_legs"] < 0.01 < 0.05 < region["trunk_head_and_arms"]
     weight = 72.6 * 9.81
     assert info["pelvis_residual_force_N"]["rms"] < 0.15 * weight
     peaks = info["peak_joint_moments_Nm"]

@@ -12,13 +12,12 @@ import pytest
 
 from predgait.cli import build_parser
 from predgait.cli.inverse import options_from_args
+from predgait.data.cutoffs import CutoffRule, parse_cutoff
 from predgait.data.resample import contact_frames, threshold_plate
 from predgait.data.trial import ForcePlate
 from predgait.dynamics.inverse_trial import (
     THRESHOLD,
-    CutoffRule,
     bundled_options,
-    parse_cutoff,
     run_inverse,
     with_options,
 )

@@ -1,10 +1,14 @@
 """Compiled solver cache (problems.solver_cache): the compiled MX solver finds what the
-in-memory SX solver finds, a second build loads the library instead of compiling, the key
-follows the problem's structure, and a failing compiler falls back to the in-memory solver."""
+in-memory SX solver finds, a second build loads the library instead of compiling, the
+first run solves in memory while the compiler runs in the background, the key follows the
+problem's structure, and a failing compiler falls back to the in-memory solver."""
+
+import time
 
 import numpy as np
 import pytest
 
+from predgait import function_cache
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.inverse_trial import bundled_inverse
 from predgait.problems import fitting, solver_cache
@@ -22,8 +26,10 @@ def knee_nodes():
 
 @pytest.fixture
 def cache(tmp_path, monkeypatch):
-    """The cache on, in a fresh folder; the problems' in-process memo emptied around."""
+    """The cache on, in a fresh folder, compiling in the foreground; the problems'
+    in-process memo emptied around."""
     monkeypatch.setenv(solver_cache.SWITCH, "on")
+    monkeypatch.setenv(function_cache.WHEN, "now")
     monkeypatch.setenv(solver_cache.FOLDER, str(tmp_path / "solvers"))
     fitting._knee_problem.cache_clear()
     yield tmp_path / "solvers"
@@ -46,7 +52,7 @@ def test_compiled_solver_equals_the_in_memory_one_and_is_reused(knee_nodes, cach
     def no_compiling(*args):
         raise AssertionError("compiled again although the library is cached")
 
-    monkeypatch.setattr(solver_cache, "_compile", no_compiling)
+    monkeypatch.setattr(function_cache, "compile_into", no_compiling)
     again = fit(model, nodes)
     assert again.parameters == compiled.parameters
     monkeypatch.setenv(solver_cache.SWITCH, "off")
@@ -79,7 +85,24 @@ def test_a_failing_compiler_leaves_the_in_memory_solver(knee_nodes, cache, monke
     result = fit(model, nodes)
     assert result.solved.success
     assert not list(cache.glob("*.so")) and not list(cache.glob(".build-*"))
-    assert "not cached" in caplog.text
+    assert not list(cache.glob(".pending-*"))
+    assert "not compiled" in caplog.text
+
+
+@needs_compiler
+def test_first_run_solves_in_memory_while_compiling_in_the_background(knee_nodes, cache,
+                                                                       monkeypatch):
+    model, nodes = knee_nodes
+    monkeypatch.setenv(function_cache.WHEN, "background")
+    first = fit(model, nodes)
+    deadline = time.time() + 300
+    while list(cache.glob(".pending-*")) and time.time() < deadline:
+        time.sleep(1.0)
+    libraries = list(cache.glob("*.so"))
+    assert len(libraries) == 1 and not list(cache.glob(".build-*"))
+    loaded = fit(model, nodes)
+    for name, value in first.parameters.items():
+        assert loaded.parameters[name] == pytest.approx(value, rel=1e-5, abs=1e-7), name
 
 
 def test_off_switch_and_folder(monkeypatch, tmp_path):

@@ -97,7 +97,7 @@ OVERRIDES = {"grf": ("grf", "trial"), "static": ("static", "trial"), "mass": ("m
 
 def _flag_options(args: argparse.Namespace) -> dict:
     """InverseOptions fields given on the command line (parsed), by field name."""
-    from predgait.dynamics.inverse_trial import CutoffRule, parse_cutoff
+    from predgait.data.cutoffs import CutoffRule, parse_cutoff
 
     given = {k: getattr(args, k) for k in OVERRIDES if getattr(args, k) is not None}
     if "cutoff" in given:
@@ -181,7 +181,7 @@ def run_fullbody(args: argparse.Namespace) -> int:
     if args.mass is None or args.height is None:
         raise InputError("--model fullbody needs --mass (kg) and --height (m), on the command "
                          "line or in a problem file's [trial] table.")
-    from predgait.dynamics.inverse_trial import parse_cutoff
+    from predgait.data.cutoffs import parse_cutoff
 
     if args.limit_margin is not None and not 0 <= args.limit_margin <= 180:
         raise InputError(f"--limit-margin {args.limit_margin:g} deg is outside 0..180 deg.")

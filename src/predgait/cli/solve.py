@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import importlib
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from predgait.cli import add_output_options
@@ -51,29 +55,78 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.set_defaults(run=run)
 
 
+@dataclass(frozen=True)
+class _Workflow:
+    """A solve kind run by its workflow module's ``parse``, ``run`` and ``summary_lines``."""
+
+    module: str
+    parse: str
+    run: str
+    writes: str
+    exit_code: Callable[[dict], int] = lambda result: 0
+
+
+_WORKFLOWS = {
+    "passive_decomposition": _Workflow(
+        "predgait.workflows.decomposition", "parse_decomposition", "run_decomposition",
+        "solution.json, passive_moments.sto, active_passive.png"),
+    "passive_shooting": _Workflow(
+        "predgait.workflows.shooting", "parse_shooting", "run_shooting",
+        "solution.json, passive_moments.sto, active_passive.png"),
+    "torque_feedback": _Workflow(
+        "predgait.workflows.torque_feedback", "parse_feedback", "run_feedback",
+        "solution.json, corrected_moments.sto, feedback_gains.sto, torque_feedback.png",
+        exit_code=lambda result: 0 if result["holds_within_threshold"] else 3),
+    "predict_gait7": _Workflow(
+        "predgait.workflows.predict", "parse_predict", "run_predict",
+        "solution.json, states.sto, torques.sto, grf.sto, plots"),
+    "fullbody_tracking": _Workflow(
+        "predgait.workflows.fullbody_tracking_run", "parse_tracking", "run_tracking",
+        "kinematics3d.sto, corrected_moments3d.sto, contact_forces.sto, feedback_gains.npz, "
+        "resimulated_kinematics3d.sto, summary.json, tracking.png"),
+}
+
+
 def run(args: argparse.Namespace) -> int:
     """Solve, check and write."""
-    import sys
-
-    from predgait.errors import SolveFailed
     from predgait.problemfile import load_problem
     from predgait.workflows.output import check_out
-    from predgait.workflows.solve import parse_solve, run_solve
 
     check_out(args.out, force=args.force, inputs=[args.problem])  # before any computation
     table = load_problem(args.problem, args.set)
-    if table.data.get("kind") == "passive_decomposition":   # no collocation, lighter imports
-        return _run_decomposition(table, args)
-    if table.data.get("kind") == "torque_feedback":
-        return _run_torque_feedback(table, args)
-    if table.data.get("kind") == "predict_gait7":
-        return _run_predict(table, args)
-    if table.data.get("kind") == "passive_shooting":
-        return _run_shooting(table, args)
-    if table.data.get("kind") == "fullbody_tracking":
-        from predgait.workflows.fullbody_tracking_run import run_cli
+    workflow = _WORKFLOWS.get(table.data.get("kind"))
+    if workflow is not None:           # imports only what that kind needs
+        return _run_workflow(workflow, table, args)
+    return _run_collocation(table, args)
 
-        return run_cli(table, args)
+
+def _run_workflow(workflow: _Workflow, table, args) -> int:
+    """Parse, run, print the workflow's summary; a failed solve exits 3 and writes nothing."""
+    from predgait.errors import SolveFailed
+    from predgait.workflows.output import check_out
+
+    module = importlib.import_module(workflow.module)
+    spec = getattr(module, workflow.parse)(table)
+    trial = getattr(spec, "trial", spec)
+    inverse_problem = getattr(trial, "inverse_problem", None)
+    if inverse_problem is not None:   # --out must not be where an input lives
+        check_out(args.out, force=args.force, inputs=[args.problem, inverse_problem])
+    try:
+        result = getattr(module, workflow.run)(spec, args.out, force=args.force)
+    except SolveFailed as exc:
+        print(f"predgait: solve failed: {exc}", file=sys.stderr)
+        return 3
+    for line in module.summary_lines(result):
+        print(line)
+    print(f"  wrote {args.out}/ ({workflow.writes})")
+    return workflow.exit_code(result)
+
+
+def _run_collocation(table, args) -> int:
+    """``knee_fit``, ``torque_correction``, ``feedback_gains``: collocation, re-simulation."""
+    from predgait.errors import SolveFailed
+    from predgait.workflows.output import check_out
+    from predgait.workflows.solve import deviation_wording, parse_solve, run_solve
 
     spec = parse_solve(table)
     check_out(args.out, force=args.force, inputs=[args.problem, spec.inverse_problem])
@@ -102,83 +155,5 @@ def run(args: argparse.Namespace) -> int:
     print("  optimiser tracking RMS: " + ", ".join(
         f"{k} {v:.2f} deg" for k, v in solution["optimiser_tracking_rms_deg"].items()))
     for name, result in check.items():
-        when = result["time_to_threshold_s"]
-        settled = result["within_threshold_from_s"]
-        print(f"  re-simulation {name}: deviation > {spec.threshold_deg:g} deg at "
-              f"{'never' if when is None else f'{when:.3f} s'}, within it from "
-              f"{'never' if settled is None else f'{settled:.3f} s'} (end {result['end_s']:.3f} s)")
-    return 0
-
-
-def _run_decomposition(table, args) -> int:
-    import sys
-
-    from predgait.errors import SolveFailed
-    from predgait.workflows.decomposition import (
-        parse_decomposition,
-        run_decomposition,
-        summary_lines,
-    )
-
-    spec = parse_decomposition(table)
-    try:
-        solution = run_decomposition(spec, args.out, force=args.force)
-    except SolveFailed as exc:
-        print(f"predgait: solve failed: {exc}", file=sys.stderr)
-        return 3
-    for line in summary_lines(solution):
-        print(line)
-    print(f"  wrote {args.out}/ (solution.json, passive_moments.sto, active_passive.png)")
-    return 0
-
-
-def _run_torque_feedback(table, args) -> int:
-    from predgait.workflows.output import check_out
-    from predgait.workflows.torque_feedback import parse_feedback, run_feedback, summary_lines
-
-    spec = parse_feedback(table)
-    check_out(args.out, force=args.force, inputs=[args.problem, spec.trial.inverse_problem])
-    solution = run_feedback(spec, args.out, force=args.force)
-    for line in summary_lines(solution):
-        print(line)
-    print(f"  wrote {args.out}/ (solution.json, corrected_moments.sto, feedback_gains.sto, "
-          "torque_feedback.png)")
-    return 0 if solution["holds_within_threshold"] else 3
-
-
-def _run_predict(table, args) -> int:
-    import sys
-
-    from predgait.errors import SolveFailed
-    from predgait.workflows.predict import parse_predict, run_predict, summary_lines
-
-    spec = parse_predict(table)
-    try:
-        summary = run_predict(spec, args.out, force=args.force)
-    except SolveFailed as exc:
-        print(f"predgait: solve failed: {exc}", file=sys.stderr)
-        return 3
-    for line in summary_lines(summary):
-        print(line)
-    print(f"  wrote {args.out}/ (solution.json, states.sto, torques.sto, grf.sto, plots)")
-    return 0
-
-
-def _run_shooting(table, args) -> int:
-    import sys
-
-    from predgait.errors import SolveFailed
-    from predgait.workflows.output import check_out
-    from predgait.workflows.shooting import parse_shooting, run_shooting, summary_lines
-
-    spec = parse_shooting(table)
-    check_out(args.out, force=args.force, inputs=[args.problem, spec.trial.inverse_problem])
-    try:
-        solution = run_shooting(spec, args.out, force=args.force)
-    except SolveFailed as exc:
-        print(f"predgait: solve failed: {exc}", file=sys.stderr)
-        return 3
-    for line in summary_lines(solution):
-        print(line)
-    print(f"  wrote {args.out}/ (solution.json, passive_moments.sto, active_passive.png)")
+        print(f"  re-simulation {name}: {deviation_wording(result, spec.threshold_deg)}")
     return 0

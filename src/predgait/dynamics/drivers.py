@@ -53,6 +53,7 @@ class SampledHistory:
         self._time, self._values = time, values
         self._last_t = None
         self._last = None
+        self._sampled = None  # (times, rows) of the latest sample()
 
     def __call__(self, t: float) -> np.ndarray:
         """Interpolated (k,) row at t (s), held at the end values outside the range."""
@@ -65,6 +66,18 @@ class SampledHistory:
             row = self._spline(tc)
         self._last_t, self._last = t, row
         return row
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """(m, k) rows at the (m,) ``times`` at once (as calling at each; the last kept)."""
+        if self._sampled is not None and self._sampled[0] is times:
+            return self._sampled[1]
+        clipped = np.clip(np.asarray(times, dtype=float), self.t0, self.t1)
+        if self._spline is None:
+            rows = np.column_stack([np.interp(clipped, self._time, c) for c in self._values.T])
+        else:
+            rows = self._spline.values(clipped)
+        self._sampled = (times, rows)
+        return rows
 
     def derivative(self, order: int = 1) -> Callable[[float], np.ndarray]:
         """Time derivative of the spline, t -> (k,) (zero outside the range)."""
@@ -81,8 +94,30 @@ class SampledHistory:
         return evaluate
 
 
+class _Columns:
+    """Some columns of a history: t -> (k,); ``sample(times)`` -> (m, k)."""
+
+    def __init__(self, history: SampledHistory, columns: slice):
+        self.history, self.columns = history, columns
+
+    def __call__(self, t: float) -> np.ndarray:
+        return self.history(t)[self.columns]
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        return self.history.sample(times)[:, self.columns]
+
+
 def _columns(history: SampledHistory, columns: slice) -> TimeFunction:
-    return lambda t: history(t)[columns]
+    return _Columns(history, columns)
+
+
+def sample(function: TimeFunction, times: np.ndarray) -> np.ndarray:
+    """(m, k) values of a time function at the (m,) ``times``: at once when it can."""
+    if hasattr(function, "sample"):
+        return function.sample(times)
+    if isinstance(function, Constant):
+        return np.broadcast_to(function.value, (len(times), function.value.size))
+    return np.array([function(t) for t in times], dtype=float).reshape(len(times), -1)
 
 
 class Constant:

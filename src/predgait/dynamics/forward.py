@@ -137,6 +137,21 @@ class LegSystem(PartitionedSystem):
         self.hip_frame = model.frame_id("hip_center")
         self.heel_frame = model.frame_id("heel")
 
+    def fast_path(self, options: IntegratorOptions):
+        """The CasADi evaluation of fixed-step runs (:mod:`.compiled_leg`), or None.
+
+        None with the cache off (then CasADi is not even imported).
+        """
+        from predgait import function_cache
+
+        if not function_cache.enabled():
+            return None
+        if not hasattr(self, "_fast"):
+            from predgait.dynamics.compiled_leg import fast_leg
+
+            self._fast = fast_leg(self)
+        return self._fast
+
     @staticmethod
     def _motion_function(drivers: LegDrivers, joints: list[int]):
         last = [None, None]  # (t, q v a stacked) of the latest call: the correctors of a

@@ -36,6 +36,8 @@ from predgait.dynamics.roots import brentq
 from predgait.errors import InputError, SimulationDiverged
 
 Rhs = Callable[[float, np.ndarray], np.ndarray]
+#: (grid (n+1,), x0 (nx,)) -> (X (n+1, nx), F (n+1, nx)): a whole fixed-step run at once.
+Stepper = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
 class Method(enum.Enum):
@@ -227,7 +229,8 @@ def integrate(rhs: Rhs, t_span: tuple[float, float], x0, *,
               options: IntegratorOptions | None = None, t_eval=None,
               events: Sequence[Event] = (), progress: bool = False,
               divergence_limit: float = 1e6,
-              state_names: Sequence[str] | None = None) -> Integration:
+              state_names: Sequence[str] | None = None,
+              stepper: Stepper | None = None) -> Integration:
     """Integrate x' = rhs(t, x) from ``t_span[0]`` to ``t_span[1]``.
 
     Fixed-step methods return every step (a shorter last step ends exactly at t_end);
@@ -248,6 +251,11 @@ def integrate(rhs: Rhs, t_span: tuple[float, float], x0, *,
         progress: Show a tqdm progress bar (hidden when stderr is not a terminal).
         divergence_limit: A state with NaN/Inf or |x_i| above this stops the run.
         state_names: Optional (nx,) names used in messages.
+        stepper: Optional ``(grid, x0) -> (X, F)`` that computes a fixed-step run of
+            ``rhs`` with ``options`` on the step grid at once (every row X_i and
+            F_i = rhs(t_i, X_i)), e.g. compiled (:mod:`predgait.dynamics.compiled_leg`);
+            divergence, events and output are then checked on its rows as they are here
+            after each step. Ignored by adaptive methods.
 
     Returns:
         The :class:`Integration`.
@@ -275,7 +283,7 @@ def integrate(rhs: Rhs, t_span: tuple[float, float], x0, *,
     events = tuple(events)
     if not all(isinstance(event, Event) for event in events):
         raise InputError("events must be Event instances.")
-    run = _Run(rhs, options, names, float(divergence_limit), t_eval)
+    run = _Run(rhs, options, names, float(divergence_limit), t_eval, stepper)
     bar = _progress_bar(progress, options, t0, t1)
     try:
         if options.method.fixed_step:
@@ -293,6 +301,7 @@ class _Run:
     names: tuple[str, ...] | None
     limit: float
     t_eval: np.ndarray | None
+    stepper: Stepper | None = None
 
     def name(self, index: int) -> str:
         return f"{self.names[index]!r} (index {index})" if self.names else f"index {index}"
@@ -362,6 +371,8 @@ def _fixed_step(run, t0, t1, x0, events, bar):
         1 if opts.method is Method.MODIFIED_EULER and opts.iterations > 1 else 0)
     correctors = range(opts.iterations - 1)
     per_step = 4 if kind == 2 else (opts.iterations if kind == 1 else 1)
+    if run.stepper is not None:
+        return _stepped(run, grid, x0, events, bar, per_step)
     f = np.array(rhs(t0, x0), dtype=float)
     if f.shape != x0.shape:
         raise ValueError(f"rhs returned shape {f.shape}, expected {x0.shape}.")
@@ -415,6 +426,41 @@ def _fixed_step(run, t0, t1, x0, events, bar):
         if bar is not None and (i % stride == 0 or i == n - 1):
             bar.n = i + 1
             bar.refresh()
+    t_out, x_out = _output(grid, X, F, run.t_eval)
+    return run.result(t_out, x_out, Status.COMPLETED, 1 + n * per_step,
+                      f"completed {n} steps to t = {t1:g} s")
+
+
+def _stepped(run, grid, x0, events, bar, per_step):
+    """:func:`_fixed_step` on the rows of ``run.stepper``: the same checks, in order."""
+    X, F = run.stepper(grid, x0)
+    n, t1 = len(grid) - 1, float(grid[-1])
+    bad = ~np.all(np.isfinite(X), axis=1) | np.any(np.abs(X) > run.limit, axis=1)
+    first_bad = int(np.argmax(bad)) if bad.any() else n + 1
+    g_prev = [event.function(grid[0], x0) for event in events]
+    times = grid.tolist()
+    for i in range(min(n, first_bad - 1) if events else 0):
+        ta, tn = times[i], times[i + 1]
+
+        def dense(s, i=i, ta=ta, tn=tn):
+            return _hermite(ta, tn, X[i], F[i], X[i + 1], F[i + 1], s)
+
+        hit = _event_hit(events, g_prev, ta, tn, X[i + 1], dense)
+        if hit is not None:
+            name, t_ev = hit
+            t_out, x_out = _output(grid[: i + 2], X[: i + 2], F[: i + 2], run.t_eval,
+                                   end=t_ev, x_end=dense(t_ev))
+            return run.result(t_out, x_out, Status.EVENT, 1 + (i + 1) * per_step,
+                              f"event {name!r} at t = {t_ev:.6g} s", name, t_ev)
+    if first_bad <= n:
+        i = first_bad - 1
+        t_out, x_out = _output(grid[: i + 1], X[: i + 1], F[: i + 1], run.t_eval,
+                               end=times[i], x_end=X[i])
+        run.diverged(t_out, x_out, times[i + 1], *_offender(X[i + 1], run.limit),
+                     i * per_step + per_step)
+    if bar is not None:
+        bar.n = n
+        bar.refresh()
     t_out, x_out = _output(grid, X, F, run.t_eval)
     return run.result(t_out, x_out, Status.COMPLETED, 1 + n * per_step,
                       f"completed {n} steps to t = {t1:g} s")

@@ -14,7 +14,6 @@ import functools
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
@@ -33,9 +32,9 @@ from predgait.data import (
     read_markers_csv,
     read_trc,
     resample_plate,
-    residual_analysis,
 )
 from predgait.data.bundled import bundled_path, read_winter_table, subject_info
+from predgait.data.cutoffs import Cutoff, CutoffRule, marker_cutoff, plate_cutoff
 from predgait.data.events import Events
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers, rotate_trial
 from predgait.data.resample import RELEASE_FRACTION, hold_nearest
@@ -64,41 +63,7 @@ NEAR_FOOT = 0.1
 THRESHOLD = 10.0
 #: A run whose IK flags more than this fraction of the frames is a failed run (exit 3).
 MOST_FRAMES = 0.5
-#: Candidate cut-offs (Hz) of ``--cutoff auto`` stop here (or at 0.4 x the frame rate).
-AUTO_CUTOFF_MAX = 25.0
 
-
-class CutoffRule(StrEnum):
-    """Cut-offs that are not a number of Hz."""
-
-    AUTO = "auto"          # markers: Winter's residual analysis (Winter 2009, 3.4.4.4)
-    MARKERS = "markers"    # ground reaction: the markers' cut-off (None when they are unfiltered)
-
-
-#: A low-pass setting: Hz, a rule, or None for no filtering.
-Cutoff = float | CutoffRule | None
-
-
-def parse_cutoff(value, *, field: str, rules: tuple[CutoffRule, ...] = ()) -> Cutoff:
-    """A cut-off from the CLI or TOML: Hz; 0, ``false`` or ``off`` = unfiltered; a rule.
-
-    Raises:
-        InputError: naming ``field`` when the value is none of these.
-    """
-    if value is False or (isinstance(value, str) and value.strip().lower() in ("off", "none")):
-        return None
-    if isinstance(value, str) and value.strip().lower() in [str(r) for r in rules]:
-        return CutoffRule(value.strip().lower())
-    try:
-        hz = float(value)
-    except (TypeError, ValueError):
-        hz = float("nan")
-    if hz == 0:
-        return None
-    if not np.isfinite(hz) or hz < 0 or isinstance(value, bool):
-        words = ", ".join(["a number of Hz", "0 (unfiltered)", *(f"'{r}'" for r in rules)])
-        raise InputError(f"{field}: {value!r} is not a cut-off; give {words}.")
-    return hz
 
 
 @dataclass(frozen=True)
@@ -409,35 +374,6 @@ def _kinematic_events(time: np.ndarray, points: Mapping[str, np.ndarray], side: 
         return events_from_kinematics(markers, side, heel="heel", toe="toe", pelvis=["hip"])
     except InputError:
         return Events(side=side, heel_strikes=np.array([]), toe_offs=np.array([]))
-
-
-def marker_cutoff(markers: Markers, cutoff: Cutoff) -> tuple[float | None, str]:
-    """The markers' cut-off in Hz (None: unfiltered) and how it was chosen."""
-    if cutoff is None:
-        return None, "unfiltered"
-    if cutoff == CutoffRule.AUTO:
-        top = min(AUTO_CUTOFF_MAX, 0.4 * markers.rate)
-        analysis = residual_analysis(markers.xyz, markers.rate,
-                                     cutoffs=np.arange(0.5, top + 1e-9, 0.5))
-        return analysis.chosen, (f"residual analysis (Winter 2009, 3.4.4.4): "
-                                 f"{analysis.chosen:.2f} Hz")
-    if not 0.5 <= cutoff < 0.5 * markers.rate:
-        raise InputError(f"--cutoff {cutoff:g} Hz must lie in 0.5..{0.5 * markers.rate:g} Hz "
-                         f"(below the Nyquist frequency of {markers.rate:g} Hz markers); "
-                         "give 0 for unfiltered markers.")
-    return float(cutoff), f"{float(cutoff):g} Hz"
-
-
-def plate_cutoff(plates: tuple[ForcePlate, ...], grf_cutoff: Cutoff, markers_hz: float | None
-                 ) -> float | None:
-    """The ground reactions' cut-off in Hz (None: unfiltered)."""
-    hz = markers_hz if grf_cutoff == CutoffRule.MARKERS else grf_cutoff
-    for plate in plates:
-        if hz is not None and not 0.5 <= hz < 0.5 * plate.rate:
-            raise InputError(f"--grf-cutoff {hz:g} Hz must lie in 0.5..{0.5 * plate.rate:g} Hz "
-                             f"(below the Nyquist frequency of the {plate.rate:g} Hz plate "
-                             f"'{plate.name}'); give 0 for unfiltered forces.")
-    return hz
 
 
 def flagged_outputs(ik_flagged: np.ndarray, *, stencil: int = 2) -> np.ndarray:

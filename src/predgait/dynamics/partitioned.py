@@ -303,6 +303,16 @@ class PartitionedSystem:
         full[self.free] = a_free
         return a_free, self.reaction(t, q, v, full, tau)
 
+    def fast_path(self, options: IntegratorOptions):
+        """A faster equal evaluation of fixed-step runs, or None (here: None).
+
+        Configurations may return an object with ``trajectory(options) -> stepper`` (see
+        :func:`~predgait.dynamics.integrators.integrate`) and ``recover(t, x) -> (q, v, a,
+        reaction)`` (the rows :func:`simulate_partitioned` would compute), e.g. the leg's
+        :mod:`~predgait.dynamics.compiled_leg`.
+        """
+        return None
+
     def configuration_rate(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Rate of q_f (d q_f / dt) from the full q, v."""
         if not self.root_q:
@@ -383,6 +393,21 @@ class PartitionedSystem:
         return out
 
 
+def _recover(system: PartitionedSystem, times: np.ndarray, states: np.ndarray):
+    """(q, v, a, reaction) at every output row (a row with NaN: its motion only)."""
+    n, pm = len(times), system.pm
+    q, v, a = np.zeros((n, pm.nq)), np.zeros((n, pm.nv)), np.zeros((n, pm.nv))
+    reaction = np.zeros((n, system.pres.size))
+    for k, (t, x) in enumerate(zip(times, states, strict=True)):
+        if not np.all(np.isfinite(x)):
+            q[k], v[k], a[k] = system.full_state(t, x)
+            continue
+        q[k], v[k], a[k], tau, a[k, system.free] = system._evaluate(t, x)
+        if system.pres.size:
+            reaction[k] = system.reaction(t, q[k], v[k], a[k], tau)
+    return q, v, a, reaction
+
+
 # ------------------------------------------------------------------------ result
 @dataclass(frozen=True, eq=False)
 class SimulationResult:
@@ -451,21 +476,17 @@ def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
     """
     options = options or IntegratorOptions()
     error = None
+    fast = system.fast_path(options) if options.method.fixed_step else None
     try:
         run = integrate(system, t_span, x0, options=options, events=events,
-                        progress=progress, state_names=system.state_names(), t_eval=t_eval)
+                        progress=progress, state_names=system.state_names(), t_eval=t_eval,
+                        stepper=fast.trajectory(options) if fast else None)
     except SimulationDiverged as exc:
         run, error = exc.partial, exc
-    n, pm = len(run.t), system.pm
-    q, v, a = np.zeros((n, pm.nq)), np.zeros((n, pm.nv)), np.zeros((n, pm.nv))
-    reaction = np.zeros((n, system.pres.size))
-    for k, (t, x) in enumerate(zip(run.t, run.x, strict=True)):
-        if not np.all(np.isfinite(x)):
-            q[k], v[k], a[k] = system.full_state(t, x)
-            continue
-        q[k], v[k], a[k], tau, a[k, system.free] = system._evaluate(t, x)
-        if system.pres.size:
-            reaction[k] = system.reaction(t, q[k], v[k], a[k], tau)
+    if fast is not None:
+        q, v, a, reaction = fast.recover(run.t, run.x)
+    else:
+        q, v, a, reaction = _recover(system, run.t, run.x)
     names = tuple(system.velocity_names())
     fall = (run.event_time - float(t_span[0])
             if (run.event_name or "").startswith("fall") else None)

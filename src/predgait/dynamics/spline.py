@@ -86,6 +86,14 @@ class CubicSpline:
         c3, c2, c1, c0 = self._coefficients[i]
         return ((c3 * dt + c2) * dt + c1) * dt + c0
 
+    def values(self, times: np.ndarray) -> np.ndarray:
+        """(m, k) values at the (m,) ``times`` at once (the same polynomials as calling)."""
+        times = np.asarray(times, dtype=float)
+        i = np.clip(np.searchsorted(self._knots, times, side="right") - 1, 0, self._last)
+        dt = (times - np.asarray(self._knots)[i])[:, None]
+        c3, c2, c1, c0 = np.moveaxis(self._coefficients[i], 1, 0)
+        return ((c3 * dt + c2) * dt + c1) * dt + c0
+
     def derivative(self, order: int = 1):
         """The time derivative of the given order (1 or 2): a function t -> (k,)."""
         def evaluate(t):

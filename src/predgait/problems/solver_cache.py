@@ -1,58 +1,41 @@
-"""Ipopt solvers compiled once and kept on disk, keyed by the problem's structure.
+"""Ipopt solvers compiled in the background and kept on disk, keyed by the structure.
 
 Building a collocation solver generates its derivative functions (the constraint
 Jacobian and the Hessian of the Lagrangian): 0.4-1.5 s per leg problem with SX, in
 every process. Here a problem written in MX (the node dynamics one mapped call, so the
-generated C stays ~1-2 MB whatever the grid) is generated as C by CasADi, compiled once
-with the system C compiler into the user's cache folder, and loaded by later runs in a
-few milliseconds; the compiled functions also evaluate faster than CasADi's virtual
-machine. The first run pays the compilation (gcc -O1: 6-14 s per leg problem measured on a
-busy 2-core machine).
+generated C stays ~1-2 MB whatever the grid) is generated as C by CasADi and compiled
+with the system C compiler into the user's cache folder (:mod:`predgait.function_cache`),
+and later runs load it in a few milliseconds; the compiled functions also evaluate faster
+than CasADi's virtual machine.
+
+Compiling takes 6-14 s per leg problem (gcc -O1, busy 2-core machine), more than the
+solve it would speed up, so the run that first meets a problem does not wait for it: it
+solves with the MX problem expanded to SX in memory (as with the cache off) while a
+detached background process compiles the solver; a later run of the same structure loads
+the library. ``PREDGAIT_COMPILE=now`` compiles in the foreground instead.
 
 - Key: SHA-256 of the CasADi version, the solver name, the serialised NLP function
   ``(x, p) -> (f, g)`` (every constant of the problem is in it) and the Ipopt options.
-- Folder: ``$PREDGAIT_CACHE_DIR``, else ``$XDG_CACHE_HOME/predgait/solvers``, else
-  ``~/.cache/predgait/solvers``.
 - Off with ``PREDGAIT_SOLVER_CACHE=off`` (or when there is no C compiler): the problem is
-  then built in SX and solved in memory, as before.
-- Concurrent runs: each compiles in its own temporary folder beside the cache and renames
-  its library onto the key's file name (atomic), so a reader finds a whole library or none.
+  then built in SX and solved in memory.
 """
 
 from __future__ import annotations
 
 import hashlib
-import logging
-import os
-import shutil
-import subprocess
-import tempfile
-from pathlib import Path
 
 import casadi as cs
 
-log = logging.getLogger(__name__)
+from predgait import function_cache
+from predgait.function_cache import FLAGS, FOLDER, SWITCH, cache_folder, compiler
 
-#: Environment variable that turns the cache off ("off", "0", "no", "false").
-SWITCH = "PREDGAIT_SOLVER_CACHE"
-#: Environment variable naming the cache folder.
-FOLDER = "PREDGAIT_CACHE_DIR"
-#: Compiler flags: -O1 compiles ~2x faster than -O2 for the same solve time here.
-FLAGS = ("-O1", "-fPIC", "-shared")
-
-
-def compiler() -> str | None:
-    """The C compiler (``$CC``, else gcc or cc on the PATH), None if there is none."""
-    for name in (os.environ.get("CC"), "gcc", "cc"):
-        if name and shutil.which(name):
-            return shutil.which(name)
-    return None
+__all__ = ["FLAGS", "FOLDER", "SWITCH", "cache_folder", "compiler", "enabled",
+           "ipopt_solver", "solver_key", "symbol_type"]
 
 
 def enabled() -> bool:
     """True unless the environment turns the cache off or there is no C compiler."""
-    off = os.environ.get(SWITCH, "").strip().lower() in ("off", "0", "no", "false")
-    return not off and compiler() is not None
+    return function_cache.enabled() and compiler() is not None
 
 
 def symbol_type() -> type:
@@ -60,19 +43,16 @@ def symbol_type() -> type:
     return cs.MX if enabled() else cs.SX
 
 
-def cache_folder() -> Path:
-    """Where compiled solvers live (see the module docstring)."""
-    if os.environ.get(FOLDER):
-        return Path(os.environ[FOLDER])
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "predgait" / "solvers"
+def _nlp_function(nlp: dict) -> cs.Function:
+    return cs.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]], ["x", "p"],
+                       ["f", "g"])
 
 
 def solver_key(name: str, nlp: dict, options: dict) -> str:
     """Hex SHA-256 of everything that makes the generated solver what it is."""
-    function = cs.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]])
     digest = hashlib.sha256()
-    for part in (cs.__version__, name, function.serialize(), repr(sorted(options.items()))):
+    for part in (cs.__version__, name, _nlp_function(nlp).serialize(),
+                 repr(sorted(options.items()))):
         digest.update(part.encode())
     return digest.hexdigest()
 
@@ -80,45 +60,24 @@ def solver_key(name: str, nlp: dict, options: dict) -> str:
 def ipopt_solver(name: str, nlp: dict, options: dict) -> cs.Function:
     """``cs.nlpsol(name, "ipopt", nlp, options)``, from the compiled cache when possible.
 
-    An MX problem with the cache on is loaded from the cache folder, compiled there
-    first if it is missing; an SX problem, or the cache off, is built in memory.
+    An MX problem with the cache on is loaded from the cache folder when its library is
+    there; else its compilation starts (in the background) and this run solves it
+    expanded to SX in memory. An SX problem, or the cache off, is built in memory.
 
     Args:
         name: Solver name.
         nlp: ``{"x", "p", "f", "g"}`` CasADi expressions.
-        options: nlpsol options (part of the key).
+        options: nlpsol options (part of the key; JSON values).
     """
     if not (enabled() and isinstance(nlp["x"], cs.MX)):
         return cs.nlpsol(name, "ipopt", nlp, options)
-    folder = cache_folder()
-    library = folder / f"{name}-{solver_key(name, nlp, options)[:32]}.so"
+    library = cache_folder() / f"{name}-{solver_key(name, nlp, options)[:32]}.so"
+    function = None
     if not library.is_file():
-        solver = cs.nlpsol(name, "ipopt", nlp, options)
-        try:
-            _compile(solver, library)
-        except (OSError, RuntimeError) as exc:  # the in-memory solver still works
-            log.warning("solver %s not cached: %s", name, exc)
-            return solver
-    return cs.nlpsol(name, "ipopt", str(library), options)
-
-
-def _compile(solver: cs.Function, library: Path) -> None:
-    """Generate the solver's functions as C, compile, rename onto ``library``.
-
-    Raises:
-        RuntimeError: the compiler failed (its last message).
-    """
-    library.parent.mkdir(parents=True, exist_ok=True)
-    log.info("compiling solver %s once into %s", solver.name(), library)
-    with tempfile.TemporaryDirectory(dir=library.parent, prefix=".build-") as tmp:
-        generator = cs.CodeGenerator("solver.c", {"with_header": False})
-        generator.add(solver.oracle())
-        for function in solver.get_function():
-            generator.add(solver.get_function(function))
-        source = generator.generate(f"{tmp}/")
-        built = Path(tmp) / library.name
-        done = subprocess.run([compiler(), *FLAGS, source, "-o", str(built)],
-                              capture_output=True, text=True)
-        if done.returncode != 0:
-            raise RuntimeError(f"compiling failed: {done.stderr.strip()[-300:]}")
-        os.replace(built, library)
+        function = _nlp_function(nlp)
+        function_cache.start_compiling(function, library, {"kind": "ipopt", "name": name,
+                                                           "options": options})
+    if library.is_file():  # cached, or just compiled in the foreground
+        library.touch()
+        return cs.nlpsol(name, "ipopt", str(library), options)
+    return cs.nlpsol(name, "ipopt", function.expand(), options)

@@ -68,6 +68,9 @@ def inverse3d_text(summary: dict, out) -> str:
     rows = [("frames", str(summary.get("frames"))),
             ("IK marker error (RMS)", f"mean {1000 * ik.get('mean', float('nan')):.1f} mm, "
                                       f"max {1000 * ik.get('max', float('nan')):.1f} mm"),
+            *[(f"  {name.replace('_', ' ')}", f"RMS {1000 * rms:.1f} mm")
+              for name, rms in (summary.get("ik_rms_by_region_m") or {}).items()
+              if rms is not None],
             ("frames flagged by IK", str(len(summary.get("ik_flagged_frames") or []))),
             ("pelvis residual force", f"RMS {force.get('rms', float('nan')):.1f} N, "
                                       f"max {force.get('max', float('nan')):.1f} N"),

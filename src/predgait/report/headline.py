@@ -86,11 +86,15 @@ def _inverse3d(s: dict) -> Headline:
     moment = s.get("pelvis_residual_moment_Nm", {})
     numbers = [("frames", str(s.get("frames"))),
                ("IK marker error, mean of frame RMS", f"{1000 * ik.get('mean', 0):.1f} mm"),
+               *[(f"IK marker error, {name.replace('_', ' ')} (RMS)", f"{1000 * rms:.1f} mm")
+                 for name, rms in s.get("ik_rms_by_region_m", {}).items() if rms is not None],
                ("frames flagged by IK", str(len(s.get("ik_flagged_frames", [])))),
                ("pelvis residual force (RMS)", f"{force.get('rms', float('nan')):.1f} N"),
                ("pelvis residual moment (RMS)", f"{moment.get('rms', float('nan')):.1f} N m")]
+    lower = s.get("ik_rms_by_region_m", {}).get("pelvis_and_legs")
+    legs = "" if lower is None else f" ({1000 * lower:.1f} mm at the pelvis and legs)"
     sentence = (f"The whole body is fitted to the markers with {1000 * ik.get('mean', 0):.1f} "
-                f"mm mean RMS error; the residual force the pelvis would need to balance the "
+                f"mm mean RMS error{legs}; the residual force the pelvis would need to balance the "
                 f"measured loads is {force.get('rms', float('nan')):.0f} N RMS.")
     return Headline("Whole-body inverse kinematics and dynamics",
                     trial_name(s.get("provenance", {})), "completed", numbers, sentence)

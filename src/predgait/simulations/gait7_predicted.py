@@ -8,12 +8,13 @@ passive springs of the problem, and a stabilising state feedback on the six join
 
     u = -K(t) (x - x_pred(t)),  x = (q, v) of all 9 coordinates,
 
-a time-varying LQR (:func:`predgait.dynamics.lqr.riccati_gains`) on the engine's own
-linearisation along the prediction: A by central differences of the right-hand side,
-B = [0; M^-1 S] with S the joint rows. (:func:`predgait.dynamics.lqr.linearize` is
-for 1-DOF free joints; here the unactuated planar root is free, so its Pinocchio RNEA
-derivatives are not used.) The report is how far the re-simulation stays from the
-prediction and how much feedback torque that takes.
+a time-varying LQR on the engine's own linearisation along the prediction, the same one
+as the whole body's (:mod:`predgait.dynamics.floating_lqr`: A by central differences of
+the accelerations, B = [0; M^-1 S] with S the joint rows; here every coordinate is a
+plain number, so the tangent-space error is q - q_pred). The weights are this module's
+(:class:`FeedbackWeights`: tolerated errors per coordinate, one torque scale). The report
+is how far the re-simulation stays from the prediction and how much feedback torque that
+takes.
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from predgait.dynamics.drivers import SampledHistory
-from predgait.dynamics.forces import Force, GroundContact, JointTorques, PassiveTorques
+from predgait.dynamics.floating_lqr import FloatingLQR, linearize_floating
+from predgait.dynamics.forces import GroundContact, JointTorques, PassiveTorques
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.lqr import riccati_gains
 from predgait.dynamics.partitioned import PartitionedSystem, SimulationResult, simulate_partitioned
@@ -42,28 +44,6 @@ class FeedbackWeights:
     speed_m_s: float = 0.5
     rate_deg_s: float = 50.0
     torque_n_m: float = 50.0
-
-
-@dataclass(frozen=True, eq=False)
-class StateFeedback(Force):
-    """u = -K(t) (x - x_ref(t)) on ``rows``; K (m, len(rows), 2 nq) linear in t."""
-
-    rows: np.ndarray
-    reference: SampledHistory
-    times: np.ndarray
-    gains: np.ndarray
-    name: str = "feedback"
-
-    def torque(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Feedback torques (len(rows),) at t."""
-        k = int(np.clip(np.searchsorted(self.times, t) - 1, 0, self.times.size - 2))
-        w = float(np.clip((t - self.times[k]) / (self.times[k + 1] - self.times[k]), 0, 1))
-        gain = (1 - w) * self.gains[k] + w * self.gains[k + 1]
-        return -gain @ (np.concatenate([q, v]) - self.reference(t))
-
-    def add(self, tau, t, q, v, data) -> None:
-        """Add the feedback torques."""
-        tau[self.rows] += self.torque(t, q, v)
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,21 +77,6 @@ class Resimulation:
                 "feedforward_rms_n_m": self.feedforward_rms_n_m}
 
 
-def _linearize(system: PartitionedSystem, t: float, x: np.ndarray, rows, step=1e-6):
-    """(A (2nq, 2nq), B (2nq, nu)) of the all-free system at (t, x)."""
-    a_mat = np.empty((x.size, x.size))
-    for j in range(x.size):
-        plus, minus = x.copy(), x.copy()
-        plus[j] += step
-        minus[j] -= step
-        a_mat[:, j] = (system(t, plus) - system(t, minus)) / (2 * step)
-    nq = x.size // 2
-    m_inv = np.linalg.inv(system.mass_matrix(x[:nq]))
-    b_mat = np.zeros((x.size, len(rows)))
-    b_mat[nq:] = m_inv[:, rows]
-    return a_mat, b_mat
-
-
 def resimulate(model: Model, stride: dict[str, np.ndarray], contact, ground_z: float,
                passive: dict, *, weights: FeedbackWeights = FeedbackWeights(),
                options: IntegratorOptions | None = None) -> Resimulation:
@@ -141,8 +106,13 @@ def resimulate(model: Model, stride: dict[str, np.ndarray], contact, ground_z: f
 
     everything = range(model.nq)
     open_loop = PartitionedSystem(model, everything, nothing_prescribed, forces)
-    reference = SampledHistory(t, np.hstack([q, v]), name="predicted state")
-    linear = [_linearize(open_loop, tk, reference(tk), rows) for tk in t]
+    state = SampledHistory(t, np.hstack([q, v]), name="predicted state")
+
+    def reference(tk):
+        x = state(tk)
+        return x[:model.nq], x[model.nq:]
+
+    linear = [linearize_floating(open_loop, tk, *reference(tk), rows) for tk in t]
     angles = np.full(model.nq, np.radians(weights.angle_deg) ** -2)
     rates = np.full(model.nq, np.radians(weights.rate_deg_s) ** -2)
     for name in ("base_x", "base_z"):
@@ -151,12 +121,12 @@ def resimulate(model: Model, stride: dict[str, np.ndarray], contact, ground_z: f
     gains = riccati_gains(t, np.array([a for a, _ in linear]), np.array([b for _, b in linear]),
                           np.diag(np.concatenate([angles, rates])),
                           np.eye(rows.size) / weights.torque_n_m ** 2)
-    feedback = StateFeedback(rows, reference, t, gains)
+    feedback = FloatingLQR(model, rows, reference, t, gains)
     system = PartitionedSystem(model, everything, nothing_prescribed, [*forces, feedback])
     options = options or IntegratorOptions(method=Method.LSODA, step=float(t[1] - t[0]),
                                            rtol=1e-6, atol=1e-8)
     try:
-        run = simulate_partitioned(system, (float(t[0]), float(t[-1])), reference(t[0]),
+        run = simulate_partitioned(system, (float(t[0]), float(t[-1])), state(t[0]),
                                    options=options, t_eval=t)
     except SimulationDiverged as exc:
         run = exc.partial

@@ -60,7 +60,8 @@ class FullbodySpec:
     source: str = ""
 
 
-def _trial(table: Table) -> TrialSpec:
+def parse_trial(table: Table) -> TrialSpec:
+    """The ``[trial]`` table of a full-body problem (bundled source or files, subject)."""
     t = table.table("trial")
     t.check_keys(("source", "files", "static", "marker_map", "mass", "height", "sex",
                   "cutoff"))
@@ -94,7 +95,8 @@ def _trial(table: Table) -> TrialSpec:
                      cutoff=t.number("cutoff", 6.0, low=0.5, high=50, unit="Hz"))
 
 
-def _contact(table: Table) -> ContactSettings:
+def parse_contact(table: Table) -> ContactSettings:
+    """The ``[contact]`` table: sole points, spring-damper and friction of the floor."""
     c = table.table("contact")
     c.check_keys(("frames", "stiffness", "exponent", "damping", "damping_depth", "friction",
                   "slip_transition", "ground_z", "belt_velocity"))
@@ -157,7 +159,7 @@ def parse_fullbody(table: Table, integrator: IntegratorOptions, source: str) -> 
     fall = table.table("fall")
     fall.check_keys(("pelvis_drop", "pelvis_angle_deg", "joint_deg"))
     return FullbodySpec(
-        integrator=integrator, trial=_trial(table), variants=_variants(table),
+        integrator=integrator, trial=parse_trial(table), variants=_variants(table),
         start=sim.number("start", None, low=0, unit="s"),
         duration=sim.number("duration", 1.0, low=0.001, high=30, unit="s"),
         band_deg=sim.number("band_deg", 5.0, low=0.01, high=90, unit="deg"),
@@ -168,4 +170,4 @@ def parse_fullbody(table: Table, integrator: IntegratorOptions, source: str) -> 
                                        unit="deg"),
             joint_deviation_deg=fall.number("joint_deg", 45.0, low=0.1, high=360,
                                             unit="deg")),
-        contact=_contact(table), source=source)
+        contact=parse_contact(table), source=source)

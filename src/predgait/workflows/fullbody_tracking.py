@@ -37,7 +37,7 @@ from predgait.problems.fullbody_tracking import (
     TrackingWeights,
 )
 from predgait.simulations.forward3d import ContactSettings, FullbodyDrive, measured_ground
-from predgait.workflows.forward3d_spec import TrialSpec, _contact, _trial
+from predgait.workflows.forward3d_spec import TrialSpec, parse_contact, parse_trial
 
 #: Plate force above which a foot is loaded, N.
 LOAD_THRESHOLD = 20.0
@@ -80,7 +80,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
     fb = FloatingWeights()
     feedback.check_keys((*vars(fb), "step"))
     return TrackingSpec(
-        trial=_trial(table), contact=_contact(table),
+        trial=parse_trial(table), contact=parse_contact(table),
         window=None if start is None else (start, end),
         weights=TrackingWeights(**{k: weights.number(k, v, low=1e-9)
                                    for k, v in vars(defaults).items()}),

@@ -12,7 +12,6 @@ import numpy as np
 
 from predgait import __version__
 from predgait.data import write_storage
-from predgait.errors import SolveFailed
 from predgait.kinematics.ik3d import pelvis_cardan
 from predgait.problems.fullbody_tracking import (
     POINTS,
@@ -27,6 +26,7 @@ from predgait.workflows.fullbody_tracking import (
     TrackingSpec,
     deviations,
     gait_cycle,
+    parse_tracking,  # noqa: F401  (predgait solve finds the kind's parser here)
     plate_height,
     tracking_data,
 )
@@ -170,35 +170,24 @@ def run_tracking(spec: TrackingSpec, out: Path, *, force: bool = False) -> dict:
 
 
 
-def run_cli(table, args) -> int:
-    """``predgait solve`` for ``kind = "fullbody_tracking"``: prints a summary; exit code."""
-    import sys
-
-    from predgait.workflows.fullbody_tracking import parse_tracking
-
-    spec = parse_tracking(table)
-    try:
-        info = run_tracking(spec, args.out, force=args.force)
-    except SolveFailed as exc:
-        print(f"predgait: solve failed: {exc}", file=sys.stderr)
-        return 3
+def summary_lines(info: dict) -> list[str]:
+    """What ``predgait solve`` prints for ``kind = "fullbody_tracking"``."""
     dev = info["deviation"]
-    print(f"fullbody_tracking: {info['ipopt_status']} in {info['iterations']} iterations, "
-          f"{info['solve_time_s']:.1f} s ({info['nodes']} nodes, "
-          f"{info['window_s'][0]:.3f}..{info['window_s'][1]:.3f} s)")
-    print(f"  pelvis residual max {info['pelvis_residual_max_n']:.2e} N "
-          f"(measured data: {info['measured_pelvis_residual_rms_n']:.1f} N RMS)")
-    print(f"  joints moved {dev['all_joints_rms_deg']:.2f} deg RMS; GRF differs "
-          + ", ".join(f"{k} {v:.1f}" for k, v in dev['grf_rms_percent_bw'].items())
-          + " % BW RMS")
+    lines = [
+        f"fullbody_tracking: {info['ipopt_status']} in {info['iterations']} iterations, "
+        f"{info['solve_time_s']:.1f} s ({info['nodes']} nodes, "
+        f"{info['window_s'][0]:.3f}..{info['window_s'][1]:.3f} s)",
+        f"  pelvis residual max {info['pelvis_residual_max_n']:.2e} N "
+        f"(measured data: {info['measured_pelvis_residual_rms_n']:.1f} N RMS)",
+        f"  joints moved {dev['all_joints_rms_deg']:.2f} deg RMS; GRF differs "
+        + ", ".join(f"{k} {v:.1f}" for k, v in dev["grf_rms_percent_bw"].items())
+        + " % BW RMS",
+    ]
     for name in ("without_feedback", "with_feedback"):
         run = info["feedback"][name]
         fell = run["time_to_fall_s"]
-        print(f"  re-simulated {name.replace('_', ' ')}: "
-              + ("completes the window" if fell is None else f"falls at {fell:.3f} s")
-              + f" ({run['status']}; joints {run['joint_rms_from_solution_deg']:.2f} deg RMS "
-                "from the solution)")
-    print(f"  wrote {args.out}/ (kinematics3d.sto, corrected_moments3d.sto, "
-          "contact_forces.sto, feedback_gains.npz, resimulated_kinematics3d.sto, "
-          "summary.json, tracking.png)")
-    return 0
+        lines.append(f"  re-simulated {name.replace('_', ' ')}: "
+                     + ("completes the window" if fell is None else f"falls at {fell:.3f} s")
+                     + f" ({run['status']}; joints {run['joint_rms_from_solution_deg']:.2f} "
+                       "deg RMS from the solution)")
+    return lines

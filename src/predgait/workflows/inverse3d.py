@@ -395,6 +395,25 @@ def _limited(result: Inverse3DResult) -> dict[str, int]:
     return out
 
 
+#: Joints whose bodies make up the lower body (the free-flyer root carries the pelvis).
+LOWER_BODY_JOINTS = ("hip_", "knee_", "ankle_")
+
+
+def ik_rms_by_region(result: Inverse3DResult) -> dict[str, float | None]:
+    """Marker RMS (m) over the lower body (pelvis and legs) and the rest (trunk, head, arms).
+
+    The mean over all markers of a full-body set is dominated by the arms when the static
+    trial fits them poorly (e.g. a T-pose); gait analyses read the lower body.
+    """
+    pm, ik = result.model.pin_model, result.ik
+    lower = np.array([
+        (joint == 1 or pm.names[joint].startswith(LOWER_BODY_JOINTS))
+        for joint in (pm.frames[pm.getFrameId(f)].parentJoint for f in ik.marker_frames)])
+    regions = {"pelvis_and_legs": lower, "trunk_head_and_arms": ~lower}
+    return {name: (float(np.sqrt(np.nanmean(ik.residuals[:, cols] ** 2))) if cols.any()
+                   else None) for name, cols in regions.items()}
+
+
 def summary(result: Inverse3DResult) -> dict:
     """Headline numbers: IK RMS, pelvis residuals, joint moments, clinical ranges."""
     dyn, ik = result.dynamics, result.ik
@@ -418,6 +437,7 @@ def summary(result: Inverse3DResult) -> dict:
         "frames": int(ik.time.size),
         "ik_flagged_at_joint_limits": _limited(result),
         "ik_rms_m": {"mean": float(ik.rms.mean()), "max": float(ik.rms.max())},
+        "ik_rms_by_region_m": ik_rms_by_region(result),
         "ik_flagged_frames": [float(ik.time[i]) for i in ik.failed_frames],
         "ik_marker_rms_m": {m: float(np.sqrt(np.nanmean(ik.residuals[:, i] ** 2)))
                             for i, m in enumerate(ik.marker_names)},

@@ -9,17 +9,16 @@ import numpy as np
 from predgait import __version__
 from predgait.data import Side, write_csv, write_storage
 from predgait.data.bundled import bundled_path
+from predgait.data.cutoffs import CutoffRule, parse_cutoff
 from predgait.data.events import runs_of
 from predgait.dynamics.inverse_trial import (
     POINT_NAMES,
     RELEASE_FRACTION,
     THRESHOLD,
-    CutoffRule,
     HipRegression,
     InverseOptions,
     InverseResult,
     StaticCentre,
-    parse_cutoff,
 )
 from predgait.errors import InputError
 from predgait.problemfile import Table

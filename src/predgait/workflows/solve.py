@@ -158,6 +158,26 @@ def resimulate(inverse, drivers, window, *, step: float, threshold_deg: float, p
                  "rms_deg": {k: float(np.degrees(v)) for k, v in dev.rms.items()}}
 
 
+def deviation_wording(result: dict, threshold_deg: float) -> str:
+    """One phrase for a :func:`resimulate` report: when it leaves and re-enters the band.
+
+    E.g. "stays within 2 deg for the whole window (to 1.230 s)", "leaves 2 deg at
+    0.412 s, back within it from 0.950 s (end 1.230 s)", "leaves 2 deg at 0.412 s and is
+    not back within it by the end (0.800 s)".
+    """
+    limit = f"{threshold_deg:g} deg"
+    left, back, end = (result["time_to_threshold_s"], result["within_threshold_from_s"],
+                       result["end_s"])
+    if left is None:
+        if back is None:   # stopped early (diverged or fell) without crossing the band
+            status = getattr(result["status"], "value", result["status"])
+            return f"stays within {limit} until the run stops at {end:.3f} s ({status})"
+        return f"stays within {limit} for the whole window (to {end:.3f} s)"
+    if back is None:
+        return f"leaves {limit} at {left:.3f} s and is not back within it by the end ({end:.3f} s)"
+    return f"leaves {limit} at {left:.3f} s, back within it from {back:.3f} s (end {end:.3f} s)"
+
+
 def _resimulate(inverse, drivers, spec, *, passive=None, feedback=None, x0=None):
     return resimulate(inverse, drivers, spec.window, step=spec.check_step,
                       threshold_deg=spec.threshold_deg, passive=passive, feedback=feedback,

@@ -1,0 +1,299 @@
+"""The leg's right-hand side and fixed-step integration as CasADi functions (fast path).
+
+The engine's leg (:class:`predgait.dynamics.forward.LegSystem`: foot prescribed, ankle
+and knee free) evaluated through Pinocchio costs ~24 us per right-hand side from Python,
+so 1 s of re-synthesis (modified Euler, 1 ms, 10 iterations: 10 000 right-hand sides)
+takes ~0.25 s. Here the same right-hand side is written in CasADi on ADAM's M and h of
+the same URDF (the partitioned equations of :func:`~predgait.dynamics.partitioned.
+free_accelerations`; the applied forces of :mod:`predgait.dynamics.forces` written on
+symbols: joint torques, passive elements through the one joint-sign table, PD feedback,
+the hip load in the lab or the thigh frame), and a whole fixed-step integration step
+(Euler, modified Euler, RK4: the formulas of :mod:`predgait.dynamics.integrators`) is
+mapped over 100 steps per call, so Python is called once per 100 steps:
+
+- inputs that depend on time alone (the prescribed foot motion, torques, hip load, the
+  passive offset, the feedback reference) are sampled by the engine's own functions at
+  the step times, in Python, once per time;
+- the steps run in CasADi's virtual machine, or in the compiled library once it is in
+  the cache (:mod:`predgait.function_cache`: compiled in the background the first time a
+  structure is met, ~1 s of gcc; the forces' numbers are inputs, so one library
+  serves every value of the passive parameters and gains);
+- the base dynamics ``leg_dynamics`` (ADAM, 0.1-0.5 s to build with its import) are stored
+  serialised in the same cache, keyed by the URDF and gravity.
+
+tests/test_compiled_leg.py checks the right-hand side and whole runs against the
+Pinocchio engine, which stays the reference and the fallback (cache off, another
+integrator, other forces).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from collections.abc import Callable
+
+import casadi as cs
+import numpy as np
+
+from predgait import function_cache
+from predgait.dynamics.drivers import sample
+from predgait.dynamics.forces import FrameLoad, JointFeedback, JointTorques, PassiveTorques
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.partitioned import free_accelerations
+from predgait.kinematics.clinical import clinical_joint
+from predgait.models.loading import Model
+
+#: Steps per call of the mapped step function.
+CHUNK = 100
+#: Version of what :func:`leg_dynamics` builds (part of its cache key).
+VERSION = "1"
+FREE, PRESCRIBED = [3, 4], [0, 1, 2]
+#: Step functions of this process, by structure key (compiled or in CasADi's VM).
+_STEPS: dict[str, cs.Function] = {}
+#: Layout of the inputs u: qb, vb, ab (3 each), tau (5), hip (6), then the feedback
+#: reference and the forces' parameters (see FastLeg).
+_QB, _VB, _AB, _TAU, _HIP = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 14),
+                             slice(14, 20))
+
+
+@functools.lru_cache(maxsize=4)
+def leg_dynamics(model: Model) -> cs.Function:
+    """``leg_dynamics(x, qb, vb, ab, tau, hip_lab, hip_body) -> (xdot, reaction)``.
+
+    x: (4,) ankle, knee angles and rates; qb, vb, ab: (3,) prescribed foot coordinates,
+    rates, accelerations; tau: (5,) applied generalised forces besides the hip load;
+    hip_lab, hip_body: (6,) force (N) and moment (N m) at frame ``hip_center``, on the lab
+    axes and on the frame's own axes (Pinocchio's LOCAL_WORLD_ALIGNED and LOCAL
+    Jacobians). xdot: (4,); reaction: (3,) what the prescribed foot rows supply,
+    RNEA(q, v, a)_p - tau_p (the engine's ``reaction``).
+    """
+    key = function_cache.key_of(["leg_dynamics", VERSION, model.urdf, repr(model.gravity)])
+    return function_cache.stored("leg_dynamics", key, lambda: _build_leg_dynamics(model))
+
+
+def _build_leg_dynamics(model: Model) -> cs.Function:
+    from predgait.models.symbolic import base_transform, symbolic_model
+
+    sym = symbolic_model(model)
+    x, qb, vb, ab = cs.SX.sym("x", 4), cs.SX.sym("qb", 3), cs.SX.sym("vb", 3), cs.SX.sym("ab", 3)
+    tau, hip_lab, hip_body = cs.SX.sym("tau", 5), cs.SX.sym("hip_lab", 6), cs.SX.sym("hip_body", 6)
+    q, v = cs.vertcat(qb, x[:2]), cs.vertcat(vb, x[2:])
+    frame = sym.kindyn.forward_kinematics("hip_center", base_transform(q[:3]), q[3:])
+    point, rotation = frame[:3, 3], frame[:3, :3]
+    thigh = clinical_joint(model, "hip").coordinates  # rows turning the thigh about +Y
+    pitch = sum(q[model.coordinate_index(c)] for c in thigh)
+    force = hip_lab[:3] + rotation @ hip_body[:3]
+    moment = hip_lab[3:] + rotation @ hip_body[3:]
+    applied = tau + cs.jacobian(point, q).T @ force + cs.jacobian(pitch, q).T * moment[1]
+    mass, bias = sym.mass_matrix(q), sym.bias_force(q, v)
+    accel = free_accelerations(mass, bias, applied, ab, FREE, PRESCRIBED)
+    reaction = (mass @ cs.vertcat(ab, accel) + bias - applied)[PRESCRIBED]
+    return cs.Function("leg_dynamics", [x, qb, vb, ab, tau, hip_lab, hip_body],
+                       [cs.vertcat(x[2:], accel), reaction],
+                       ["x", "qb", "vb", "ab", "tau", "hip_lab", "hip_body"],
+                       ["xdot", "reaction"])
+
+
+class FastLeg:
+    """The leg system's fixed-step runs through CasADi (see the module docstring).
+
+    Build with :func:`fast_leg` (None when the system's forces are not all supported).
+    """
+
+    def __init__(self, system, feedback: JointFeedback | None, passive: PassiveTorques | None,
+                 hip: FrameLoad | None, torques: tuple):
+        self.system, self.feedback, self.passive, self.hip = system, feedback, passive, hip
+        self.torques = torques
+        n_ref = 0 if feedback is None else len(feedback.rows)
+        self._ref = slice(20, 20 + 2 * n_ref)
+        self._symbols: list = []      # the forces' parameters (scalars) and their values
+        self._values: list[float] = []
+        self.rhs = self._rhs_function(leg_dynamics(system.model))
+        self._key = function_cache.key_of([self.rhs.serialize()])
+        self._inputs = None  # (times, inputs) of the latest call
+
+    # -- symbolic ---------------------------------------------------------------------
+    def _parameter(self, value):
+        """A parameter symbol holding the number ``value``; exactly 0 stays a constant.
+
+        A zero is structure (e.g. :class:`~predgait.dynamics.passive.ExponentialLimits`
+        without stop damping leaves that term out), as in the numeric forces.
+        """
+        if not isinstance(value, int | float | np.number) or value == 0:
+            return value
+        self._symbols.append(cs.SX.sym(f"p{len(self._symbols)}"))
+        self._values.append(float(value))
+        return self._symbols[-1]
+
+    def _symbolic_joint(self, joint):
+        """The passive joint with its elements' numbers as parameters (same elements)."""
+        elements = tuple(
+            dataclasses.replace(e, **{f.name: self._parameter(getattr(e, f.name))
+                                      for f in dataclasses.fields(e)})
+            if dataclasses.is_dataclass(e) else e for e in joint.elements)
+        return dataclasses.replace(joint, elements=elements)
+
+    def _rhs_function(self, base: cs.Function) -> cs.Function:
+        """``leg_rhs(x, u) -> (xdot, reaction)`` with the state-dependent forces.
+
+        The forces' numbers (passive parameters, gains) are inputs at the end of u, so
+        one function (and library) serves every value of them.
+        """
+        x, u_time = cs.SX.sym("x", 4), cs.SX.sym("u", self._ref.stop)
+        q, v = cs.vertcat(u_time[_QB], x[:2]), cs.vertcat(u_time[_VB], x[2:])
+        tau = [u_time[_TAU][i] for i in range(5)]
+        if self.passive is not None:  # PassiveTorques.add on symbols (same table)
+            for name, (rows, sign) in self.passive.rows.items():
+                joint = self._symbolic_joint(self.passive.joints[name])
+                angle = sign * sum(q[r] for r in rows)
+                rate = sign * sum(v[r] for r in rows)
+                moment = sign * joint.moment(angle, rate)
+                for row in rows:
+                    tau[row] = tau[row] + moment
+        if self.feedback is not None:  # JointFeedback.torque on symbols
+            fb, ref = self.feedback, u_time[self._ref]
+            n = len(fb.rows)
+            kp, kd = np.broadcast_to(fb.kp, n), np.broadcast_to(fb.kd, n)
+            for i, row in enumerate(fb.rows):
+                tau[row] = tau[row] + (
+                    self._parameter(float(kp[i])) * (ref[i] - q[row + fb.q_offset])
+                    + self._parameter(float(kd[i])) * (ref[n + i] - v[row]))
+        zero = cs.SX.zeros(6)
+        body = self.hip is not None and self.hip.body_fixed
+        hip_lab, hip_body = (zero, u_time[_HIP]) if body else (u_time[_HIP], zero)
+        xdot, reaction = base(x, u_time[_QB], u_time[_VB], u_time[_AB], cs.vertcat(*tau),
+                              hip_lab, hip_body)
+        self.nu = self._ref.stop + len(self._symbols)
+        u = cs.vertcat(u_time, *self._symbols)
+        return cs.Function("leg_rhs", [x, u], [xdot, reaction], ["x", "u"],
+                           ["xdot", "reaction"])
+
+    def steps(self, options: IntegratorOptions) -> cs.Function:
+        """``leg_steps(x0, W) -> (X, F)``: CHUNK steps; W columns (u_a, u_mid, u_b, h).
+
+        X: states after each step; F: f at each step's start. Compiled when cached.
+        """
+        kind = (options.method, options.iterations if options.method is
+                Method.MODIFIED_EULER else 0)
+        key = function_cache.key_of([self._key, kind[0].value, str(kind[1]), str(CHUNK)])
+        if key not in _STEPS:
+            chunk = self._step_function(*kind).mapaccum("leg_steps", CHUNK)
+            _STEPS[key] = function_cache.compiled(chunk, key) or chunk
+        return _STEPS[key]
+
+    def _step_function(self, method: Method, iterations: int) -> cs.Function:
+        x, h = cs.SX.sym("x", 4), cs.SX.sym("h")
+        ua, um, ub = (cs.SX.sym(name, self.nu) for name in ("ua", "um", "ub"))
+
+        def f(state, u):
+            return self.rhs(state, u)[0]
+
+        f0 = f(x, ua)
+        if method is Method.RK4:
+            h2 = 0.5 * h
+            k2 = f(x + h2 * f0, um)
+            k3 = f(x + h2 * k2, um)
+            k4 = f(x + h * k3, ub)
+            x_next = x + (h / 6.0) * (f0 + k4 + 2.0 * (k2 + k3))
+        elif method is Method.MODIFIED_EULER and iterations > 1:
+            base, x_next = x + 0.5 * h * f0, x + h * f0
+            for _ in range(iterations - 1):
+                x_next = base + 0.5 * h * f(x_next, ub)
+        else:
+            x_next = x + h * f0
+        return cs.Function("leg_step", [x, cs.vertcat(ua, um, ub, h)], [x_next, f0])
+
+    # -- numeric ----------------------------------------------------------------------
+    def inputs(self, times: np.ndarray) -> np.ndarray:
+        """(n, nu) per-time inputs at ``times``, from the engine's own time functions.
+
+        The drivers' sampled histories are evaluated at all times at once
+        (:func:`~predgait.dynamics.drivers.sample`); the last result is kept.
+        """
+        if self._inputs is not None and np.array_equal(self._inputs[0], times):
+            return self._inputs[1]
+        times = np.asarray(times, dtype=float)
+        drivers, out = self.system.drivers, np.zeros((len(times), self.nu))
+        out[:, _QB] = sample(drivers.prescribed_q, times)
+        out[:, _VB] = sample(drivers.prescribed_qd, times)
+        out[:, _AB] = sample(drivers.prescribed_qdd, times)
+        for force in self.torques:
+            out[:, _TAU][:, force.rows] += sample(force.history, times)
+        if self.passive is not None and self.passive.offset is not None:
+            out[:, _TAU] -= sample(self.passive.offset, times)
+        if self.hip is not None:
+            out[:, 14:17] = sample(self.hip.force, times)
+            out[:, 17:20] = sample(self.hip.moment, times)
+        if self.feedback is not None:
+            fb = self.feedback
+            for k, t in enumerate(times):
+                ref = fb.reference(t)
+                out[k, self._ref] = np.concatenate([ref[0][fb.rows + fb.q_offset],
+                                                    ref[1][fb.rows]])
+        out[:, self._ref.stop:] = self._values
+        self._inputs = (times, out)
+        return out
+
+    def trajectory(self, options: IntegratorOptions) -> Callable:
+        """``(grid, x0) -> (X, F)`` (n+1 rows each, F = f(t, X)) for ``options``."""
+        steps = self.steps(options)
+
+        def run(grid: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            n = len(grid) - 1
+            u = self.inputs(grid)
+            mid = (self.inputs(0.5 * (grid[:-1] + grid[1:])) if options.method is Method.RK4
+                   else np.zeros((n, self.nu)))
+            columns = -(-n // CHUNK) * CHUNK  # padded with steps of h = 0
+            w = np.zeros((3 * self.nu + 1, columns))
+            w[: self.nu, :n], w[self.nu: 2 * self.nu, :n] = u[:-1].T, mid.T
+            w[2 * self.nu: 3 * self.nu, :n], w[-1, :n] = u[1:].T, np.diff(grid)
+            X, F = np.empty((n + 1, 4)), np.empty((n + 1, 4))
+            X[0], x = x0, x0
+            for start in range(0, n, CHUNK):
+                xs, fs = steps(x, w[:, start: start + CHUNK])
+                stop = min(n, start + CHUNK)
+                X[start + 1: stop + 1] = np.asarray(xs).T[: stop - start]
+                F[start: stop] = np.asarray(fs).T[: stop - start]
+                x = X[stop]
+            F[n] = np.asarray(self.rhs(X[n], u[n])[0]).ravel()
+            return X, F
+
+        return run
+
+    def recover(self, t: np.ndarray, x: np.ndarray):
+        """(q, v, a, reaction) of every output row (n, 5), (n, 5), (n, 5), (n, 3)."""
+        n = len(t)
+        u = self.inputs(t)
+        xdot, reaction = (np.asarray(r).T for r in self.rhs.map(n)(x.T, u.T))
+        q = np.column_stack([u[:, _QB], x[:, :2]])
+        v = np.column_stack([u[:, _VB], x[:, 2:]])
+        a = np.column_stack([u[:, _AB], xdot[:, 2:]])
+        bad = ~np.all(np.isfinite(x), axis=1)
+        a[bad, 3:], reaction[bad] = 0.0, 0.0
+        return q, v, a, reaction
+
+
+def fast_leg(system) -> FastLeg | None:
+    """The fast path of a :class:`~predgait.dynamics.forward.LegSystem`, or None.
+
+    None when the cache is off (``PREDGAIT_SOLVER_CACHE=off``), the free rows are not
+    ankle and knee, or a force is not one of those written here.
+    """
+    if not function_cache.enabled() or list(system.free) != FREE:
+        return None
+    parts: dict = {"feedback": None, "passive": None, "hip": None}
+    torques = []
+    for force in system.forces:
+        if isinstance(force, JointTorques):
+            torques.append(force)
+        elif isinstance(force, PassiveTorques) and parts["passive"] is None:
+            parts["passive"] = force
+        elif (isinstance(force, JointFeedback) and parts["feedback"] is None
+              and all(int(r) in FREE for r in force.rows)):
+            parts["feedback"] = force
+        elif (isinstance(force, FrameLoad) and force.frame == "hip_center"
+              and parts["hip"] is None):
+            parts["hip"] = force
+        else:
+            return None
+    return FastLeg(system, torques=tuple(torques), **parts)
