@@ -103,11 +103,13 @@ def rows(repeat: int, *, peer_minutes: float = 10.0, peer_repeat: int = 1) -> li
 
             with environment({solver_cache.SWITCH: "off"}):
                 in_memory = time_call(cold, repeat)
-            fit = function(inverse.model, first, transcription=HS)
+                fit = function(inverse.model, first, transcription=HS)
             out.append(Row(f"{name} cold, in process (1 s, {INTERVALS} Hermite-Simpson "
                            "intervals), solver cache off", in_memory,
                            "generate the SX solver in memory, then Ipopt; imports excluded; "
-                           f"{OURS_SIZE}; {fit.solved.iterations} iterations; RMS ankle, knee "
+                           f"{OURS_SIZE}; {fit.solved.iterations} iterations; "
+                           + "".join(f"{k} {v:.4g}, " for k, v in fit.parameters.items()
+                                     if name == "knee_fit") + "RMS ankle, knee "
                            f"{fit.rms_deg['ankle']:.2f}, {fit.rms_deg['knee']:.2f} deg",
                            moco_inside, f"build the study and solve, first in a fresh "
                            f"process, imports excluded; {moco_does}", unit="s"))

@@ -81,7 +81,11 @@ def moco_inputs(inverse, drivers, mode: str, intervals: int, window=(0.0, 1.0), 
             # controls are in units of 100 N m: weights 5e3 and 50. fit_knee: angles only.
             "tracking_weight": 5e3 if mode == "torque_correction" else 1e2,
             "base_weight": 1.0, "effort_weight": 1e-3, "change_weight": 50.0,
-            "tol": 1e-4, "hessian": "limited-memory", "dynamics": "explicit", "sparsity": "random",
+            # Moco's settings that did best here: explicit dynamics (implicit: restoration
+            # phase); variables scaled by their bounds for the parameter fits only (the
+            # torque correction then stalls at dual infeasibility ~1).
+            "tol": 1e-4, "hessian": "limited-memory", "dynamics": "explicit",
+            "scale": mode == "knee_fit", "sparsity": "random",
             "max_iter": 3000, "print_level": 5, "repeat": 1}
 
 

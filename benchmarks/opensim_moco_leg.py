@@ -211,6 +211,7 @@ def build_study(data):
     solver.set_num_mesh_intervals(int(data["intervals"]))
     solver.set_transcription_scheme("hermite-simpson")
     solver.set_multibody_dynamics_mode(str(data["dynamics"]))
+    solver.set_scale_variables_using_bounds(bool(data["scale"]))
     solver.set_optim_convergence_tolerance(float(data["tol"]))
     solver.set_optim_constraint_tolerance(float(data["tol"]))
     solver.set_optim_hessian_approximation(str(data["hessian"]))
