@@ -19,17 +19,22 @@ thread):
   weight ``base_weight`` times that of the joint angles, so 5 DOF (10 states) against
   predgait's 2 free DOF (4 states);
 * ``mode = "knee_fit"``: the measured ankle and knee moments by CoordinateActuators whose
-  controls a PrescribedController gives; a SpringGeneralizedForce on the knee (stiffness k,
-  rest length theta0, viscosity c: predgait.dynamics.passive's linear element in OpenSim's
-  knee sign), its three properties MocoParameters within predgait's bounds; objective:
-  the tracking of the ankle and knee angles (MocoStateTrackingGoal);
+  controls a PrescribedController gives; a SpringGeneralizedForce on each joint of
+  ``joints`` (the knee; knee and ankle for the shooting fit's peer: stiffness k, rest length
+  theta0, viscosity c, predgait.dynamics.passive's linear element in OpenSim's sign), their
+  properties MocoParameters within predgait's bounds (read when the force is computed:
+  ``parameters_require_initsystem`` off); objective: the tracking of the angles
+  (MocoStateTrackingGoal);
 * ``mode = "torque_correction"``: MocoTrack of the measured coordinates with the ankle and
   knee CoordinateActuators optimised, a MocoControlTrackingGoal keeping their controls near
   the measured moments (predgait's effort term; Moco has no term on the rate of a control,
   so predgait's smoothness term has no counterpart);
 * initial ankle and knee state fixed to the measured one (as predgait); guess: the
-  measured motion and, for the controls, the inverse-dynamics moments (predgait starts
-  from the measured motion too).
+  measured motion and, for the controls, OpenSim's inverse dynamics along it (predgait
+  starts from the measured motion too);
+* solver settings from the file: Hessian (Moco's exact one is finite differences, ~40 s
+  per Ipopt iteration at 10 intervals here, so limited-memory), tolerance, sparsity
+  detection, explicit or implicit multibody dynamics, scaling of the variables by bounds.
 
 The study is built and solved ``repeat`` times in this process (the first is cold); writes
 back wall and CPU seconds of each (build + solve), Ipopt's status and iteration count, the
