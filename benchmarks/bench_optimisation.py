@@ -29,14 +29,13 @@ time or whose Ipopt fails is reported as such, with how far it got, and no ratio
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import sys
 import tempfile
 import time
 
 from moco_peer import moco_inputs, run_moco
-from timing import REPO, Row, Timing, print_rows, time_call, time_process
+from timing import REPO, Row, Timing, environment, print_rows, time_call, time_process
 
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.inverse_trial import bundled_inverse
@@ -144,21 +143,6 @@ def rows(repeat: int, *, peer_minutes: float = 10.0, peer_repeat: int = 1) -> li
                                "whole Python process: import opensim, build, solve, write "
                                f"back; {moco_does}" if peer else NO_PEER, unit="s"))
     return out
-
-
-@contextlib.contextmanager
-def environment(values: dict):
-    """Set environment variables within the block."""
-    saved = {key: os.environ.get(key) for key in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
 
 
 def grid_table() -> None:

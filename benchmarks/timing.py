@@ -7,6 +7,7 @@ OPENSIM_PYTHON) cannot run, the benchmark prints "peer not available" instead of
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import resource
@@ -92,6 +93,21 @@ def time_process(argv: Sequence[str], repeat: int = 5, *, cwd: Path | str = REPO
             last = (done.stderr.strip().splitlines() or ["?"])[-1]
             raise RuntimeError(f"{' '.join(map(str, argv))} failed: {last}")
     return Timing(tuple(wall), tuple(cpu))
+
+
+@contextlib.contextmanager
+def environment(values: dict):
+    """Environment variables set inside the block, restored after."""
+    saved = {key: os.environ.get(key) for key in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
 
 
 def opensim_python() -> str | None:

@@ -194,8 +194,8 @@ def simulate(cycles=12, seed=0):
 class NoiseFreeTrial:
     """The simulated walk sampled as a lab records it, before noise is added."""
 
-    def __init__(self, cycles=12, seed=0):
-        t, q, states, ref, system = simulate(cycles, seed)
+    def __init__(self, cycles=12, seed=0, simulated=None):
+        t, q, states, ref, system = simulated or simulate(cycles, seed)
         self.model = ref.model
         every = int(round(1 / (MARKER_RATE * STEP)))
         self.t_m, self.q_m = t[::every], q[::every]

@@ -89,3 +89,50 @@ def test_casadi_matches_numpy():
     hc = HuntCrossleyContact()
     grad = cs.Function("g", [d, r, s], [cs.gradient(hc.force(d, r, s)[0], d)])
     assert np.isfinite(float(grad(0.0, 0.0, 0.0)))
+
+
+@pytest.mark.parametrize("law", [
+    ImpactContact(stiffness=2e5, damping=2e3, damping_depth=1e-3, friction=0.8,
+                  slip_transition=0.3),
+    MeglanContact(friction=0.6, slip_transition=0.05),
+    HuntCrossleyContact()])
+@pytest.mark.parametrize("planar", [False, True])
+def test_ground_contact_all_points_at_once_equals_point_by_point(law, planar):
+    """GroundContact calls the law once for every frame and slip axis (arrays); the same
+    law called per point and per axis with scalars gives the same forces."""
+    import pinocchio as pin
+
+    from predgait.dynamics.forces import LWA, GroundContact
+    from predgait.models.loading3d import load_fullbody
+
+    model = load_fullbody()
+    pm, data = model.pin_model, model.pin_model.createData()
+    frames = ("heel_contact_r", "toe_contact_r", "heel_contact_l", "toe_contact_l")
+    ground = GroundContact(model, frames, law, ground_z=0.0, planar=planar,
+                           belt_velocity=0.4)
+    rng = np.random.default_rng(5)
+    checked = set()
+    for _ in range(40):
+        q = model.neutral()
+        q[7:] = rng.uniform(-0.3, 0.3, model.nv - 6)
+        v = rng.uniform(-0.8, 0.8, model.nv)
+        pin.framesForwardKinematics(pm, data, q)
+        # Sink the lowest point 0..8 mm: points in contact, just above and far above.
+        q[2] -= min(data.oMf[model.frame_id(f)].translation[2] for f in frames) + \
+            rng.uniform(0.0, 0.008)
+        pin.forwardKinematics(pm, data, q, v)
+        pin.updateFramePlacements(pm, data)
+        expected = np.zeros((4, 3))
+        for i, name in enumerate(frames):
+            fid = model.frame_id(name)
+            z = data.oMf[fid].translation[2]
+            vel = pin.getFrameVelocity(pm, data, fid, LWA).linear
+            if z > 0.05:
+                checked.add("far")
+                continue
+            checked.add("in" if z < 0 else "above")
+            normal, tx = law.force(-z, -vel[2], vel[0] - 0.4)
+            expected[i] = float(tx), 0.0 if planar else float(law.force(-z, -vel[2],
+                                                                          vel[1])[1]), normal
+        np.testing.assert_allclose(ground.forces(data), expected, rtol=1e-13, atol=1e-300)
+    assert checked == {"in", "above", "far"}

@@ -4,8 +4,9 @@ Moment-level synthetic trials are built here, independently of the fitting code:
 angles over many gait cycles with per-cycle variation, passive moments written out by
 hand (linear spring-damper, thesis eqs. 3.3.1-3.3.2, and the Anderson 1999 exponential
 stops as in Falisse et al. 2019), an active pattern that is exactly zero from 70 % of
-the cycle on, and correlated noise on the moments. One trial goes through the real
-pipeline (tests/passive_walk.py: forward simulation, markers, plates, inverse dynamics).
+the cycle on, and correlated noise on the moments. The 20 repetitions through the real
+pipeline (tests/passive_walk.py: forward simulation, markers, plates, inverse dynamics)
+are in tests/test_passive_swing.py, beside the fit to the angles.
 """
 
 import json
@@ -253,61 +254,6 @@ def test_resimulation_wording_says_what_happened():
         "leaves 5 deg at 0.410 s, back within it from 0.950 s (end 1.200 s)"
     assert deviation_wording(run(None, None, 0.3, "diverged"), 2.0) == \
         "stays within 2 deg until the run stops at 0.300 s (diverged)"
-
-
-def test_known_passive_walk_through_the_real_pipeline(tmp_path):
-    """Forward-simulated walk (tests/passive_walk.py) -> 1 mm markers, 1 % forces ->
-    inverse dynamics at the residual-analysis cut-off -> decomposition over mid swing,
-    in 20 repetitions with their own seeded noise (the walk is simulated once; the
-    repetitions differ in the noise only, as in benchmarks/study_passive_coverage.py).
-
-    Measured, and checked here: the ankle parameters come back with RMS errors of 3-5 %
-    over the repetitions (largest 12 %); the knee's moment in swing, a difference of
-    large inertial terms of double-differentiated markers, is noisier (RMS 17-34 %). The
-    issue asks for 5 % in every repetition: that is NOT reached at this noise level.
-    What the intervals promise holds: no parameter's 95 % interval misses the truth more
-    than 2 times in 20; a parameter may instead be reported not identifiable (knee
-    theta0 in 4 of 20), never with a wrong interval more than 2 times.
-    """
-    from dataclasses import replace
-
-    import passive_walk
-    from predgait.dynamics.inverse_trial import run_inverse
-    from predgait.workflows.decomposition import residual_cutoff
-
-    walk = passive_walk.NoiseFreeTrial(cycles=6, seed=0)
-    settings = Settings(quiet_phases=((73.0, 88.0),))   # the truth's active is 0 in 70-97 %
-    model = build_model(["knee", "ankle"], fit=LINEAR_FIT)
-    errors = {key: [] for key in passive_walk.TRUTH}
-    missed = dict.fromkeys(passive_walk.TRUTH, 0)
-    abstained = dict.fromkeys(passive_walk.TRUTH, 0)
-    for repetition in range(20):
-        folder = tmp_path / f"r{repetition}"
-        folder.mkdir()
-        options = walk.write(folder, noise_seed=1000 + repetition)
-        cutoff = residual_cutoff(options)
-        assert 6.0 < cutoff < 20.0
-        inverse = run_inverse(replace(options, cutoff=cutoff, grf_cutoff=cutoff))
-        samples = GaitSamples.from_inverse(inverse)
-        fit = fit_decomposition(samples, model, settings)
-        boot = bootstrap(samples, model, fit, settings, repeats=60, seed=repetition)
-        for report in assess(model, fit, boot)[0]:
-            true = passive_walk.TRUTH.get(report.key)
-            if true is None:
-                continue
-            errors[report.key].append(report.value / true - 1)
-            if report.status is Status.NOT_IDENTIFIABLE:
-                abstained[report.key] += 1
-            elif not report.interval95[0] <= true <= report.interval95[1]:
-                missed[report.key] += 1
-    for key in passive_walk.TRUTH:
-        assert missed[key] <= 2, (key, missed, abstained)
-        if key.startswith("ankle"):
-            assert abstained[key] == 0, (key, abstained)
-            rms = np.sqrt(np.mean(np.square(errors[key])))
-            assert rms < 0.06 and np.max(np.abs(errors[key])) < 0.15, (key, errors[key])
-        else:
-            assert abstained[key] <= 4, (key, abstained)
 
 
 def test_the_synthetic_walk_is_what_inverse_dynamics_inverts():

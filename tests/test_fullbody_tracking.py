@@ -5,8 +5,8 @@ RNEA - J^T f and its contact points; a standing sway simulated by the forward en
 with a known torque history on the engine's contact springs is recovered (torques within
 2 % RMS, motion within 0.5 deg); on subject01 the solution satisfies the equations of
 motion when re-evaluated by Pinocchio (pelvis residual < 1e-6 N) while staying close to
-the measured angles and plate forces; the forward engine re-simulating the free body on
-its contact springs falls without feedback and completes the window with the LQR.
+the measured angles and plate forces. The whole cycle with and without feedback:
+tests/test_fullbody_tracking_cycle.py.
 """
 
 from pathlib import Path
@@ -27,6 +27,7 @@ from predgait.problems.fullbody_tracking import (
     contact_inverse_dynamics,
     node_function,
     solve_tracking,
+    tracking_nlp,
 )
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "fullbody_tracking.toml"
@@ -58,6 +59,41 @@ def test_node_function_equals_pinocchio():
                                        data.oMf[fid].translation, atol=1e-12)
             vel = pin.getFrameVelocity(pm, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
             np.testing.assert_allclose(point_vel[3 * i: 3 * i + 3], vel, atol=1e-10)
+
+
+def test_assembled_derivatives_equal_automatic_differentiation():
+    """The Jacobian, gradient and Hessian assembled from one node and one interval equal
+    CasADi's derivatives of the whole NLP's f and g (4 nodes, random point)."""
+    import casadi as cs
+
+    model = load_fullbody()
+    rng = np.random.default_rng(3)
+    n = 4
+    q = np.tile(model.neutral(), (n, 1))
+    q[:, 7:] += rng.uniform(-0.3, 0.3, (n, 29))
+    q[:, 3:7] = rng.normal(size=(n, 4))
+    q[:, 3:7] /= np.linalg.norm(q[:, 3:7], axis=1, keepdims=True)
+    data = TrackingData(np.arange(n) / 60.0, q, rng.normal(size=(n, 35)),
+                        rng.normal(size=(n, 35)), rng.random((n, 4)) < 0.6,
+                        rng.normal(300, 50, (n, 2, 3)), rng.normal(0, 0.1, (n, 2, 3)),
+                        rng.normal(size=(n, 2)), ground_z=0.0, belt_velocity=0.3)
+    problem = tracking_nlp(model, data)
+    x, f, g = (problem.nlp[k] for k in ("x", "f", "g"))
+    sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", g.size1())
+    auto = cs.Function("auto", [x, sigma, lam], [cs.jacobian(g, x), cs.gradient(f, x),
+                                                 cs.triu(cs.hessian(sigma * f + cs.dot(lam, g),
+                                                                    x)[0])])
+    point = problem.x0 + rng.normal(0, 0.05, problem.x0.size)
+    weights = rng.normal(size=g.size1())
+    jac, grad, hess = (np.asarray(cs.densify(m)) for m in auto(point, 0.7, weights))
+    d = problem.derivatives
+    np.testing.assert_allclose(cs.densify(d["jac_g"](point, [])[1]), jac, atol=1e-9,
+                               rtol=1e-9)
+    np.testing.assert_allclose(np.ravel(d["grad_f"](point, [])[1]), np.ravel(grad),
+                               atol=1e-9, rtol=1e-9)
+    np.testing.assert_allclose(cs.densify(d["hess_lag"](point, [], 0.7, weights)), hess,
+                               atol=1e-7, rtol=1e-9)
+    assert np.abs(hess).max() > 1.0 and np.abs(jac).max() > 1.0
 
 
 def standing_sway(duration=0.3, settle=0.4, step=2.5e-4):
@@ -203,23 +239,6 @@ def test_subject01_stays_near_the_measured_data(subject01):
     on = solution.forces[data.contact]
     assert np.all(on[:, 2] >= -1e-9)
     assert np.all(np.abs(on[:, :2]) <= data.friction * on[:, 2:3] + 1e-6)
-
-
-def test_feedback_holds_the_free_body_that_falls_without_it(subject01):
-    """Re-simulation on the contact springs: open loop falls, LQR completes the window."""
-    from predgait.problemfile import load_problem
-    from predgait.workflows.fullbody_tracking import parse_tracking
-    from predgait.workflows.fullbody_tracking_run import hold_with_feedback
-
-    drive, data, solution = subject01
-    spec = parse_tracking(load_problem(PROBLEM, ["window.start=0.633", "window.end=0.9"]))
-    info, lqr, run = hold_with_feedback(spec, drive, data, solution)
-    without, with_fb = info["without_feedback"], info["with_feedback"]
-    assert without["status"] == "event" and without["time_to_fall_s"] < 0.1
-    assert with_fb["status"] == "completed" and with_fb["time_to_fall_s"] is None
-    assert run.t[-1] == pytest.approx(data.time[-1])
-    assert with_fb["joint_rms_from_solution_deg"] < 3.0
-    assert lqr.gains.shape == (data.nodes, 29, 70)
 
 
 def test_cli_writes_the_result(tmp_path, capsys, assert_tidy_result):

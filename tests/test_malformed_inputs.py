@@ -58,6 +58,7 @@ PROBLEMS = {
     "inverse_walking5.toml": ["inverse", "{}"],
     "passive_decomposition.toml": ["solve", "{}"],
     "passive_shooting.toml": ["solve", "{}"],
+    "passive_swing.toml": ["solve", "{}"],
     "passive_shooting_nonlinear.toml": ["solve", "{}"],
     "resynthesis_fig4_2_9.toml": ["simulate", "{}"],
     "markers_fullbody_subject01.toml": [

@@ -207,3 +207,24 @@ def test_fit_that_does_not_converge_exits_3_and_writes_nothing(tmp_path, capsys)
     assert code == 3
     assert "did not converge" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_compiled_residuals_give_the_same_fit(measured, tmp_path, monkeypatch):
+    """The residual function compiled through the function cache: the same fit."""
+    from predgait import function_cache
+
+    if function_cache.compiler() is None:
+        pytest.skip("no C compiler: the cache is off by design")
+    inverse, samples = measured
+    model = build_model(["knee", "ankle"], elements={"knee": ["linear"], "ankle": ["linear"]},
+                        fit={"knee": ["k", "c", "theta0"], "ankle": ["k", "c", "theta0"]})
+    intervals = Intervals.from_inverse(inverse, samples)
+    in_memory = fit_shooting(inverse.model, intervals, model)
+    monkeypatch.setenv(function_cache.SWITCH, "on")
+    monkeypatch.setenv(function_cache.FOLDER, str(tmp_path))
+    monkeypatch.setenv(function_cache.WHEN, "now")
+    compiled = fit_shooting(inverse.model, intervals, model)
+    assert list(tmp_path.glob("shooting_residuals-*.so")), "nothing compiled"
+    for key, value in in_memory.values.items():
+        assert compiled.values[key] == pytest.approx(value, rel=1e-9, abs=1e-12), key
+    np.testing.assert_allclose(compiled.jacobian, in_memory.jacobian, rtol=1e-9, atol=1e-12)

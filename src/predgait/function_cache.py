@@ -177,13 +177,13 @@ def start_compiling(function: cs.Function, library: Path, job: dict) -> bool:
     if _fresh(worker):
         return True
     _reap()
-    quiet = [(os.POSIX_SPAWN_OPEN, fd, os.devnull, os.O_RDWR, 0) for fd in (0, 1, 2)]
     try:  # detached (own session): it outlives this process; no Popen to wait for
+        quiet = [(os.POSIX_SPAWN_OPEN, fd, os.devnull, os.O_RDWR, 0) for fd in (0, 1, 2)]
         worker.write_text(str(os.getpid()))
         _CHILDREN.append(os.posix_spawn(
             sys.executable, [sys.executable, "-m", "predgait.function_cache", str(folder)],
             os.environ, file_actions=quiet, setsid=True))
-    except OSError as exc:
+    except (OSError, AttributeError) as exc:  # AttributeError: no posix_spawn (Windows)
         log.warning("%s not compiled: %s", library.name, exc)
         worker.unlink(missing_ok=True)
         return False

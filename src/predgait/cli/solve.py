@@ -33,6 +33,9 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
   passive_decomposition  passive knee/ankle moments split from the measured moments
                      (no simulation; problems/passive_decomposition.toml), with
                      bootstrap intervals or "not identifiable"
+  passive_swing      passive knee/ankle fitted to the measured angles of the quiet
+                     phases by simulating the shank and foot under the measured thigh
+                     (problems/passive_swing.toml), with bootstrap intervals
   passive_shooting   stabilising spring-dampers added to the measured moments, fitted
                      by multiple shooting over intervals shorter than the unstable time
                      constant (problems/passive_shooting.toml), beside the decomposition
@@ -73,6 +76,9 @@ _WORKFLOWS = {
     "passive_shooting": _Workflow(
         "predgait.workflows.shooting", "parse_shooting", "run_shooting",
         "solution.json, passive_moments.sto, active_passive.png"),
+    "passive_swing": _Workflow(
+        "predgait.workflows.passive_swing", "parse_swing", "run_swing",
+        "solution.json, passive_moments.sto, swing_angles.sto"),
     "torque_feedback": _Workflow(
         "predgait.workflows.torque_feedback", "parse_feedback", "run_feedback",
         "solution.json, corrected_moments.sto, feedback_gains.sto, torque_feedback.png",

@@ -1,136 +1,40 @@
 """Read C3D files (via ezc3d): markers and force plates into the lab frame.
 
-Force plates of TYPE 2 (forces and moments about the sensor origin, six channels) and
-TYPE 4 (the same through a 6x6 CAL_MATRIX) are supported. ezc3d returns analog values
-already multiplied by ANALOG:SCALE and GEN_SCALE with OFFSET removed.
-
-Plate frame (C3D convention, the same as ezc3d): x along corner1 - corner2, y along
-corner1 - corner4, z = x cross y (into the plate, i.e. down). The analog channels hold the
-wrench ON THE FOOT expressed in the plate frame at the sensor origin, which sits at
-``ORIGIN`` (plate frame) from the centre of the plate surface. For a wrench (F, M) about
-the origin O and the surface plane z = s (relative to O), the COP (x, y, s) is where the
-horizontal moment vanishes::
-
-    x = (s Fx - My) / Fz,   y = (Mx + s Fy) / Fz,   Tz = Mz - (x Fy - y Fx)
-
-(Soutas-Little 1987, as in the thesis 3.2.2). Tz is the free moment about the COP.
+Plates: :mod:`predgait.data.c3d_plates` (TYPE 1-4). The vertical is the plates' normal
+(Y-up labs are common), else Z; a lab Z that does not look vertical is refused.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import struct
 
 import numpy as np
 
-from predgait.data._io import check_magnitude, duplicate_labels, length_factor, open_input
-from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_trial
+from predgait.data._io import (
+    check_magnitude,
+    duplicate_labels,
+    length_factor,
+    open_input,
+    zeros_as_missing,
+)
+from predgait.data.c3d_plates import param, plate_axes, read_plates
+from predgait.data.frames import (
+    FileAxes,
+    Forward,
+    axis_up_rotation,
+    check_vertical,
+    lab_rotation,
+    parse_enum,
+    rotate_trial,
+    up_from_plates,
+    up_rotation,
+)
 from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.errors import InputError
 
 logger = logging.getLogger(__name__)
-
-_MOMENT_UNITS = {"nmm": 1e-3, "n.mm": 1e-3, "n mm": 1e-3, "n*mm": 1e-3, "nm": 1.0,
-                 "n.m": 1.0, "n m": 1.0, "n*m": 1.0}
-
-#: |Fz| (N) below which the COP is undefined and held at the plate centre.
-COP_MIN_FORCE = 10.0
-
-
-def _param(params, group: str, name: str, default=None):
-    try:
-        return params[group][name]["value"]
-    except KeyError:
-        return default
-
-
-def plate_axes(corners: np.ndarray) -> np.ndarray:
-    """Rotation (3, 3) from a plate's frame to the file frame, columns = plate x, y, z.
-
-    Args:
-        corners: (4, 3) corner positions in the file frame (C3D order).
-    """
-    x = corners[0] - corners[1]
-    y = corners[0] - corners[3]
-    z = np.cross(x, y)
-    y = np.cross(z, x)
-    return np.column_stack([v / np.linalg.norm(v) for v in (x, y, z)])
-
-
-def plate_wrench_to_cop(force: np.ndarray, moment: np.ndarray, origin: np.ndarray, *,
-                        min_force: float = COP_MIN_FORCE) -> tuple[np.ndarray, np.ndarray]:
-    """COP and free moment in the plate frame from the wrench at the sensor origin.
-
-    Args:
-        force: (k, 3) N, plate frame.
-        moment: (k, 3) N m about the sensor origin, plate frame.
-        origin: (3,) m, sensor origin relative to the surface centre, plate frame.
-        min_force: N; where |Fz| is smaller the COP is put at the surface centre and the
-            free moment is the plain vertical moment.
-
-    Returns:
-        cop: (k, 3) m relative to the surface centre, plate frame (z = 0).
-        free_moment: (k, 3) N m, (0, 0, Tz).
-    """
-    s = -origin[2]
-    fx, fy, fz = force.T
-    mx, my, mz = moment.T
-    loaded = np.abs(fz) >= min_force
-    safe = np.where(loaded, fz, 1.0)
-    x = np.where(loaded, (s * fx - my) / safe, -origin[0])
-    y = np.where(loaded, (mx + s * fy) / safe, -origin[1])
-    tz = mz - (x * fy - y * fx)
-    cop = np.column_stack([x + origin[0], y + origin[1], np.zeros_like(x)])
-    free = np.column_stack([np.zeros_like(tz), np.zeros_like(tz), tz])
-    return cop, free
-
-
-def _plates(params, analogs: np.ndarray, rate: float, point_factor: float,
-            source: str) -> list[ForcePlate]:
-    used = int(np.ravel(_param(params, "FORCE_PLATFORM", "USED", [0]))[0])
-    if used == 0:
-        return []
-    types = np.ravel(_param(params, "FORCE_PLATFORM", "TYPE"))
-    corners = np.asarray(_param(params, "FORCE_PLATFORM", "CORNERS"), dtype=float)
-    corners = corners.reshape(3, 4, -1)
-    origins = np.asarray(_param(params, "FORCE_PLATFORM", "ORIGIN"), dtype=float).reshape(3, -1)
-    channels = np.asarray(_param(params, "FORCE_PLATFORM", "CHANNEL"), dtype=int)
-    channels = channels.reshape(-1, used) if channels.ndim == 1 else channels
-    cal = np.asarray(_param(params, "FORCE_PLATFORM", "CAL_MATRIX", []), dtype=float)
-    units = list(_param(params, "ANALOG", "UNITS", []))
-    time = np.arange(analogs.shape[1]) / rate
-    plates = []
-    for p in range(used):
-        kind = int(types[p])
-        if kind not in (2, 4):
-            raise InputError(
-                f"{source}: FORCE_PLATFORM:TYPE of plate {p + 1} is {kind}; predgait reads "
-                "types 2 and 4 only. Export the plate as type 2 (forces and moments)."
-            )
-        index = channels[:6, p] - 1
-        if index.max() >= analogs.shape[0]:
-            raise InputError(f"{source}: plate {p + 1} CHANNEL {index + 1} exceeds the analogs.")
-        raw = analogs[index].T  # (k, 6)
-        if kind == 4:
-            if cal.size < 36 * (p + 1):
-                raise InputError(f"{source}: plate {p + 1} is TYPE 4 but has no CAL_MATRIX.")
-            raw = raw @ cal.reshape(6, 6, -1)[:, :, p].T
-        m_unit = units[index[3]] if len(units) > index[3] else "Nmm"
-        m_factor = _MOMENT_UNITS.get(m_unit.strip().lower())
-        if m_factor is None:
-            raise InputError(f"{source}: ANALOG:UNITS {m_unit!r} of plate {p + 1} moments "
-                             "is not N mm or N m.")
-        c_file = corners[:, :, p].T * point_factor  # (4, 3) m
-        origin = origins[:, p] * point_factor
-        rotation = plate_axes(c_file)
-        cop_p, free_p = plate_wrench_to_cop(raw[:, :3], raw[:, 3:] * m_factor, origin)
-        centre = c_file.mean(axis=0)
-        check_magnitude(raw[:, :3], time, "force", source=f"{source} (plate {p + 1})")
-        plates.append(ForcePlate(
-            time=time, force=raw[:, :3] @ rotation.T, cop=centre + cop_p @ rotation.T,
-            free_moment=free_p @ rotation.T, name=str(p + 1), corners=c_file,
-        ))
-    return plates
 
 
 def _header_frames(path) -> int | None:
@@ -156,7 +60,43 @@ def _header_frames(path) -> int | None:
     return None if last >= 65535 else last - first + 1
 
 
-def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | str = FileAxes.Z_UP,
+#: N; a plate whose vertical force only reaches below -MIN_LOAD (never above +MIN_LOAD)
+#: records the force ON THE PLATE and is negated.
+MIN_LOAD = 50.0
+
+
+def _file_up(plates: list[ForcePlate], axes: FileAxes, source: str) -> np.ndarray:
+    """Rotation (3, 3) from the file frame to a Z-up frame (the forward axis comes later)."""
+    if axes is not FileAxes.AUTO:
+        return up_rotation(axes)
+    if not plates:
+        return np.eye(3)
+    normals = np.array([-plate_axes(p.corners)[:, 2] for p in plates])
+    return axis_up_rotation(up_from_plates(normals, source=f"{source} FORCE_PLATFORM:CORNERS"))
+
+
+def _point_labels(params) -> list[str]:
+    """Marker labels: POINT:LABELS, then LABELS2, LABELS3, ... (more than 255 markers)."""
+    labels = [str(n).strip() for n in param(params, "POINT", "LABELS", [])]
+    more = 2
+    while f"LABELS{more}" in params["POINT"]:
+        labels += [str(n).strip() for n in param(params, "POINT", f"LABELS{more}", [])]
+        more += 1
+    return labels
+
+
+def _on_the_foot(plate: ForcePlate, source: str) -> ForcePlate:
+    """The plate with its wrench negated if the file stores the force on the plate."""
+    fz = plate.force[:, 2]
+    if np.nanmax(fz) < MIN_LOAD < -np.nanmin(fz):
+        logger.warning("%s: plate %s pushes down (vertical force down to %.0f N); reading it "
+                       "as the force on the plate and negating it", source, plate.name,
+                       np.nanmin(fz))
+        return dataclasses.replace(plate, force=-plate.force, free_moment=-plate.free_moment)
+    return plate
+
+
+def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | str = FileAxes.AUTO,
              plates: bool = True) -> Trial:
     """Read a C3D file: markers (m) and force plates at the analog rate, lab frame.
 
@@ -164,7 +104,8 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
         path: the .c3d file.
         forward: file axis of progression, or "auto" (detected from the marker centroid;
             treadmill-like trials with < 0.3 m travel keep +X).
-        axes: the file's vertical convention (C3D is usually Z-up).
+        axes: the file's vertical convention: "auto" takes the force plates' normal (Y-up
+            labs) and Z-up without plates; a lab Z that does not look vertical is refused.
         plates: read the force plates too.
 
     Returns:
@@ -172,39 +113,60 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     """
     import ezc3d
 
+    axes = parse_enum(axes, FileAxes, field="axes", source=str(path))
     path = open_input(path)
-    expected = _header_frames(path)
+    header_frames = _header_frames(path)
     try:
         c3d = ezc3d.c3d(str(path))
     except Exception as exc:  # ezc3d raises RuntimeError/IOError for bad files
         raise InputError(f"{path}: ezc3d could not read it as C3D ({exc}).") from None
     params = c3d["parameters"]
-    labels = [str(n).strip() for n in _param(params, "POINT", "LABELS", [])]
-    n_read = c3d["data"]["points"].shape[2]
+    labels = _point_labels(params)
+    n_read, n_markers = c3d["data"]["points"].shape[2], c3d["data"]["points"].shape[1]
+    if n_markers == 0:
+        raise InputError(f"{path}: no marker data (POINT:USED = 0); predgait needs marker "
+                         "trajectories: export the trial with its markers.")
+    if len(labels) < n_markers:
+        raise InputError(f"{path}: {n_markers} markers but POINT:LABELS names {len(labels)}; "
+                         "re-export the trial with every marker labelled.")
+    expected = header_frames
     if expected is not None and n_read < expected:
         raise InputError(f"{path}: {n_read} frames read but the header says {expected}; the "
                          "file looks truncated. Re-export it.")
     if n_read < 2:
         raise InputError(f"{path}: {n_read} frame(s); a trial needs at least two.")
-    duplicate_labels(labels[: c3d["data"]["points"].shape[1]], source=str(path),
-                     what="marker label")
+    duplicate_labels(labels[:n_markers], source=str(path), what="marker label")
     header_rate = c3d["header"]["points"]["frame_rate"]
-    rate = float(np.ravel(_param(params, "POINT", "RATE", [header_rate]))[0])
-    unit = _param(params, "POINT", "UNITS", ["mm"])[0]
+    rate = float(np.ravel(param(params, "POINT", "RATE", [header_rate]))[0])
+    if not rate > 0:
+        raise InputError(f"{path}: POINT:RATE is {rate!r} Hz; re-export the trial with its "
+                         "frame rate.")
+    stated = list(param(params, "POINT", "UNITS", []))
+    unit = (stated or ["mm"])[0]
     factor = length_factor(unit, source=str(path), field="POINT:UNITS")
     points = c3d["data"]["points"][:3]  # (3, m, n)
     xyz = np.transpose(points, (2, 1, 0)) * factor
     residuals = c3d["data"]["meta_points"]["residuals"][0].T  # (n, m)
     xyz[residuals < 0] = np.nan
+    zeros_as_missing(xyz, source=str(path))
     check_magnitude(xyz, np.arange(xyz.shape[0]) / rate, "marker", source=str(path),
                     names=labels)
-    markers = Markers(time=np.arange(xyz.shape[0]) / rate, names=tuple(labels[: xyz.shape[1]]),
+    markers = Markers(time=np.arange(xyz.shape[0]) / rate, names=tuple(labels[:n_markers]),
                       xyz=xyz, rate=rate, source=str(path))
     plate_list = []
     if plates and "FORCE_PLATFORM" in params:
-        a_rate = float(np.ravel(_param(params, "ANALOG", "RATE", [0.0]))[0])
+        a_rate = float(np.ravel(param(params, "ANALOG", "RATE", [0.0]))[0])
         analogs = c3d["data"]["analogs"][0]
-        plate_list = _plates(params, analogs, a_rate, factor, str(path))
+        plate_list = read_plates(params, analogs, a_rate, factor, str(path))
+    up = _file_up(plate_list, axes, str(path))
+    z_up = np.einsum("ij,nmj->nmi", up, xyz)
+    check_vertical(z_up, source=str(path), convention=(
+        "Z-up (a C3D file without force plates)" if axes is FileAxes.AUTO and not plate_list
+        else "vertical along the force plates' normal" if axes is FileAxes.AUTO
+        else f"axes {axes.value!r}"),
+        unit_field=f"POINT:UNITS {unit!r}" + ("" if stated else " (not stated: mm assumed)"))
     trial = Trial(markers=markers, plates=tuple(plate_list), source=str(path))
-    rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
-    return rotate_trial(trial, rotation)
+    rotation = lab_rotation(FileAxes.Z_UP, forward, xyz=z_up, source=str(path)) @ up
+    trial = rotate_trial(trial, rotation)
+    return dataclasses.replace(trial, plates=tuple(_on_the_foot(p, str(path))
+                                                   for p in trial.plates))

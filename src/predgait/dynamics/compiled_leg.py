@@ -48,7 +48,7 @@ CHUNK = 100
 #: Version of what :func:`leg_dynamics` builds (part of its cache key).
 VERSION = "1"
 FREE, PRESCRIBED = [3, 4], [0, 1, 2]
-#: Step functions of this process, by structure key (compiled or in CasADi's VM).
+#: Step and output functions of this process, by structure key (compiled or in the VM).
 _STEPS: dict[str, cs.Function] = {}
 #: Layout of the inputs u: qb, vb, ab (3 each), tau (5), hip (6), then the feedback
 #: reference and the forces' parameters (see FastLeg).
@@ -111,6 +111,7 @@ class FastLeg:
         self.rhs = self._rhs_function(leg_dynamics(system.model))
         self._key = function_cache.key_of([self.rhs.serialize()])
         self._inputs = None  # (times, inputs) of the latest call
+        self._recovered = None  # (t, x, rows) of the latest recover()
 
     # -- symbolic ---------------------------------------------------------------------
     def _parameter(self, value):
@@ -260,11 +261,39 @@ class FastLeg:
 
         return run
 
+    def grid_solver(self, options: IntegratorOptions):
+        """The CVODES run of :mod:`predgait.dynamics.cvodes_leg`, or None (see there)."""
+        from predgait.dynamics.cvodes_leg import cvodes_solver
+
+        return cvodes_solver(self, options)
+
     def recover(self, t: np.ndarray, x: np.ndarray):
-        """(q, v, a, reaction) of every output row (n, 5), (n, 5), (n, 5), (n, 3)."""
+        """(q, v, a, reaction) of every output row (n, 5), (n, 5), (n, 5), (n, 3).
+
+        The last result is kept (a CVODES run recovers its rows' rates, then the engine
+        its output rows: often the same).
+        """
+        last = self._recovered
+        if last is None or not (np.array_equal(last[0], t) and np.array_equal(last[1], x)):
+            last = self._recovered = (np.array(t), np.array(x), self._recover(t, x))
+        return tuple(rows.copy() for rows in last[2])
+
+    def _recover(self, t: np.ndarray, x: np.ndarray):
         n = len(t)
         u = self.inputs(t)
-        xdot, reaction = (np.asarray(r).T for r in self.rhs.map(n)(x.T, u.T))
+        key = function_cache.key_of([self._key, "outputs", str(CHUNK)])
+        if key not in _STEPS:
+            mapped = self.rhs.map(CHUNK)
+            _STEPS[key] = function_cache.compiled(mapped, key) or mapped
+        columns = -(-n // CHUNK) * CHUNK  # padded with zero rows
+        x_in, u_in = np.zeros((4, columns)), np.zeros((self.nu, columns))
+        x_in[:, :n], u_in[:, :n] = x.T, u.T
+        xdot, reaction = np.empty((n, 4)), np.empty((n, 3))
+        for start in range(0, n, CHUNK):
+            stop = min(n, start + CHUNK)
+            parts = _STEPS[key](x_in[:, start: start + CHUNK], u_in[:, start: start + CHUNK])
+            xdot[start:stop] = np.asarray(parts[0]).T[: stop - start]
+            reaction[start:stop] = np.asarray(parts[1]).T[: stop - start]
         q = np.column_stack([u[:, _QB], x[:, :2]])
         v = np.column_stack([u[:, _VB], x[:, 2:]])
         a = np.column_stack([u[:, _AB], xdot[:, 2:]])

@@ -22,11 +22,13 @@ Weights follow Bryson's rule, the torque cost of each joint its inertia
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import bisect
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
+from predgait.blas_threads import one_blas_thread
 from predgait.dynamics.forces import Force
 from predgait.dynamics.lqr import riccati_gains
 
@@ -118,21 +120,31 @@ class FloatingLQR(Force):
     times: np.ndarray
     gains: np.ndarray
     name: str = "feedback"
+    #: (t, q_ref, v_ref, K) of the latest time asked: RK4's middle stages share one t,
+    #: and a step's last stage is the next step's first.
+    _latest: list = field(default_factory=list, init=False, repr=False, compare=False)
 
     def gain(self, t: float) -> np.ndarray:
         """K(t) (n, 2 nv), held at the ends."""
-        k = int(np.clip(np.searchsorted(self.times, t) - 1, 0, self.times.size - 2))
-        w = float(np.clip((t - self.times[k]) / (self.times[k + 1] - self.times[k]), 0, 1))
+        times = self.times
+        k = min(max(bisect.bisect_left(times, t) - 1, 0), times.size - 2)
+        w = min(max((t - times[k]) / (times[k + 1] - times[k]), 0.0), 1.0)
         return (1 - w) * self.gains[k] + w * self.gains[k + 1]
+
+    def _at(self, t: float) -> tuple:
+        if not self._latest or self._latest[0] != t:
+            q_ref, v_ref = self.reference(t)[:2]
+            self._latest[:] = (t, q_ref, v_ref, self.gain(t))
+        return self._latest[1:]
 
     def error(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """State error dx (2 nv,) from the reference at t."""
-        q_ref, v_ref = self.reference(t)[:2]
+        q_ref, v_ref, _ = self._at(t)
         return np.concatenate([pin.difference(self.model.pin_model, q_ref, q), v - v_ref])
 
     def torque(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Feedback torques (n,) at t."""
-        return -self.gain(t) @ self.error(t, q, v)
+        return -self._at(t)[2] @ self.error(t, q, v)
 
     def add(self, tau, t, q, v, data) -> None:
         """Add the feedback torques at t."""
@@ -160,5 +172,6 @@ def floating_tvlqr(system, reference, times: np.ndarray, actuated,
     inertia = np.diag(pin.crba(system.pm, system.pm.createData(),
                                np.asarray(reference(times[0])[0], dtype=float)))[actuated]
     q, r = weights.matrices(inertia)
-    gains = riccati_gains(times, a_mats, b_mats, q, r, substeps=substeps)
+    with one_blas_thread():  # ~100 x 100 exponentials: threads only cost here
+        gains = riccati_gains(times, a_mats, b_mats, q, r, substeps=substeps)
     return FloatingLQR(system.model, actuated, reference, times, gains)

@@ -318,19 +318,24 @@ class GroundContact(Force):
         self.last_forces = np.zeros((len(self._ids), 3))
 
     def forces(self, data: pin.Data) -> np.ndarray:
-        """(n_frames, 3) lab-frame contact forces for the kinematics stored in ``data``."""
+        """(n_frames, 3) lab-frame contact forces for the kinematics stored in ``data``.
+
+        One call of the contact law for all frames and both slip axes (the laws
+        broadcast over arrays); a frame more than 5 cm above the ground gets no force.
+        """
         pm = self.model.pin_model
+        positions = np.array([data.oMf[fid].translation[2] for fid in self._ids])
+        velocities = np.array([pin.getFrameVelocity(pm, data, fid, LWA).linear
+                               for fid in self._ids])
+        near = positions <= self.ground_z + 0.05
+        depth, rate = self.ground_z - positions, -velocities[:, 2]
+        slip = velocities[:, :2].T - np.array([[self.belt_velocity], [0.0]])
+        normal, tangential = self.contact.force(depth[None], rate[None], slip)
         out = np.zeros((len(self._ids), 3))
-        for i, fid in enumerate(self._ids):
-            z = data.oMf[fid].translation[2]
-            if z > self.ground_z + 0.05:  # far above ground: no force (cheap exit)
-                continue
-            vel = pin.getFrameVelocity(pm, data, fid, LWA).linear
-            depth, rate = self.ground_z - z, -vel[2]
-            normal, tx = self.contact.force(depth, rate, vel[0] - self.belt_velocity)
-            out[i, 0], out[i, 2] = float(tx), float(normal)
-            if not self.planar:
-                out[i, 1] = float(self.contact.force(depth, rate, vel[1])[1])
+        out[:, 0] = np.where(near, tangential[0], 0.0)
+        out[:, 2] = np.where(near, normal[0], 0.0)
+        if not self.planar:
+            out[:, 1] = np.where(near, tangential[1], 0.0)
         return out
 
     def add(self, tau, t, q, v, data) -> None:

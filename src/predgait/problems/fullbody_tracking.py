@@ -49,6 +49,7 @@ import casadi as cs
 import numpy as np
 import pinocchio as pin
 
+from predgait.blas_threads import one_blas_thread
 from predgait.dynamics.contact import adams_step
 from predgait.errors import SolveFailed
 from predgait.models.fullbody import CONTACTS
@@ -231,12 +232,16 @@ def _initial_forces(data: TrackingData) -> np.ndarray:
     return out.reshape(data.nodes, 12)
 
 
-#: Sizes: unknowns per node (dx, v, a, f), node parameters, node constraints (base
+#: Sizes: unknowns per node (dx, v, a, f / FORCE_UNIT), node parameters, node constraints (base
 #: rows 6, contact heights 4, friction pyramid 16), interval constraints (joints 29,
 #: velocities 35, pelvis position 3, pelvis rotation 3), weights.
 NZ, NP, NG, NI, NW = 117, 129, 26, 70, 7
 #: Weight of the point forces' own cost relative to the foot-force tracking.
 REGULARISATION = 1e-4
+#: Unit of the force unknowns, N: forces of hundreds of N as numbers of order one (on
+#: subject01's cycle 63 Ipopt iterations instead of 81 with N; 500 N: 60 iterations
+#: but twice the linear-solver time).
+FORCE_UNIT = 100.0
 
 
 def _node_parameters(data: TrackingData) -> np.ndarray:
@@ -260,19 +265,39 @@ def _weight_vector(weights: TrackingWeights, body_weight: float) -> np.ndarray:
                            w.moment_bw_m * body_weight, w.friction_bw * body_weight]) ** 2
 
 
-@functools.lru_cache(maxsize=4)
-def stage_functions(model: Model3D) -> tuple[cs.Function, cs.Function, cs.Function]:
-    """(node, node_hessian, rotation_hessian) CasADi functions of one node / interval.
+@dataclass(frozen=True, eq=False)
+class StageFunctions:
+    """CasADi functions of one node and one interval (the NLP is assembled from them).
 
-    ``node(z, p, w) -> (g, cost, rot, pos)``: z (NZ,) unknowns, p (NP,) parameters,
-    w (NW,) weights; g (NG,) node constraints, cost (scalar), rot (9,) R column-major,
-    pos (3,). ``node_hessian(z, p, w, sigma, lam, mu)``: upper triangle of the Hessian
-    of sigma cost + lam.g + mu.(R v_lin). ``rotation_hessian(q0, q1, c0, c1, lam)``: that
-    of lam.vee(skew(R0^T R1)) in (c0, c1).
+    Attributes:
+        node: ``(z, p, w) -> (g, cost)``: z (NZ,) unknowns, p (NP,) parameters, w (NW,)
+            weights; g (NG,) node constraints, cost (scalar).
+        node_jacobian: ``(z, p, w) -> dg/dz`` (NG, NZ).
+        node_gradient: ``(z, p, w) -> dcost/dz`` (NZ,).
+        node_hessian: ``(z, p, w, sigma, lam, mu)``: upper triangle of the Hessian of
+            sigma cost + lam.g + mu.(R v_lin).
+        interval: ``(z0, z1, q0, q1, h) -> g`` (NI,): the trapezoidal collocation of one
+            interval (q0, q1 the nodes' reference configurations, h s).
+        interval_jacobian: ``(z0, z1, q0, q1, h) -> dg/d(z0, z1)`` (NI, 2 NZ).
+        rotation_hessian: ``(q0, q1, c0, c1, lam)``: Hessian of lam.vee(skew(R0^T R1))
+            in (c0, c1).
     """
+
+    node: cs.Function
+    node_jacobian: cs.Function
+    node_gradient: cs.Function
+    node_hessian: cs.Function
+    interval: cs.Function
+    interval_jacobian: cs.Function
+    rotation_hessian: cs.Function
+
+
+@functools.lru_cache(maxsize=4)
+def stage_functions(model: Model3D) -> StageFunctions:
+    """The node and interval functions of :class:`StageFunctions` (SX, built once)."""
     node = node_function(model)
     z, p, w = cs.SX.sym("z", NZ), cs.SX.sym("p", NP), cs.SX.sym("w", NW)
-    dx, v, a, f = z[:35], z[35:70], z[70:105], z[105:]
+    dx, v, a, f = z[:35], z[35:70], z[70:105], FORCE_UNIT * z[105:]
     q_ref, v_ref, a_ref, on = p[:36], p[36:71], p[71:106], p[106:110]
     force_t, cop, free_moment = p[110:116], p[116:122], p[122:124]
     ground_z, belt, compliance, mu, ramp = p[124], p[125], p[126], p[127], p[128]
@@ -300,7 +325,9 @@ def stage_functions(model: Model3D) -> tuple[cs.Function, cs.Function, cs.Functi
     # heel-toe line) change nothing else: a small cost on every force fixes them.
     cost += w[4] * REGULARISATION * cs.sumsqr(f)
     u = cs.reshape(rot, 3, 3) @ v[:3]
-    node_f = cs.Function("tracking_node", [z, p, w], [g, cost, rot, pos])
+    node_f = cs.Function("tracking_node", [z, p, w], [g, cost])
+    node_jac = cs.Function("tracking_node_jacobian", [z, p, w], [cs.jacobian(g, z)])
+    node_grad = cs.Function("tracking_node_gradient", [z, p, w], [cs.gradient(cost, z)])
     sigma, lam, mu3 = cs.SX.sym("sigma"), cs.SX.sym("lam", NG), cs.SX.sym("mu", 3)
     lagrangian = sigma * cost + cs.dot(lam, g) + cs.dot(mu3, u)
     hess = cs.Function("tracking_node_hessian", [z, p, w, sigma, lam, mu3],
@@ -311,7 +338,26 @@ def stage_functions(model: Model3D) -> tuple[cs.Function, cs.Function, cs.Functi
     rot_lag = cs.dot(lam_r, _vee_skew(rel))
     rot_hess = cs.Function("tracking_rotation_hessian", [q0, q1, c0, c1, lam_r],
                            [cs.hessian(rot_lag, cs.vertcat(c0, c1))[0]])
-    return node_f, hess, rot_hess
+    z0, z1, step = cs.SX.sym("z0", NZ), cs.SX.sym("z1", NZ), cs.SX.sym("h")
+    g_int = _interval(z0, z1, q0, q1, step)
+    interval = cs.Function("tracking_interval", [z0, z1, q0, q1, step], [g_int])
+    interval_jac = cs.Function("tracking_interval_jacobian", [z0, z1, q0, q1, step],
+                               [cs.jacobian(g_int, cs.vertcat(z0, z1))])
+    return StageFunctions(node_f, node_jac, node_grad, hess, interval, interval_jac, rot_hess)
+
+
+def _interval(z0, z1, q0, q1, h):
+    """Trapezoidal collocation of one interval (NI,): joints, v, pelvis position, rotation."""
+    poses = []
+    for z, q in ((z0, q0), (z1, q1)):
+        poses.append((_rotation(q) @ cayley(z[3:6]), q[:3] + z[:3]))
+    (r0, p0), (r1, p1) = poses
+    v0, v1 = z0[35:70], z1[35:70]
+    return cs.vertcat(
+        q1[7:] + z1[6:35] - q0[7:] - z0[6:35] - h / 2 * (v1[6:] + v0[6:]),
+        v1 - v0 - h / 2 * (z1[70:105] + z0[70:105]),
+        p1 - p0 - h / 2 * (r1 @ v1[:3] + r0 @ v0[:3]),
+        _vee_skew(r0.T @ r1) - h / 2 * (v1[3:6] + v0[3:6]))
 
 
 def _rotation(q):
@@ -325,6 +371,14 @@ def _vee_skew(m):
     return 0.5 * cs.vertcat(m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1])
 
 
+def _interval_columns(n: int) -> cs.DM:
+    """Sparse (2 NZ (N-1), N NZ) selection of (z_k, z_k+1) for every interval k."""
+    rows = np.arange(2 * NZ * (n - 1))
+    cols = (np.arange(n - 1)[:, None] * NZ + np.arange(2 * NZ)[None]).ravel()
+    return cs.DM(cs.Sparsity.triplet(2 * NZ * (n - 1), NZ * n, rows.tolist(),
+                                     cols.tolist()), 1.0)
+
+
 def _scatter(n: int) -> cs.DM:
     """Sparse (6 (N-1), N NZ) selection of (c_k, c_k+1) for every interval k."""
     rows, cols = [], []
@@ -335,73 +389,110 @@ def _scatter(n: int) -> cs.DM:
     return cs.DM(cs.Sparsity.triplet(6 * (n - 1), NZ * n, rows, cols), 1.0)
 
 
-def solve_tracking(model: Model3D, data: TrackingData,
-                   weights: TrackingWeights = TrackingWeights(), *,
-                   max_iter: int = 200, tol: float = 1e-8,
-                   print_level: int = 0) -> TrackingSolution:
-    """Solve the tracking problem (module docstring) with Ipopt, exact Hessian.
+@dataclass(frozen=True, eq=False)
+class TrackingNLP:
+    """The NLP of :func:`solve_tracking` with its derivative functions and bounds.
 
-    Decision vector: node-major, z_k = (dx_k, v_k, a_k, f_k) (NZ each). Constraints:
-    NG per node, then NI per interval. The Hessian of the Lagrangian is assembled from
-    one node's and one interval's symbolic Hessians (:func:`stage_functions`), so the
-    symbolic work does not grow with the number of nodes.
-
-    Raises:
-        SolveFailed: Ipopt did not converge (``best`` is the last iterate's solution).
+    Attributes:
+        nlp: ``{"x", "f", "g"}`` MX expressions. x0, lbx, ubx, lbg, ubg: arrays.
+        derivatives: nlpsol options ``hess_lag``, ``jac_g``, ``grad_f`` assembled from
+            the stage functions.
     """
-    start = time.perf_counter()
+
+    nlp: dict
+    derivatives: dict
+    x0: np.ndarray
+    lbx: np.ndarray
+    ubx: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+
+
+def tracking_nlp(model: Model3D, data: TrackingData,
+                 weights: TrackingWeights = TrackingWeights()) -> TrackingNLP:
+    """The tracking NLP (module docstring), its derivatives from one node and one interval.
+
+    Decision vector: node-major, z_k = (dx_k, v_k, a_k, f_k / FORCE_UNIT) (NZ each).
+    Constraints: NG per node, then NI per interval. The constraint Jacobian, the cost gradient and
+    the Hessian of the Lagrangian are assembled from one node's and one interval's
+    symbolic derivatives (:func:`stage_functions`), so the symbolic work does not grow
+    with the number of nodes and no derivative is taken through the mapped calls.
+    """
     n = data.nodes
     h = float(np.mean(np.diff(data.time)))
-    node_f, node_hess, rot_hess = stage_functions(model)
+    stage = stage_functions(model)
     params = _node_parameters(data)
     w = _weight_vector(weights, model.total_mass() * model.gravity)
-    x = cs.MX.sym("x", NZ * n)
+    x, no_p = cs.MX.sym("x", NZ * n), cs.MX.sym("p", 0)
     z = cs.reshape(x, NZ, n)
-    g_node, cost, rot, pos = node_f.map(n)(z, params, w)
-    dx, v, a = z[:35, :], z[35:70, :], z[70:105, :]
-    joints = data.q[:, 7:].T + dx[6:, :]
-    mats = [cs.reshape(rot[:, k], 3, 3) for k in range(n)]
-    u = cs.horzcat(*[m @ v[:3, k] for k, m in enumerate(mats)])
-    rel = cs.horzcat(*[_vee_skew(mats[k].T @ mats[k + 1]) for k in range(n - 1)])
-    g_int = cs.vertcat(
-        joints[:, 1:] - joints[:, :-1] - h / 2 * (v[6:, 1:] + v[6:, :-1]),
-        v[:, 1:] - v[:, :-1] - h / 2 * (a[:, 1:] + a[:, :-1]),
-        pos[:, 1:] - pos[:, :-1] - h / 2 * (u[:, 1:] + u[:, :-1]),
-        rel - h / 2 * (v[3:6, 1:] + v[3:6, :-1]))
-    g = cs.vertcat(cs.vec(g_node), cs.vec(g_int))
-    on = data.contact.T.astype(bool)
-    lbg_node, ubg_node = np.zeros((NG, n)), np.zeros((NG, n))
-    ubg_node[6:10] = np.where(on, 0.0, np.inf)
-    lbg_node[10:] = -np.inf
-    lbg = np.concatenate([lbg_node.ravel(order="F"), np.zeros(NI * (n - 1))])
-    ubg = np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))])
-    # Hessian of the Lagrangian from the stage Hessians.
+    qs = data.q.T
+    g_node, cost = stage.node.map(n)(z, params, w)
+    int_args = (z[:, :-1], z[:, 1:], qs[:, :-1], qs[:, 1:], h)
+    g = cs.vertcat(cs.vec(g_node), cs.vec(stage.interval.map(n - 1)(*int_args)))
+    jac_node = stage.node_jacobian.map(n)(z, params, w)
+    grad_node = stage.node_gradient.map(n)(z, params, w)
+    jac_int = stage.interval_jacobian.map(n - 1)(*int_args)
+    jacobian = cs.vertcat(cs.diagcat(*cs.horzsplit(jac_node, NZ)),
+                          cs.diagcat(*cs.horzsplit(jac_int, 2 * NZ)) @ _interval_columns(n))
+    # Hessian of the Lagrangian.
     sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", g.size1())
     lam_node = cs.reshape(lam[:NG * n], NG, n)
     lam_int = cs.reshape(lam[NG * n:], NI, n - 1)
     lam_pos, lam_rot = lam_int[64:67, :], lam_int[67:70, :]
     zero = cs.MX.zeros(3, 1)
     mu = -h / 2 * (cs.horzcat(lam_pos, zero) + cs.horzcat(zero, lam_pos))
-    blocks = node_hess.map(n)(z, params, w, sigma / n, lam_node, mu)
+    blocks = stage.node_hessian.map(n)(z, params, w, sigma / n, lam_node, mu)
     hessian = cs.diagcat(*cs.horzsplit(blocks, NZ))
-    qs = data.q.T
-    rblocks = rot_hess.map(n - 1)(qs[:, :-1], qs[:, 1:], dx[3:6, :-1], dx[3:6, 1:], lam_rot)
+    rblocks = stage.rotation_hessian.map(n - 1)(qs[:, :-1], qs[:, 1:], z[3:6, :-1],
+                                                z[3:6, 1:], lam_rot)
     scatter = _scatter(n)
     hessian += cs.triu(scatter.T @ cs.diagcat(*cs.horzsplit(rblocks, 6)) @ scatter)
-    hess_lag = cs.Function("nlp_hess_l", [x, cs.MX.sym("p", 0), sigma, lam], [hessian],
-                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
-    x0 = np.hstack([np.zeros((n, 35)), data.v, data.a, _initial_forces(data)]).ravel()
+    derivatives = {
+        "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam], [hessian],
+                                ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]),
+        "jac_g": cs.Function("nlp_jac_g", [x, no_p], [g, jacobian], ["x", "p"],
+                             ["g", "jac_g_x"]),
+        "grad_f": cs.Function("nlp_grad_f", [x, no_p],
+                              [cs.sum2(cost) / n, cs.vec(grad_node) / n], ["x", "p"],
+                              ["f", "grad_f_x"])}
+    # Bounds: contact heights, friction pyramid, no force off contact.
+    on = data.contact.T.astype(bool)
+    lbg_node, ubg_node = np.zeros((NG, n)), np.zeros((NG, n))
+    ubg_node[6:10] = np.where(on, 0.0, np.inf)
+    lbg_node[10:] = -np.inf
     lbx, ubx = np.full((n, NZ), -np.inf), np.full((n, NZ), np.inf)
     on_points = np.repeat(data.contact[:, :, None], 3, axis=2).reshape(n, 12)
     lbx[:, 105:] = np.where(on_points, np.tile([-np.inf, -np.inf, 0.0], 4), 0.0)
     ubx[:, 105:] = np.where(on_points, np.inf, 0.0)
-    nlp = {"x": x, "f": cs.sum2(cost) / n, "g": g}
-    options = {"print_time": False, "hess_lag": hess_lag, "ipopt": {
-        "print_level": print_level, "sb": "yes", "max_iter": max_iter, "tol": tol,
-        "constr_viol_tol": 1e-9, "mu_strategy": "adaptive"}}
-    solver = cs.nlpsol("fullbody_tracking", "ipopt", nlp, options)
+    return TrackingNLP(
+        {"x": x, "f": cs.sum2(cost) / n, "g": g}, derivatives,
+        np.hstack([np.zeros((n, 35)), data.v, data.a,
+                   _initial_forces(data) / FORCE_UNIT]).ravel(),
+        lbx.ravel(), ubx.ravel(),
+        np.concatenate([lbg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
+        np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]))
+
+
+def solve_tracking(model: Model3D, data: TrackingData,
+                   weights: TrackingWeights = TrackingWeights(), *,
+                   max_iter: int = 200, tol: float = 1e-8,
+                   print_level: int = 0) -> TrackingSolution:
+    """Solve the tracking problem (:func:`tracking_nlp`) with Ipopt, exact Hessian.
+
+    Raises:
+        SolveFailed: Ipopt did not converge (``best`` is the last iterate's solution).
+    """
+    start = time.perf_counter()
+    n = data.nodes
+    problem = tracking_nlp(model, data, weights)
+    options = {"print_time": False, **problem.derivatives,
+               "ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
+                         "tol": tol, "constr_viol_tol": 1e-9, "mu_strategy": "adaptive"}}
+    solver = cs.nlpsol("fullbody_tracking", "ipopt", problem.nlp, options)
     built = time.perf_counter()
-    result = solver(x0=x0, lbx=lbx.ravel(), ubx=ubx.ravel(), lbg=lbg, ubg=ubg)
+    with one_blas_thread():  # MUMPS' fronts are small: BLAS threads only cost here
+        result = solver(x0=problem.x0, lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg,
+                        ubg=problem.ubg)
     seconds = time.perf_counter() - built
     stats = solver.stats()
     solution = _unpack(model, data, np.asarray(result["x"]).reshape(n, NZ), stats, seconds,
@@ -413,7 +504,8 @@ def solve_tracking(model: Model3D, data: TrackingData,
 
 
 def _unpack(model, data, z, stats, seconds, build_seconds) -> TrackingSolution:
-    dx, v, a, f = z[:, :35], z[:, 35:70], z[:, 70:105], z[:, 105:].reshape(-1, 4, 3)
+    dx, v, a = z[:, :35], z[:, 35:70], z[:, 70:105]
+    f = FORCE_UNIT * z[:, 105:].reshape(-1, 4, 3)
     q = np.array([corrected_configuration(qr, d) for qr, d in zip(data.q, dx, strict=True)])
     return TrackingSolution(data.time.copy(), q, v.copy(), a.copy(), f.copy(),
                             contact_inverse_dynamics(model, q, v, a, f),

@@ -182,28 +182,17 @@ def _interval_function(leg, model: PassiveModel, substeps: int, h: float):
 
     from predgait.problems.collocation import free_dynamics
 
-    fitted = model.fitted
-    z = cs.SX.sym("z", len(fitted))
-    values = dict(model.values())
-    for i, p in enumerate(fitted):
-        values[p.key] = p.lower + (p.upper - p.lower) * z[i]
+    z = cs.SX.sym("z", len(model.fitted))
+    values = scaled_values(model, z)
     x0 = cs.SX.sym("x0", 4)
     u = cs.SX.sym("u", INPUT_ROWS, 2 * substeps + 1)
     offset = cs.SX.sym("knee_offset")
     dynamics = free_dynamics(leg)
-    row = {"ankle": 0, "knee": 1}
 
     def rhs(x, column):
-        tau = column[9:11]
-        extra = [0, 0]
-        for joint in model.joints:
-            clinical = clinical_joint(leg, joint)
-            sign = clinical.sign
-            angle = sign * x[row[joint]] - (offset if joint == "knee" else 0.0)
-            moment = model.passive_joint(joint, values).moment(angle, sign * x[2 + row[joint]])
-            extra[row[joint]] = sign * moment
         return dynamics(x, column[0:3], column[3:6], column[6:9],
-                        tau + cs.vertcat(*extra), column[11:14])
+                        column[9:11] + passive_torques(leg, model, values, x, offset),
+                        column[11:14])
 
     x = x0
     for s in range(substeps):
@@ -216,14 +205,51 @@ def _interval_function(leg, model: PassiveModel, substeps: int, h: float):
     return cs.Function("shoot", [x0, u, z, offset], [x[:2]])
 
 
-@functools.lru_cache(maxsize=8)
+def scaled_values(model: PassiveModel, z) -> dict:
+    """Key -> value of every parameter, the fitted ones lower + (upper - lower) z_i."""
+    values = dict(model.values())
+    for i, p in enumerate(model.fitted):
+        values[p.key] = p.lower + (p.upper - p.lower) * z[i]
+    return values
+
+
+def passive_torques(leg, model: PassiveModel, values, x, knee_offset):
+    """CasADi (2,) ankle, knee torques (model sign) of the passive model at free state x.
+
+    x = (q_ankle, q_knee, v_ankle, v_knee) in model coordinates; the elements act on the
+    clinical angles through the one joint-sign table, the knee on its anatomical angle
+    (clinical - ``knee_offset``, rad), as in the decomposition fit.
+    """
+    import casadi as cs
+
+    row = {"ankle": 0, "knee": 1}
+    extra = [0, 0]
+    for joint in model.joints:
+        sign = clinical_joint(leg, joint).sign
+        angle = sign * x[row[joint]] - (knee_offset if joint == "knee" else 0.0)
+        moment = model.passive_joint(joint, values).moment(angle, sign * x[2 + row[joint]])
+        extra[row[joint]] = sign * moment
+    return cs.vertcat(*extra)
+
+
 def _residual_function(leg, model: PassiveModel, n: int, substeps: int, h: float):
     """``residuals(z, data) -> (r (n, 2), d vec(r) / dz (2 n, f))`` for n intervals.
 
     ``data`` = (vec x0 (4, n), vec u (rows, points n), vec end (2, n), knee offset);
-    vec(r) stacks the ankle errors of every interval, then the knee's.
+    vec(r) stacks the ankle errors of every interval, then the knee's. Compiled through
+    :mod:`predgait.function_cache` when the cache is on (in the background: the run that
+    first meets a trial's shape evaluates it in CasADi's virtual machine, ~15x slower).
     """
+    from predgait import function_cache
+
+    return _residual_function_built(leg, model, n, substeps, h, function_cache.enabled())
+
+
+@functools.lru_cache(maxsize=8)
+def _residual_function_built(leg, model, n, substeps, h, cached):
     import casadi as cs
+
+    from predgait import function_cache
 
     shoot = _interval_function(leg, model, substeps, h).map(n)
     z = cs.MX.sym("z", len(model.fitted))
@@ -233,7 +259,12 @@ def _residual_function(leg, model: PassiveModel, n: int, substeps: int, h: float
     offset = cs.MX.sym("offset")
     residual = (shoot(x0, u, cs.repmat(z, 1, n), offset) - end).T
     data = cs.vertcat(cs.vec(x0), cs.vec(u), cs.vec(end), offset)
-    return cs.Function("residuals", [z, data], [residual, cs.jacobian(cs.vec(residual), z)])
+    function = cs.Function("shooting_residuals", [z, data],
+                           [residual, cs.jacobian(cs.vec(residual), z)])
+    if not cached:
+        return function
+    return function_cache.compiled(function, function_cache.key_of([function.serialize()])) \
+        or function
 
 
 def _data(intervals: Intervals) -> np.ndarray:
@@ -267,11 +298,11 @@ class _LeastSquares:
         return r.copy(), jac.copy()
 
     def prior_rows(self, z) -> tuple[np.ndarray, np.ndarray]:
-        """Prior residuals and their Jacobian rows (:func:`_prior_rows`)."""
-        return _prior_rows(self.model, z)
+        """Prior residuals and their Jacobian rows (:func:`prior_rows`)."""
+        return prior_rows(self.model, z)
 
 
-def _prior_rows(model: PassiveModel, z) -> tuple[np.ndarray, np.ndarray]:
+def prior_rows(model: PassiveModel, z) -> tuple[np.ndarray, np.ndarray]:
     """Prior residuals ((p - mean) / sd) and their rows of the Jacobian in z."""
     fitted = model.fitted
     rows = [i for i, p in enumerate(fitted) if p.prior is not None]
@@ -283,7 +314,7 @@ def _prior_rows(model: PassiveModel, z) -> tuple[np.ndarray, np.ndarray]:
     return r, jac
 
 
-def _bounded_step(jac, r, row_weights, z, prior) -> np.ndarray:
+def bounded_step(jac, r, row_weights, z, prior) -> np.ndarray:
     """Gauss-Newton step dz minimising |sqrt(W)(r + J dz)|^2 + priors, z + dz in [0, 1]."""
     from scipy.optimize import lsq_linear
 
@@ -300,14 +331,17 @@ def _cost(r, row_weights, prior) -> float:
     return float(np.sum(row_weights * r ** 2) + np.sum(prior[0] ** 2))
 
 
-def _gauss_newton(problem: _LeastSquares, z, row_weights, max_iter: int
-                  ) -> tuple[np.ndarray, int, bool]:
-    """Bounded Gauss-Newton with step halving: (z, iterations, converged)."""
+def gauss_newton(problem, z, row_weights, max_iter: int) -> tuple[np.ndarray, int, bool]:
+    """Bounded Gauss-Newton with step halving: (z, iterations, converged).
+
+    ``problem`` has ``evaluate(z) -> (r (n, 2), J (2 n, f))`` (ankle rows, then knee rows)
+    and ``prior_rows(z) -> (r_prior, J_prior)``; z is scaled to [0, 1].
+    """
     r, jac = problem.evaluate(z)
     r = r.ravel(order="F")
     cost = _cost(r, row_weights, problem.prior_rows(z))
     for iteration in range(1, max_iter + 1):
-        step = _bounded_step(jac, r, row_weights, z, problem.prior_rows(z))
+        step = bounded_step(jac, r, row_weights, z, problem.prior_rows(z))
         if np.max(np.abs(step)) < 1e-8:
             return z, iteration, True
         for _ in range(30):
@@ -320,8 +354,10 @@ def _gauss_newton(problem: _LeastSquares, z, row_weights, max_iter: int
             step = step / 2
         else:
             return z, iteration, False
-        # z is scaled to the bounds: 1e-7 of a bound range is far inside any interval.
-        converged = np.max(np.abs(trial - z)) < 1e-7 or cost - cost_new <= 1e-10 * cost
+        # z is scaled to the bounds: 1e-7 of a bound range is far inside any interval. A
+        # relative decrease below 1e-6 of a cost of order its degrees of freedom moves the
+        # estimate by well under 1 % of its standard error.
+        converged = np.max(np.abs(trial - z)) < 1e-7 or cost - cost_new <= 1e-6 * cost
         z, r, jac, cost = trial, r_new, jac_new, cost_new
         if converged:
             return z, iteration, True
@@ -346,7 +382,8 @@ def check_intervals(intervals: Intervals, model: PassiveModel, *, where: str) ->
                          "trial or fit fewer parameters.")
 
 
-def _row_weights(weights, inv_var) -> np.ndarray:
+def joint_row_weights(weights, inv_var) -> np.ndarray:
+    """Row weights of the stacked residual (ankle rows, then knee rows): w / sigma_j^2."""
     return np.concatenate([weights * inv_var[0], weights * inv_var[1]])
 
 
@@ -381,7 +418,7 @@ def fit_shooting(leg, intervals: Intervals, model: PassiveModel,
     dof = max(len(intervals) / m - len(fitted), 1.0)
     start, iterations = clock.perf_counter(), 0
     for _ in range(2):
-        z, used, converged = _gauss_newton(problem, z, _row_weights(weights, inv_var),
+        z, used, converged = gauss_newton(problem, z, joint_row_weights(weights, inv_var),
                                            settings.max_iter)
         iterations += used
         if not converged:
@@ -393,7 +430,7 @@ def fit_shooting(leg, intervals: Intervals, model: PassiveModel,
         inv_var = 1.0 / sd ** 2
     seconds = clock.perf_counter() - start
     spans = np.array([p.upper - p.lower for p in fitted])
-    row_weights = _row_weights(weights, inv_var)
+    row_weights = joint_row_weights(weights, inv_var)
     _, prior_j = problem.prior_rows(z)
     information = ((jac * row_weights[:, None]).T @ jac + prior_j.T @ prior_j) \
         / np.outer(spans, spans)
@@ -458,14 +495,14 @@ def bootstrap_shooting(intervals: Intervals, samples: GaitSamples, model: Passiv
     position = np.clip(np.searchsorted(labels, of_interval), 0, max(labels.size - 1, 0))
     rng = np.random.default_rng(seed)
     r = fit.residual.ravel(order="F")
-    prior = _prior_rows(model, fit.z)
+    prior = prior_rows(model, fit.z)
     lower = np.array([p.lower for p in model.fitted])
     span = np.array([p.upper - p.lower for p in model.fitted])
     rows = []
     for _ in range(repeats):
         counts = np.bincount(rng.integers(0, labels.size, labels.size), minlength=labels.size)
         weights = fit.weights * np.where(of_interval >= 0, counts[position], 0)
-        step = _bounded_step(fit.jacobian, r, _row_weights(weights, fit.inv_var), fit.z,
+        step = bounded_step(fit.jacobian, r, joint_row_weights(weights, fit.inv_var), fit.z,
                              prior)
         rows.append(lower + span * np.clip(fit.z + step, 0.0, 1.0))
     return Bootstrap(np.array(rows).reshape(-1, len(model.fitted)), kind, int(labels.size), 0)

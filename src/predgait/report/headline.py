@@ -296,8 +296,8 @@ def _predict(s: dict) -> Headline:
                     numbers, sentence + ".")
 
 
-def _decomposition(s: dict) -> Headline:
-    fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
+def _parameter_numbers(fitted: dict, suffix: str = "") -> list[tuple[str, str]]:
+    """The first four fitted parameters: value, interval or "not identifiable"."""
     numbers = []
     for key, r in list(fitted.items())[:4]:
         value = f"{r['value']:.4g} {r['unit']}"
@@ -305,7 +305,13 @@ def _decomposition(s: dict) -> Headline:
             value += ", not identifiable"
         elif r.get("interval95"):
             value += f" [{r['interval95'][0]:.3g}, {r['interval95'][1]:.3g}]"
-        numbers.append((key, value))
+        numbers.append((key + suffix, value))
+    return numbers
+
+
+def _decomposition(s: dict) -> Headline:
+    fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
+    numbers = _parameter_numbers(fitted)
     numbers += [("gait cycles", str(s["gait_cycles"])),
                 ("quiet-phase residual SD", format_quantity("_n_m",
                                                             s["quiet_phase_residual_sd_n_m"]))]
@@ -318,16 +324,24 @@ def _decomposition(s: dict) -> Headline:
                     s["status"], numbers, sentence)
 
 
+def _swing(s: dict) -> Headline:
+    fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
+    rms = s["angle_rms_deg"]
+    numbers = _parameter_numbers(fitted) + [
+        ("gait cycles / quiet-phase windows", f"{s['gait_cycles']} / {s['windows']}"),
+        ("angle RMS error, ankle / knee", f"{rms['ankle']:.3f} / {rms['knee']:.3f} deg")]
+    identified = [k for k, r in fitted.items() if r["status"] != "not identifiable"]
+    sentence = (f"Simulating the shank and foot under the measured thigh in the quiet phases "
+                f"of {s['gait_cycles']} gait cycle(s) and fitting the measured angles, "
+                f"{len(identified)} of {len(fitted)} fitted parameters are identifiable"
+                + (f" ({', '.join(identified)})." if identified else "."))
+    return Headline("Passive joints from the swing angles", trial_name(s["provenance"]),
+                    s["status"], numbers, sentence)
+
+
 def _shooting(s: dict) -> Headline:
     fitted = {k: r for k, r in s["parameters"].items() if r["status"] != "fixed"}
-    numbers = []
-    for key, r in list(fitted.items())[:4]:
-        value = f"{r['value']:.4g} {r['unit']}"
-        if r["status"] == "not identifiable":
-            value += ", not identifiable"
-        elif r.get("interval95"):
-            value += f" [{r['interval95'][0]:.3g}, {r['interval95'][1]:.3g}]"
-        numbers.append((f"{key} (stabilising)", value))
+    numbers = _parameter_numbers(fitted, " (stabilising)")
     rms = s["interval_end_rms_deg"]
     numbers += [("interval-end RMS, knee (with / without)",
                  f"{rms['with_elements']['knee']:.4f} / "
@@ -425,7 +439,8 @@ BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynt
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
             "solve": _solve, "scenario": _scenario, "sweep": _sweep,
             "passive_decomposition": _decomposition, "torque_feedback": _torque_feedback,
-            "passive_shooting": _shooting, "fullbody_tracking": _fullbody_tracking,
+            "passive_shooting": _shooting, "passive_swing": _swing,
+            "fullbody_tracking": _fullbody_tracking,
             "predict_gait7": _predict}
 
 

@@ -88,6 +88,18 @@ def feedback_gains(system: PartitionedSystem, history: MotionHistory,
                           weights)
 
 
+def _latest_only(history: MotionHistory):
+    """The reference q_ref(t), computed once per t (every fall criterion asks each step)."""
+    latest = [None, None]
+
+    def reference(t: float) -> np.ndarray:
+        if latest[0] != t:
+            latest[:] = t, history(t)[0]
+        return latest[1]
+
+    return reference
+
+
 def resimulate(system: PartitionedSystem, history: MotionHistory, ground: GroundContact,
                solution: TrackingSolution, *, step: float,
                fall: FallLimit = FULLBODY_FALL) -> FeedbackRun:
@@ -100,7 +112,7 @@ def resimulate(system: PartitionedSystem, history: MotionHistory, ground: Ground
     try:
         run = simulate_partitioned(system, (t0, t1), x0,
                                    options=IntegratorOptions(method=Method.RK4, step=step),
-                                   events=fall.events(system, lambda t: history(t)[0]),
+                                   events=fall.events(system, _latest_only(history)),
                                    t_eval=solution.time)
     except SimulationDiverged as exc:
         run = exc.partial

@@ -1,0 +1,232 @@
+"""``predgait solve`` kind ``passive_swing``: passive knee and ankle from the swing angles.
+
+The quiet phases of every gait cycle are simulated under the measured thigh with the
+passive model as the only joint moment, and its parameters fitted to the measured ankle
+and knee angles (:mod:`predgait.problems.passive_swing`); no inverse-dynamics moment
+enters the fit. The moment decomposition on the same trial gives the first guess. The
+markers are filtered at ``[filter] marker_cutoff`` (default 20 Hz: the angles are fitted,
+not differentiated, and filtering the swing at the residual-analysis cut-off of ~10 Hz
+biases the knee; see docs/DEVELOPING.md), and the fit is repeated at the
+``sensitivity_hz`` cut-offs to show how much the values depend on it.
+Writes solution.json, passive_moments.sto and swing_angles.sto.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from predgait.data import write_storage
+from predgait.errors import InputError, SolveFailed
+from predgait.problemfile import Table
+from predgait.problems.decomposition import Settings, fit_decomposition
+from predgait.problems.identifiability import Status, assess
+from predgait.problems.passive_model import PassiveModel
+from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_swing, fit_swing
+from predgait.report.tidy import write_summary
+from predgait.workflows.decomposition import (
+    inverse_samples,
+    parse_joints,
+    parse_passive_model,
+    parse_phases,
+    residual_cutoff,
+)
+from predgait.workflows.output import staged_output
+from predgait.workflows.trials import LegTrial, leg_trial
+
+METHOD = ("simulation of each quiet phase (muscles quiet, foot off the ground) of every "
+          "gait cycle: shank and foot under the measured thigh (hip centre and thigh pitch "
+          "prescribed), the passive model the only joint moment (RK4 on the engine's "
+          "equations); parameters and each window's initial state fitted to the measured "
+          "ankle and knee angles (bounded Gauss-Newton); 95 % intervals from a bootstrap "
+          "over gait cycles widened to the Fisher-information interval where that is wider")
+WHAT = ("passive joint moments (tissue properties under the quiet-muscle assumption), "
+        "identified from the measured angles rather than from the inverse-dynamics moments")
+#: Default marker cut-off of this fit, Hz (module docstring).
+DEFAULT_CUTOFF_HZ = 20.0
+
+
+@dataclass(frozen=True)
+class SwingSpec:
+    """A parsed ``passive_swing`` problem file (see problems/passive_swing.toml)."""
+
+    source: Path
+    trial: LegTrial
+    model: PassiveModel
+    settings: SwingSettings
+    cutoff: float | None            # Hz; None: residual analysis
+    sensitivity_hz: tuple[float, ...]
+    repeats: int
+    seed: int
+
+
+def parse_swing(table: Table) -> SwingSpec:
+    """SwingSpec from a problem file (errors name the file, key and line)."""
+    table.check_keys(("kind", "joints", "quiet_phases", "trial", "filter", "simulation",
+                      "uncertainty", "passive"))
+    joints = parse_joints(table)
+    trial = leg_trial(table.table("trial"))
+    filt = table.table("filter")
+    filt.check_keys(("marker_cutoff", "sensitivity_hz"))
+    cutoff = filt.get("marker_cutoff", (str, float), DEFAULT_CUTOFF_HZ)
+    if isinstance(cutoff, str) and cutoff != "residual":
+        raise filt.error("marker_cutoff", f"'{cutoff}': give a cut-off in Hz or \"residual\".")
+    if not isinstance(cutoff, str):
+        cutoff = filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
+    sim = table.table("simulation")
+    sim.check_keys(("step_s", "max_iter", "initial_angle_span_deg", "initial_rate_span_deg_s"))
+    unc = table.table("uncertainty")
+    unc.check_keys(("bootstrap", "seed"))
+    return SwingSpec(
+        source=table.path, trial=trial, model=parse_passive_model(table.table("passive"),
+                                                                  joints),
+        settings=SwingSettings(
+            quiet_phases=parse_phases(table) if table.has("quiet_phases")
+            else SwingSettings().quiet_phases,
+            step_s=sim.number("step_s", 0.01, low=1e-4, high=0.02, unit="s"),
+            max_iter=int(sim.number("max_iter", 50, low=1, high=1000)),
+            initial_angle_span=np.radians(sim.number("initial_angle_span_deg", 8.6, low=0.1,
+                                                     high=45.0, unit="deg")),
+            initial_rate_span=np.radians(sim.number("initial_rate_span_deg_s", 172.0,
+                                                    low=1.0, high=2000.0, unit="deg/s"))),
+        cutoff=None if isinstance(cutoff, str) else cutoff,
+        sensitivity_hz=tuple(filt.numbers("sensitivity_hz", [10.0, 15.0, 25.0], low=0.5,
+                                          high=100, unit="Hz", increasing=True)),
+        repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
+        seed=int(unc.number("seed", 0, low=0)))
+
+
+def _fit_at(spec: SwingSpec, options, cutoff: float):
+    """Inverse dynamics at ``cutoff``, windows, decomposition start, angle fit."""
+    samples, inverse = inverse_samples(options, cutoff)
+    where = f"{spec.source}: quiet_phases"
+    windows = Windows.from_inverse(inverse, samples, spec.settings, where=where)
+    try:
+        start = fit_decomposition(samples, spec.model,
+                                  Settings(quiet_phases=spec.settings.quiet_phases)).values
+    except (InputError, SolveFailed):
+        start = None
+    fit = fit_swing(inverse.model, windows, spec.model, spec.settings, start=start,
+                    where=f"{spec.source}: passive_swing")
+    return samples, inverse, windows, fit, start
+
+
+def sensitivity(spec: SwingSpec, options) -> dict:
+    """Fitted values (no bootstrap) with the markers filtered at each ``sensitivity_hz``."""
+    table = {}
+    for cutoff in spec.sensitivity_hz:
+        try:
+            fit = _fit_at(spec, options, cutoff)[3]
+        except (InputError, SolveFailed) as exc:
+            table[f"{cutoff:g}"] = {"failed": str(exc)}
+            continue
+        table[f"{cutoff:g}"] = {p.key: fit.values[p.key] for p in spec.model.fitted}
+    return table
+
+
+def solve_swing(spec: SwingSpec) -> dict:
+    """The fit, its bootstrap and assessment, the cut-off sensitivity; what is written.
+
+    Raises:
+        InputError: Bad trial, no quiet window, too few samples (nothing written).
+        SolveFailed: The fit did not converge (nothing written).
+    """
+    options = spec.trial.options()
+    chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
+    samples, inverse, windows, fit, start = _fit_at(spec, options, chosen)
+    boot = bootstrap_swing(windows, spec.model, fit, repeats=spec.repeats, seed=spec.seed) \
+        if spec.repeats > 1 else None
+    reports, correlation = assess(spec.model, fit, boot)
+    residual = fit.residual.reshape(len(windows), -1, 2)[windows.mask]
+    rms = np.degrees(np.sqrt(np.mean(residual ** 2, axis=0)))
+    solution = {
+        "status": "solved", "kind": "passive_swing", "method": METHOD, "what": WHAT,
+        "iterations": fit.iterations, "solve_time_s": fit.seconds,
+        "parameters": {r.key: r.as_dict() for r in reports},
+        "fitted_correlation": {"parameters": [p.key for p in spec.model.fitted],
+                               "matrix": np.round(correlation, 4).tolist()},
+        "angle_rms_deg": {"ankle": float(rms[0]), "knee": float(rms[1])},
+        "angle_noise_sd_deg": {j: float(np.degrees(v)) for j, v in fit.noise_sd.items()},
+        "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
+        "windows": len(windows), "quiet_samples": windows.samples,
+        "gait_cycles": int(np.unique(windows.cycle).size),
+        "rk4_steps_per_sample": windows.substeps,
+        "start_from_decomposition": None if start is None else {
+            p.key: start[p.key] for p in spec.model.fitted},
+        "bootstrap": None if boot is None else {
+            "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
+            "units": boot.n_units, "seed": spec.seed},
+        "marker_cutoff_hz": chosen,
+        "marker_cutoff_choice": "given" if spec.cutoff is not None else
+        "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
+        "cutoff_sensitivity": sensitivity(spec, options),
+        "provenance": {"problem": str(spec.source), "model": inverse.model.source,
+                       **inverse.provenance},
+    }
+    return {"solution": solution, "samples": samples, "windows": windows, "fit": fit,
+            "time": inverse.time}
+
+
+def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
+    """Solve (:func:`solve_swing`) and write the result folder; returns solution.json."""
+    result = solve_swing(spec)
+    samples, windows, fit = result["samples"], result["windows"], result["fit"]
+    columns = {"percent_gait_cycle": samples.percent}
+    for joint in spec.model.joints:
+        passive = np.asarray(spec.model.passive_joint(joint, fit.values).moment(
+            samples.angles[joint], samples.rates[joint]))
+        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
+        columns[f"{joint}_moment_passive"] = passive
+        columns[f"{joint}_moment_active"] = samples.moments[joint] - passive
+    index = (windows.first[:, None] + np.arange(windows.mask.shape[1]))[windows.mask]
+    angles = {"window": np.repeat(np.arange(len(windows)), windows.length).astype(float)}
+    for i, joint in enumerate(("ankle", "knee")):
+        angles[f"{joint}_measured_deg"] = np.degrees(windows.angles[..., i][windows.mask])
+        angles[f"{joint}_simulated_deg"] = np.degrees(fit.simulated[..., i][windows.mask])
+    with staged_output(out, force=force, inputs=[spec.source, spec.trial.inverse_problem]) \
+            as stage:
+        solution = write_summary(stage / "solution.json", result["solution"])
+        write_storage(stage / "passive_moments.sto", samples.time, columns,
+                      header={"units": "N m (clinical sign: positive toward knee flexion / "
+                                       "ankle dorsiflexion), % gait cycle",
+                              "what": "passive moment of the fitted model along the measured "
+                                      "motion; active = inverse dynamics - passive",
+                              "marker_cutoff_hz": f"{solution['marker_cutoff_hz']:.3g}"})
+        write_storage(stage / "swing_angles.sto", result["time"][index], angles,
+                      header={"units": "deg, model coordinates (knee: -flexion)",
+                              "what": "measured and simulated angles in the quiet-phase "
+                                      "windows of the fit"})
+    return solution
+
+
+def summary_lines(solution: dict) -> list[str]:
+    """What the CLI prints: one line per fitted parameter, then the cut-off sensitivity."""
+    rms = solution["angle_rms_deg"]
+    lines = [f"passive_swing: Gauss-Newton in {solution['iterations']} iterations, "
+             f"{solution['solve_time_s']:.3f} s; {solution['windows']} quiet-phase windows "
+             f"({solution['quiet_samples']} samples, {solution['gait_cycles']} gait cycles); "
+             f"marker cut-off {solution['marker_cutoff_hz']:.3g} Hz",
+             f"  angle RMS error of the simulated windows: ankle {rms['ankle']:.3f} deg, "
+             f"knee {rms['knee']:.3f} deg"]
+    for key, report in solution["parameters"].items():
+        status = report["status"]
+        if status == Status.FIXED.value:
+            continue
+        head = f"  {key} = {report['value']:.4g} {report['unit']}"
+        if status == Status.NOT_IDENTIFIABLE.value:
+            lines.append(f"{head}: not identifiable ({'; '.join(report['reasons'])})")
+        elif report["interval95"] is None:
+            lines.append(f"{head} (no bootstrap: no interval)")
+        else:
+            low, high = report["interval95"]
+            note = f"; {report['note']}" if report["note"] else ""
+            lines.append(f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}")
+    for cutoff, values in solution["cutoff_sensitivity"].items():
+        if "failed" in values:
+            lines.append(f"  at {cutoff} Hz: fit failed ({values['failed']})")
+        else:
+            lines.append(f"  at {cutoff} Hz: " + ", ".join(f"{k} = {v:.4g}"
+                                                          for k, v in values.items()))
+    return lines
