@@ -108,7 +108,8 @@ def _text(stream) -> str:
 
 def run_moco(arrays: dict, repeat: int, minutes: float) -> MocoRuns:
     """opensim_moco_leg.py on ``arrays`` in ``repeat`` fresh processes, each at most
-    ``minutes``; stops at the first run that does not finish or fails."""
+    ``minutes``; stops at the first run that does not finish or fails. The processes run
+    in a temporary folder: Moco writes its tracked states and a stop file where it runs."""
     python = opensim_python()
     if python is None:
         return MocoRuns(None, None, {}, "OPENSIM_PYTHON is not set to a Python that "
@@ -122,7 +123,7 @@ def run_moco(arrays: dict, repeat: int, minutes: float) -> MocoRuns:
             w0 = time.perf_counter()
             try:
                 done = subprocess.run([python, str(SCRIPT), str(file)], capture_output=True,
-                                      text=True, timeout=60 * minutes)
+                                      text=True, timeout=60 * minutes, cwd=tmp)
             except subprocess.TimeoutExpired as stopped:
                 reached = last_iteration(_text(stopped.stdout)) or "before Ipopt's first " \
                                                                    "iteration"
