@@ -13,6 +13,7 @@ from scipy.integrate import quad
 from predgait.dynamics.integrators import (
     Direction,
     Event,
+    GridSolverFailed,
     IntegratorOptions,
     Method,
     Status,
@@ -310,7 +311,8 @@ def test_method_parse():
     assert Method.parse(Method.BDF, field="f") is Method.BDF
     with pytest.raises(InputError, match=r"simulate\.method.*'heun'.*modified_euler.*lsoda"):
         Method.parse("heun", field="simulate.method")
-    assert [m.fixed_step for m in Method] == [True, True, True, False, False, False, False]
+    assert [m.fixed_step for m in Method] == [True, True, True, False, False, False, False,
+                                                   False]
 
 
 @pytest.mark.parametrize("field, value", [
@@ -366,3 +368,35 @@ def test_event_direction_validated():
     with pytest.raises(InputError, match="direction"):
         Event("x", lambda t, x: x[0], 2)
     assert Event("x", lambda t, x: x[0], -1).direction is Direction.FALLING
+
+
+def test_cvodes_grid_solver_rows_events_and_fallback(caplog):
+    """x' = -x: rows from a grid solver (the exact solution), the event x = 0.5 at ln 2
+    located on the output grid's Hermite interpolant; without a solver, or when it
+    fails, RK45 at the same tolerances with a warning."""
+    def exact(grid, x0):
+        X = x0[None, :] * np.exp(-(grid - grid[0]))[:, None]
+        return X, -X, 7
+
+    options = IntegratorOptions(method=Method.CVODES, step=0.01, rtol=1e-8, atol=1e-10)
+    half = Event("half", lambda t, x: x[0] - 0.5, Direction.FALLING)
+    run = integrate(lambda t, x: -x, (0.0, 2.0), [1.0], options=options, events=[half],
+                    grid_solver=exact)
+    assert run.status == "event" and run.method is Method.CVODES
+    assert run.n_rhs_evaluations == 7 and abs(run.event_time - np.log(2.0)) < 1e-8
+    assert np.allclose(run.t[:-1], 0.01 * np.arange(len(run.t) - 1))
+    t_eval = np.array([0.25, 0.5])
+    run = integrate(lambda t, x: -x, (0.0, 1.0), [1.0], options=options, t_eval=t_eval,
+                    grid_solver=exact)
+    np.testing.assert_allclose(run.x[:, 0], np.exp(-t_eval), rtol=1e-14)
+
+    def failing(grid, x0):
+        raise GridSolverFailed('CVode returned "CV_TOO_MUCH_WORK"')
+
+    for solver in (None, failing):
+        caplog.clear()
+        with caplog.at_level("WARNING"):
+            run = integrate(lambda t, x: -x, (0.0, 1.0), [1.0], options=options,
+                            grid_solver=solver)
+        assert run.method is Method.RK45 and "running rk45 instead" in caplog.text
+        assert abs(run.x[-1, 0] - np.exp(-1.0)) < 1e-7

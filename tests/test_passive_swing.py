@@ -36,7 +36,7 @@ from predgait.problems.passive_swing_dynamics import thigh_driven_dynamics, thig
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 LINEAR_FIT = {"knee": ["k", "c", "theta0"], "ankle": ["k", "c", "theta0"]}
-SWING = SwingSettings(quiet_phases=((73.0, 95.0),))   # the truth's active is 0 in 70-97 %
+SWING = SwingSettings(quiet_phases=((71.0, 95.0),))   # the truth's active is 0 in 70-97 %
 
 
 @pytest.fixture(scope="module")
@@ -100,8 +100,9 @@ def test_compiled_step_equals_the_in_memory_one(walk, tmp_path, monkeypatch):
         np.testing.assert_allclose(np.array(b), a, rtol=1e-12, atol=1e-12)
 
 
-def test_exact_motion_gives_the_parameters_back(walk, compiled):
-    """Exact states and accelerations at 100 Hz (no markers, no filter): within 1.5 %."""
+@pytest.fixture(scope="module")
+def exact(walk):
+    """The windows of the exact simulated states and accelerations at 100 Hz."""
     t, q, states, ref, system = walk
     index = np.arange(0, len(t), 5)
     qdd = np.array([system.rhs(t[i], states[i])[5:] for i in index])
@@ -112,13 +113,34 @@ def test_exact_motion_gives_the_parameters_back(walk, compiled):
                               model=ref.model)
     percent, cycle, _ = cycle_phase(t[index], ref.strikes[:-1], where="truth")
     samples = GaitSamples(t[index], percent, cycle, {}, {}, {}, correlation_time=0.01)
-    windows = Windows.from_inverse(inverse, samples, SWING)
+    return ref.model, Windows.from_inverse(inverse, samples, SWING)
+
+
+def test_exact_motion_gives_the_parameters_back(exact, compiled):
+    """Exact states and accelerations at 100 Hz (no markers, no filter): within 1.5 %."""
+    leg, windows = exact
     assert len(windows) == 6 and windows.substeps == 1
     model = build_model(["knee", "ankle"], fit=LINEAR_FIT)
-    fit = fit_swing(ref.model, windows, model, SWING)      # from the literature defaults
+    fit = fit_swing(leg, windows, model, SWING)      # from the literature defaults
     for key, true in passive_walk.TRUTH.items():
         assert abs(fit.values[key] / true - 1) < 0.015, (key, fit.values[key])
     assert max(fit.noise_sd.values()) < np.radians(0.01)
+
+
+def test_a_stop_the_swing_never_reaches_is_not_identifiable(exact, monkeypatch):
+    """The knee flexion stop (137 deg) in the fit as well: reported not identifiable."""
+    monkeypatch.setenv(function_cache.SWITCH, "off")   # one fit: not worth compiling
+    leg, windows = exact
+    model = build_model(["knee", "ankle"], fit={**LINEAR_FIT,
+                                                "knee": ["k", "c", "theta0", "k_upper"]})
+    fit = fit_swing(leg, windows, model, SWING, start=passive_walk.TRUTH)
+    reports = {r.key: r for r in assess(model, fit, bootstrap_swing(windows, model, fit,
+                                                                     repeats=40))[0]}
+    assert reports["knee.k_upper"].status is Status.NOT_IDENTIFIABLE
+    assert reports["knee.k_upper"].interval95 is None
+    assert "bounds" in reports["knee.k_upper"].reasons[0]
+    assert reports["knee.k"].status is Status.IDENTIFIED
+    assert abs(reports["knee.k"].value / passive_walk.TRUTH["knee.k"] - 1) < 0.02
 
 
 def test_known_passive_walk_through_the_real_pipeline(tmp_path, walk, compiled):
@@ -130,13 +152,16 @@ def test_known_passive_walk_through_the_real_pipeline(tmp_path, walk, compiled):
     ankle RMS errors 3-5 % (largest 12 %); the knee's swing moment, a difference of large
     inertial terms of double-differentiated markers, gives knee RMS errors of 17-34 %.
 
-    The angle fit (markers at 20 Hz, quiet phase 73-95 %), measured over the 20
-    repetitions: ankle RMS 3-5 % (largest 9 %), knee k 7.5 % RMS (largest 17 %), knee
-    theta0 12 %, knee c 28 % (the swing barely loads the knee's damper; its intervals are
-    wide, +-50-100 %). The issue's "within 5 % in every repetition" is NOT reached for the
-    knee; what is checked: no 95 % interval misses the truth more than 2 times in 20,
-    nothing is called not identifiable, the stated error bounds, and the knee spring is
-    at least twice as accurate as from the moments.
+    The angle fit (markers at 20 Hz, quiet phase 71-95 %), measured over the 20
+    repetitions (benchmarks/study_passive_coverage.py --method angles --phases 71 95):
+    knee k RMS 4.7 % (largest 10.5 %), theta0 5.6 % (10.3 %), c 12.6 % (25 %; the swing
+    loads the knee's damper little), ankle 2.6-3.1 % (6 %); every interval covers the
+    truth. The issue's "within 5 % in every repetition" is NOT reached for the knee (nor
+    for all ankle repetitions); what is checked: no 95 % interval misses the truth more
+    than 2 times in 20, nothing is called not identifiable, the error bounds below, and
+    the knee spring at least 3 times as accurate as from the moments. The window matters:
+    ending it at 96 % (1 % before the muscles switch back on) biases the knee (k +9 %,
+    c -24 % on average), 73-95 % gives k 7.5 %, c 28 % RMS.
     """
     noise_free = passive_walk.NoiseFreeTrial(simulated=walk)
     model = build_model(["knee", "ankle"], fit=LINEAR_FIT)
@@ -188,12 +213,13 @@ def test_known_passive_walk_through_the_real_pipeline(tmp_path, walk, compiled):
         if key.startswith("ankle"):
             assert abstained["moments"][key] == 0, (key, abstained)
             assert rms["moments"][key] < 0.06 and worst["moments"][key] < 0.15, (key, rms)
-            assert rms["angles"][key] < 0.06 and worst["angles"][key] < 0.12, (key, rms)
+            assert rms["angles"][key] < 0.045 and worst["angles"][key] < 0.09, (key, rms)
         else:
             assert abstained["moments"][key] <= 4, (key, abstained)
-    assert rms["angles"]["knee.k"] < 0.10 and worst["angles"]["knee.k"] < 0.20, rms
-    assert rms["angles"]["knee.theta0"] < 0.15 and rms["angles"]["knee.c"] < 0.35, rms
-    assert rms["angles"]["knee.k"] < rms["moments"]["knee.k"] / 2, rms
+    assert rms["angles"]["knee.k"] < 0.065 and worst["angles"]["knee.k"] < 0.15, rms
+    assert rms["angles"]["knee.theta0"] < 0.08 and worst["angles"]["knee.theta0"] < 0.15, rms
+    assert rms["angles"]["knee.c"] < 0.18 and worst["angles"]["knee.c"] < 0.35, rms
+    assert rms["angles"]["knee.k"] < rms["moments"]["knee.k"] / 3, rms
 
 
 def _solve(problem, out, *sets):
@@ -251,3 +277,11 @@ def test_bad_input_names_the_key(tmp_path, override, words):
                  "uncertainty.bootstrap=0", "filter.sensitivity_hz=[]")
     assert run.returncode == 2, run.stderr
     assert words in run.stderr and "Traceback" not in run.stderr and not out.exists()
+
+
+def test_fit_that_does_not_converge_exits_3_and_writes_nothing(tmp_path):
+    out = tmp_path / "failed"
+    run = _solve(REPO / "problems" / "passive_swing.toml", out, "simulation.max_iter=1",
+                 "uncertainty.bootstrap=0", "filter.sensitivity_hz=[]")
+    assert run.returncode == 3 and "solve failed" in run.stderr, run.stderr
+    assert "Gauss-Newton did not converge" in run.stderr and not out.exists()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import tempfile
 from pathlib import Path
@@ -48,6 +49,22 @@ def duplicate_labels(labels, *, source: str, what: str = "column") -> None:
             raise InputError(f"{source}: {what} {label!r} appears twice; every {what} needs "
                              "its own name.")
         seen.add(label)
+
+
+def zeros_as_missing(xyz, *, source: str):
+    """Markers (n, m, 3) with exact (0, 0, 0) positions made NaN (missing), in place.
+
+    Several exporters write a missing marker as zeros instead of an empty field or a
+    negative C3D residual; a real marker never sits exactly on the lab origin.
+    """
+    import numpy as np
+
+    zero = np.all(xyz == 0.0, axis=-1)
+    if zero.any():
+        logging.getLogger(__name__).info("%s: %d marker positions at exactly (0, 0, 0) read "
+                                         "as missing", source, int(zero.sum()))
+        xyz[zero] = np.nan
+    return xyz
 
 
 #: Largest plausible magnitudes of measured gait data (a value beyond is a corrupt file).

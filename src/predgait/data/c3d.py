@@ -1,8 +1,10 @@
 """Read C3D files (via ezc3d): markers and force plates into the lab frame.
 
-Force plates of TYPE 2 (forces and moments about the sensor origin, six channels) and
-TYPE 4 (the same through a 6x6 CAL_MATRIX) are supported. ezc3d returns analog values
-already multiplied by ANALOG:SCALE and GEN_SCALE with OFFSET removed.
+Force plates of TYPE 1 (forces, COP and free moment), TYPE 2 (forces and moments about the
+sensor origin, six channels), TYPE 3 (Kistler, eight channels) and TYPE 4 (TYPE 2 through a
+6x6 CAL_MATRIX) are supported. ezc3d returns analog values already multiplied by
+ANALOG:SCALE and GEN_SCALE with OFFSET removed. The vertical is the plates' normal (Y-up
+labs are common), else Z; a lab Z that does not look vertical is refused.
 
 Plate frame (C3D convention, the same as ezc3d): x along corner1 - corner2, y along
 corner1 - corner4, z = x cross y (into the plate, i.e. down). The analog channels hold the
@@ -18,13 +20,31 @@ horizontal moment vanishes::
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import struct
 
 import numpy as np
 
-from predgait.data._io import check_magnitude, duplicate_labels, length_factor, open_input
-from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_trial
+from predgait.data._io import (
+    LENGTH_UNITS,
+    check_magnitude,
+    duplicate_labels,
+    length_factor,
+    open_input,
+    zeros_as_missing,
+)
+from predgait.data.frames import (
+    FileAxes,
+    Forward,
+    axis_up_rotation,
+    check_vertical,
+    lab_rotation,
+    parse_enum,
+    rotate_trial,
+    up_from_plates,
+    up_rotation,
+)
 from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.errors import InputError
 
@@ -85,11 +105,82 @@ def plate_wrench_to_cop(force: np.ndarray, moment: np.ndarray, origin: np.ndarra
     return cop, free
 
 
+def kistler_wrench(channels: np.ndarray, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+    """Force and moment (plate frame, about the sensor plane's centre) of a TYPE 3 plate.
+
+    Args:
+        channels: (k, 8) N: fx12, fx34, fy14, fy23, fz1, fz2, fz3, fz4 (Kistler order).
+        a: sensor offset from the plate's centre along x (ORIGIN[0]).
+        b: sensor offset from the plate's centre along y (ORIGIN[1]).
+
+    Returns:
+        force (k, 3) N and moment (k, 3) in the channels' force unit times the unit of a, b
+        (Kistler, "Force plate formulae"; the C3D manual, TYPE 3).
+    """
+    fx12, fx34, fy14, fy23, fz1, fz2, fz3, fz4 = channels.T
+    force = np.column_stack([fx12 + fx34, fy14 + fy23, fz1 + fz2 + fz3 + fz4])
+    moment = np.column_stack([b * (fz1 + fz2 - fz3 - fz4), a * (fz2 + fz3 - fz1 - fz4),
+                              b * (fx34 - fx12) + a * (fy14 - fy23)])
+    return force, moment
+
+
+#: Analog channels of each supported FORCE_PLATFORM:TYPE.
+PLATE_CHANNELS = {1: 6, 2: 6, 3: 8, 4: 6}
+
+
+def _unit_factor(units: list, channel: int, table: dict, default: str, *, source: str,
+                 what: str) -> float:
+    """Factor to SI of an analog channel's ANALOG:UNITS (``default`` when not stated)."""
+    unit = units[channel] if len(units) > channel and str(units[channel]).strip() else default
+    factor = table.get(str(unit).strip().lower())
+    if factor is None:
+        raise InputError(f"{source}: ANALOG:UNITS {unit!r} of the {what} (analog channel "
+                         f"{channel + 1}) is not one of {', '.join(sorted(table))}.")
+    return factor
+
+
+def _plate_wrench(kind: int, raw: np.ndarray, origin: np.ndarray, cal: np.ndarray, p: int,
+                  index: np.ndarray, units: list, length: float, source: str
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One plate's COP, free moment and force in the plate frame from its raw channels.
+
+    Returns COP (k, 3) m from the surface centre, free moment (k, 3) N m, force (k, 3) N;
+    ``raw`` (k, n) holds the analog channels, ``origin`` is ORIGIN (point unit) and
+    ``length`` the point unit in m.
+    """
+    what = f"plate {p + 1} moments"
+    if kind == 1:  # Fx, Fy, Fz, COPx, COPy (from the surface centre), Tz
+        cop_factor = _unit_factor(units, index[3], LENGTH_UNITS, "mm" if length == 1e-3 else "m",
+                                  source=source, what=f"plate {p + 1} COP")
+        tz_factor = _unit_factor(units, index[5], _MOMENT_UNITS, "Nmm", source=source, what=what)
+        zeros = np.zeros(len(raw))
+        cop = np.column_stack([raw[:, 3] * cop_factor, raw[:, 4] * cop_factor, zeros])
+        return cop, np.column_stack([zeros, zeros, raw[:, 5] * tz_factor]), raw[:, :3]
+    if kind == 3:  # moments in N x (point unit); the sensor plane lies |az0| below the surface
+        force, moment = kistler_wrench(raw, origin[0], origin[1])
+        sensor = np.array([0.0, 0.0, abs(origin[2]) * length])
+        return (*plate_wrench_to_cop(force, moment * length, sensor), force)
+    if kind == 4:
+        if cal.size < 36 * (p + 1):
+            raise InputError(f"{source}: plate {p + 1} is TYPE 4 but FORCE_PLATFORM:CAL_MATRIX "
+                             "is missing; re-export the plate with its calibration matrix.")
+        raw = raw @ cal.reshape(6, 6, -1)[:, :, p].T
+    m_factor = _unit_factor(units, index[3], _MOMENT_UNITS, "Nmm", source=source, what=what)
+    # Vendors write ORIGIN (surface centre vs sensor origin) with either sign; the sensor
+    # lies below the surface, i.e. at +z in the plate frame (z down), as ezc3d also assumes.
+    origin = (-origin if origin[2] < 0 else origin) * length
+    return (*plate_wrench_to_cop(raw[:, :3], raw[:, 3:] * m_factor, origin), raw[:, :3])
+
+
 def _plates(params, analogs: np.ndarray, rate: float, point_factor: float,
             source: str) -> list[ForcePlate]:
+    """Force plates in the FILE frame (forces on the foot, COP on the plate surface)."""
     used = int(np.ravel(_param(params, "FORCE_PLATFORM", "USED", [0]))[0])
     if used == 0:
         return []
+    if not rate > 0:
+        raise InputError(f"{source}: ANALOG:RATE is {rate!r} Hz but {used} force plate(s) are "
+                         "used; re-export the trial with its analog channels.")
     types = np.ravel(_param(params, "FORCE_PLATFORM", "TYPE"))
     corners = np.asarray(_param(params, "FORCE_PLATFORM", "CORNERS"), dtype=float)
     corners = corners.reshape(3, 4, -1)
@@ -102,32 +193,29 @@ def _plates(params, analogs: np.ndarray, rate: float, point_factor: float,
     plates = []
     for p in range(used):
         kind = int(types[p])
-        if kind not in (2, 4):
+        if kind not in PLATE_CHANNELS:
             raise InputError(
                 f"{source}: FORCE_PLATFORM:TYPE of plate {p + 1} is {kind}; predgait reads "
-                "types 2 and 4 only. Export the plate as type 2 (forces and moments)."
-            )
-        index = channels[:6, p] - 1
-        if index.max() >= analogs.shape[0]:
-            raise InputError(f"{source}: plate {p + 1} CHANNEL {index + 1} exceeds the analogs.")
-        raw = analogs[index].T  # (k, 6)
-        if kind == 4:
-            if cal.size < 36 * (p + 1):
-                raise InputError(f"{source}: plate {p + 1} is TYPE 4 but has no CAL_MATRIX.")
-            raw = raw @ cal.reshape(6, 6, -1)[:, :, p].T
-        m_unit = units[index[3]] if len(units) > index[3] else "Nmm"
-        m_factor = _MOMENT_UNITS.get(m_unit.strip().lower())
-        if m_factor is None:
-            raise InputError(f"{source}: ANALOG:UNITS {m_unit!r} of plate {p + 1} moments "
-                             "is not N mm or N m.")
+                "types 1 to 4. Export the plate as type 2 (forces and moments).")
+        n_channels = PLATE_CHANNELS[kind]
+        if channels.shape[0] < n_channels:
+            raise InputError(f"{source}: FORCE_PLATFORM:CHANNEL lists {channels.shape[0]} "
+                             f"channels per plate; a TYPE {kind} plate needs {n_channels}.")
+        index = channels[:n_channels, p] - 1
+        if index.min() < 0 or index.max() >= analogs.shape[0]:
+            raise InputError(f"{source}: plate {p + 1} FORCE_PLATFORM:CHANNEL {index + 1} is "
+                             f"outside the {analogs.shape[0]} analog channels.")
         c_file = corners[:, :, p].T * point_factor  # (4, 3) m
-        origin = origins[:, p] * point_factor
+        if np.linalg.norm(np.cross(c_file[0] - c_file[1], c_file[0] - c_file[3])) < 1e-4:
+            raise InputError(f"{source}: FORCE_PLATFORM:CORNERS of plate {p + 1} do not span a "
+                             "surface; re-export the trial with the plates' corners.")
+        cop_p, free_p, force_p = _plate_wrench(kind, analogs[index].T, origins[:, p], cal, p,
+                                               index, units, point_factor, source)
         rotation = plate_axes(c_file)
-        cop_p, free_p = plate_wrench_to_cop(raw[:, :3], raw[:, 3:] * m_factor, origin)
         centre = c_file.mean(axis=0)
-        check_magnitude(raw[:, :3], time, "force", source=f"{source} (plate {p + 1})")
+        check_magnitude(force_p, time, "force", source=f"{source} (plate {p + 1})")
         plates.append(ForcePlate(
-            time=time, force=raw[:, :3] @ rotation.T, cop=centre + cop_p @ rotation.T,
+            time=time, force=force_p @ rotation.T, cop=centre + cop_p @ rotation.T,
             free_moment=free_p @ rotation.T, name=str(p + 1), corners=c_file,
         ))
     return plates
@@ -156,7 +244,43 @@ def _header_frames(path) -> int | None:
     return None if last >= 65535 else last - first + 1
 
 
-def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | str = FileAxes.Z_UP,
+#: N; a plate whose vertical force only reaches below -MIN_LOAD (never above +MIN_LOAD)
+#: records the force ON THE PLATE and is negated.
+MIN_LOAD = 50.0
+
+
+def _file_up(plates: list[ForcePlate], axes: FileAxes, source: str) -> np.ndarray:
+    """Rotation (3, 3) from the file frame to a Z-up frame (the forward axis comes later)."""
+    if axes is not FileAxes.AUTO:
+        return up_rotation(axes)
+    if not plates:
+        return np.eye(3)
+    normals = np.array([-plate_axes(p.corners)[:, 2] for p in plates])
+    return axis_up_rotation(up_from_plates(normals, source=f"{source} FORCE_PLATFORM:CORNERS"))
+
+
+def _point_labels(params) -> list[str]:
+    """Marker labels: POINT:LABELS, then LABELS2, LABELS3, ... (more than 255 markers)."""
+    labels = [str(n).strip() for n in _param(params, "POINT", "LABELS", [])]
+    more = 2
+    while f"LABELS{more}" in params["POINT"]:
+        labels += [str(n).strip() for n in _param(params, "POINT", f"LABELS{more}", [])]
+        more += 1
+    return labels
+
+
+def _on_the_foot(plate: ForcePlate, source: str) -> ForcePlate:
+    """The plate with its wrench negated if the file stores the force on the plate."""
+    fz = plate.force[:, 2]
+    if np.nanmax(fz) < MIN_LOAD < -np.nanmin(fz):
+        logger.warning("%s: plate %s pushes down (vertical force down to %.0f N); reading it "
+                       "as the force on the plate and negating it", source, plate.name,
+                       np.nanmin(fz))
+        return dataclasses.replace(plate, force=-plate.force, free_moment=-plate.free_moment)
+    return plate
+
+
+def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | str = FileAxes.AUTO,
              plates: bool = True) -> Trial:
     """Read a C3D file: markers (m) and force plates at the analog rate, lab frame.
 
@@ -164,7 +288,8 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
         path: the .c3d file.
         forward: file axis of progression, or "auto" (detected from the marker centroid;
             treadmill-like trials with < 0.3 m travel keep +X).
-        axes: the file's vertical convention (C3D is usually Z-up).
+        axes: the file's vertical convention: "auto" takes the force plates' normal (Y-up
+            labs) and Z-up without plates; a lab Z that does not look vertical is refused.
         plates: read the force plates too.
 
     Returns:
@@ -172,39 +297,60 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     """
     import ezc3d
 
+    axes = parse_enum(axes, FileAxes, field="axes", source=str(path))
     path = open_input(path)
-    expected = _header_frames(path)
+    header_frames = _header_frames(path)
     try:
         c3d = ezc3d.c3d(str(path))
     except Exception as exc:  # ezc3d raises RuntimeError/IOError for bad files
         raise InputError(f"{path}: ezc3d could not read it as C3D ({exc}).") from None
     params = c3d["parameters"]
-    labels = [str(n).strip() for n in _param(params, "POINT", "LABELS", [])]
-    n_read = c3d["data"]["points"].shape[2]
+    labels = _point_labels(params)
+    n_read, n_markers = c3d["data"]["points"].shape[2], c3d["data"]["points"].shape[1]
+    if n_markers == 0:
+        raise InputError(f"{path}: no marker data (POINT:USED = 0); predgait needs marker "
+                         "trajectories: export the trial with its markers.")
+    if len(labels) < n_markers:
+        raise InputError(f"{path}: {n_markers} markers but POINT:LABELS names {len(labels)}; "
+                         "re-export the trial with every marker labelled.")
+    expected = header_frames
     if expected is not None and n_read < expected:
         raise InputError(f"{path}: {n_read} frames read but the header says {expected}; the "
                          "file looks truncated. Re-export it.")
     if n_read < 2:
         raise InputError(f"{path}: {n_read} frame(s); a trial needs at least two.")
-    duplicate_labels(labels[: c3d["data"]["points"].shape[1]], source=str(path),
-                     what="marker label")
+    duplicate_labels(labels[:n_markers], source=str(path), what="marker label")
     header_rate = c3d["header"]["points"]["frame_rate"]
     rate = float(np.ravel(_param(params, "POINT", "RATE", [header_rate]))[0])
-    unit = _param(params, "POINT", "UNITS", ["mm"])[0]
+    if not rate > 0:
+        raise InputError(f"{path}: POINT:RATE is {rate!r} Hz; re-export the trial with its "
+                         "frame rate.")
+    stated = list(_param(params, "POINT", "UNITS", []))
+    unit = (stated or ["mm"])[0]
     factor = length_factor(unit, source=str(path), field="POINT:UNITS")
     points = c3d["data"]["points"][:3]  # (3, m, n)
     xyz = np.transpose(points, (2, 1, 0)) * factor
     residuals = c3d["data"]["meta_points"]["residuals"][0].T  # (n, m)
     xyz[residuals < 0] = np.nan
+    zeros_as_missing(xyz, source=str(path))
     check_magnitude(xyz, np.arange(xyz.shape[0]) / rate, "marker", source=str(path),
                     names=labels)
-    markers = Markers(time=np.arange(xyz.shape[0]) / rate, names=tuple(labels[: xyz.shape[1]]),
+    markers = Markers(time=np.arange(xyz.shape[0]) / rate, names=tuple(labels[:n_markers]),
                       xyz=xyz, rate=rate, source=str(path))
     plate_list = []
     if plates and "FORCE_PLATFORM" in params:
         a_rate = float(np.ravel(_param(params, "ANALOG", "RATE", [0.0]))[0])
         analogs = c3d["data"]["analogs"][0]
         plate_list = _plates(params, analogs, a_rate, factor, str(path))
+    up = _file_up(plate_list, axes, str(path))
+    z_up = np.einsum("ij,nmj->nmi", up, xyz)
+    check_vertical(z_up, source=str(path), convention=(
+        "Z-up (a C3D file without force plates)" if axes is FileAxes.AUTO and not plate_list
+        else "vertical along the force plates' normal" if axes is FileAxes.AUTO
+        else f"axes {axes.value!r}"),
+        unit_field=f"POINT:UNITS {unit!r}" + ("" if stated else " (not stated: mm assumed)"))
     trial = Trial(markers=markers, plates=tuple(plate_list), source=str(path))
-    rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
-    return rotate_trial(trial, rotation)
+    rotation = lab_rotation(FileAxes.Z_UP, forward, xyz=z_up, source=str(path)) @ up
+    trial = rotate_trial(trial, rotation)
+    return dataclasses.replace(trial, plates=tuple(_on_the_foot(p, str(path))
+                                                   for p in trial.plates))

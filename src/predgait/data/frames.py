@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import warnings
 from enum import StrEnum
 
 import numpy as np
@@ -27,10 +28,11 @@ logger = logging.getLogger(__name__)
 
 
 class FileAxes(StrEnum):
-    """Vertical convention of a file: OpenSim's Y-up or the Z-up of most C3D/lab files."""
+    """Vertical convention of a file: OpenSim's Y-up, Z-up, or "auto" (C3D: plate normal)."""
 
     OPENSIM = "opensim"
     Z_UP = "z_up"
+    AUTO = "auto"
 
 
 class Forward(StrEnum):
@@ -72,7 +74,85 @@ def parse_enum(value, enum_type, *, field: str, source: str = ""):
 def up_rotation(axes: FileAxes | str) -> np.ndarray:
     """Rotation (3, 3) from a file's axes to a Z-up frame with the file's forward axis."""
     axes = parse_enum(axes, FileAxes, field="axes")
+    if axes is FileAxes.AUTO:
+        raise InputError("axes='auto' needs the file's force plates; give 'z_up' or 'opensim'.")
     return OPENSIM_TO_LAB.copy() if axes is FileAxes.OPENSIM else np.eye(3)
+
+
+def axis_up_rotation(up: np.ndarray) -> np.ndarray:
+    """Proper rotation (3, 3) taking the file's signed axis ``up`` (a unit axis) onto +Z.
+
+    The first file axis perpendicular to ``up`` becomes +X (the forward direction is
+    chosen afterwards by a rotation about Z).
+    """
+    up = np.asarray(up, dtype=float)
+    forward = np.eye(3)[int(np.flatnonzero(np.abs(up) < 0.5)[0])]
+    return np.vstack([forward, np.cross(up, forward), up])
+
+
+#: Largest angle (deg) between a plate's normal and the nearest file axis.
+MAX_PLATE_TILT = 10.0
+
+
+def up_from_plates(normals: np.ndarray, *, source: str) -> np.ndarray:
+    """The file's signed axis pointing up, from the force plates' upward normals.
+
+    Args:
+        normals: (p, 3) upward unit normals of the plates' surfaces, file frame.
+        source: file name for the message.
+
+    Returns:
+        (3,) the signed unit file axis nearest to the mean normal.
+    """
+    mean = np.mean(normals, axis=0)
+    axis = int(np.argmax(np.abs(mean)))
+    up = np.sign(mean[axis]) * np.eye(3)[axis]
+    tilt = np.degrees(np.arccos(np.clip(normals @ up, -1.0, 1.0)))
+    if np.max(tilt) > MAX_PLATE_TILT:
+        raise InputError(
+            f"{source}: a force plate's normal (FORCE_PLATFORM:CORNERS) is {np.max(tilt):.0f} "
+            "deg from every file axis; predgait needs level plates on a lab axis. Check the "
+            "plates' corners or re-export the trial with a vertical lab axis.")
+    return up
+
+
+#: The vertical extent of the marker cloud must be at least this fraction of the widest
+#: horizontal extent (median over frames); a standing or walking body is taller than wide.
+MIN_VERTICAL_SHARE = 0.5
+
+#: Range (m) of the widest extent (median over frames) of a body's markers.
+BODY_EXTENT = (0.05, 5.0)
+
+
+def check_vertical(xyz: np.ndarray, *, source: str, convention: str, unit_field: str = ""
+                   ) -> None:
+    """Refuse markers whose lab Z does not look vertical, or whose size is not a body's.
+
+    Args:
+        xyz: (n, m, 3) markers already mapped to the lab frame, m.
+        source: file name for the message.
+        convention: what was assumed, e.g. "Z-up (C3D without force plates)".
+        unit_field: the file's length-unit field, named when the size is implausible
+            (e.g. ``POINT:UNITS 'mm'``); no size check when empty.
+    """
+    if xyz.shape[1] < 3:
+        return
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        extent = np.nanmedian(np.nanmax(xyz, axis=1) - np.nanmin(xyz, axis=1), axis=0)
+    if not np.all(np.isfinite(extent)):
+        return
+    low, high = BODY_EXTENT
+    if unit_field and not low <= extent.max() <= high:
+        raise InputError(
+            f"{source}: the markers span {extent.max():.3g} m (median over frames) but a body "
+            f"spans {low:g} to {high:g} m; check the length unit {unit_field}.")
+    widest = int(np.argmax(extent[:2]))
+    if extent[2] < MIN_VERTICAL_SHARE * extent[widest]:
+        raise InputError(
+            f"{source}: read as {convention}, the markers span {extent[2]:.2f} m vertically "
+            f"but {extent[widest]:.2f} m along the lab {'XY'[widest]} axis; the file's vertical "
+            "axis looks different. Re-export it with the vertical axis predgait assumes.")
 
 
 def centroid_travel(xyz: np.ndarray) -> np.ndarray:

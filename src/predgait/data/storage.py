@@ -27,10 +27,6 @@ from predgait.data.frames import FileAxes, lab_rotation, rotate_plate
 from predgait.data.trial import ForcePlate, uniform_time
 from predgait.errors import InputError
 
-_FORCE = "ground_force_v"
-_POINT = "ground_force_p"
-_TORQUE = "ground_torque_"
-
 
 @dataclass(frozen=True, eq=False)
 class Storage:
@@ -120,9 +116,25 @@ def read_storage(path) -> Storage:
     return Storage(data[:, t_index], columns, header, in_degrees, str(path))
 
 
+#: A plate's force column: OpenSim writes ``<p>ground_force_vx`` (subject01, Hamner) or
+#: ``ground_force_<side>_vx`` (Rajagopal); group 1 is the force identifier without "x".
+_FORCE_COLUMN = re.compile(r"^(.*ground_force(?:_.*)?_v)x$")
+
+
 def grf_prefixes(storage: Storage) -> list[str]:
-    """Prefixes ``p`` with a ``p + 'ground_force_vx'`` column, in file order."""
-    return [c[: -len(_FORCE + "x")] for c in storage.columns if c.endswith(_FORCE + "x")]
+    """Force identifiers (``"1_ground_force_v"``, ``"ground_force_r_v"``), in file order."""
+    return [m.group(1) for c in storage.columns if (m := _FORCE_COLUMN.match(c))]
+
+
+def _plate_columns(ident: str) -> tuple[str, str, str]:
+    """Force, point and torque column stems of a force identifier (each + x, y, z)."""
+    stem = ident[: -len("v")]  # "1_ground_force_" or "ground_force_r_"
+    return ident, stem + "p", stem.replace("ground_force", "ground_torque", 1)
+
+
+def _plate_name(ident: str) -> str:
+    """Default plate name: the identifier's prefix and infix ("1", "r"; "0" when none)."""
+    return ident.replace("ground_force", "", 1)[: -len("v")].strip("_") or "0"
 
 
 def read_external_loads(path) -> dict[str, str]:
@@ -132,7 +144,8 @@ def read_external_loads(path) -> dict[str, str]:
         path: e.g. ``subject01_walk1_grf.xml``.
 
     Returns:
-        prefix -> name, e.g. ``{"": "right", "1_": "left"}``.
+        force identifier -> name, e.g. ``{"ground_force_v": "right",
+        "1_ground_force_v": "left"}``.
     """
     path = open_input(path)
     try:
@@ -142,8 +155,8 @@ def read_external_loads(path) -> dict[str, str]:
     names = {}
     for force in root.iter("ExternalForce"):
         ident = (force.findtext("force_identifier") or "").strip()
-        if ident.endswith(_FORCE):
-            names[ident[: -len(_FORCE)]] = force.get("name", ident)
+        if ident:
+            names[ident] = force.get("name", ident)
     return names
 
 
@@ -154,8 +167,9 @@ def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
 
     Args:
         path: the .mot file.
-        names: prefix -> plate name (e.g. from :func:`read_external_loads`); a prefix
-            without a name is named after the prefix (``""`` -> ``"0"``, ``"1_"`` -> ``"1"``).
+        names: force identifier -> plate name (e.g. from :func:`read_external_loads`); a
+            plate without a name is named after its prefix or infix (``ground_force_v`` ->
+            ``"0"``, ``1_ground_force_v`` -> ``"1"``, ``ground_force_r_v`` -> ``"r"``).
         axes: the file's axes (OpenSim ground is Y-up).
         length_unit: unit of the COP columns (OpenSim uses m).
 
@@ -167,7 +181,8 @@ def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
     prefixes = grf_prefixes(storage)
     if not prefixes:
         raise InputError(
-            f"{path}: no '<prefix>ground_force_vx' column; columns: {', '.join(storage.columns)}."
+            f"{path}: no ground force column ('<prefix>ground_force_vx' or "
+            f"'ground_force_<side>_vx'); columns: {', '.join(storage.columns)}."
         )
     factor = length_factor(length_unit, source=str(path), field="length_unit")
     rotation = lab_rotation(axes, "+x", source=str(path))
@@ -176,15 +191,17 @@ def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
     if time.size > 2:  # time printed with few decimals: rebuild it if the steps agree
         time = uniform_time(time, (time.size - 1) / (time[-1] - time[0]), source=str(path))
     plates = []
-    for prefix in prefixes:
-        def stack(stem, prefix=prefix):
-            return np.column_stack([storage.column(prefix + stem + a) for a in "xyz"])
+    for ident in prefixes:
+        force, point, torque = _plate_columns(ident)
 
-        torque = (stack(_TORQUE) if prefix + _TORQUE + "x" in storage.columns
-                  else np.zeros((storage.time.size, 3)))
+        def stack(stem):
+            return np.column_stack([storage.column(stem + a) for a in "xyz"])
+
         plate = ForcePlate(
-            time=time, force=stack(_FORCE), cop=stack(_POINT) * factor,
-            free_moment=torque, name=names.get(prefix, prefix.rstrip("_") or "0"),
+            time=time, force=stack(force), cop=stack(point) * factor,
+            free_moment=(stack(torque) if torque + "x" in storage.columns
+                         else np.zeros((storage.time.size, 3))),
+            name=names.get(ident, _plate_name(ident)),
         )
         for kind, values in (("force", plate.force), ("cop", plate.cop),
                              ("moment", plate.free_moment)):

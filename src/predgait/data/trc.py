@@ -6,8 +6,14 @@ import logging
 
 import numpy as np
 
-from predgait.data._io import check_magnitude, duplicate_labels, length_factor, read_input
-from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers
+from predgait.data._io import (
+    check_magnitude,
+    duplicate_labels,
+    length_factor,
+    read_input,
+    zeros_as_missing,
+)
+from predgait.data.frames import FileAxes, Forward, check_vertical, lab_rotation, rotate_markers
 from predgait.data.trial import Markers, uniform_time
 from predgait.errors import InputError
 
@@ -57,8 +63,10 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
     lines = text.splitlines()
     if len(lines) < _N_HEADER:
         raise InputError(f"{path}: only {len(lines)} lines; a TRC file has a 5-line header.")
-    keys, values = _split(lines[1]), _split(lines[2])
-    header = {k: v for k, v in zip(keys, values, strict=False) if k}
+    # Some writers pad header fields with extra tabs: only the non-empty fields pair up.
+    keys = [k for k in _split(lines[1]) if k]
+    values = [v for v in _split(lines[2]) if v]
+    header = dict(zip(keys, values, strict=False))
     for key in ("DataRate", "NumFrames", "NumMarkers", "Units"):
         if key not in header:
             raise InputError(f"{path}: header line 2 has no {key!r} (found {keys}).")
@@ -104,8 +112,12 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
         frame = int(np.flatnonzero(np.isnan(data[:, 1]))[0]) + 1
         raise InputError(f"{path}: data row {frame} has no time value.")
     time = uniform_time(data[:, 1], rate, source=str(path))
-    xyz = data[:, 2:].reshape(len(rows), n_markers, 3) * factor
+    xyz = zeros_as_missing(data[:, 2:].reshape(len(rows), n_markers, 3) * factor,
+                           source=str(path))
     check_magnitude(xyz, time, "marker", source=str(path), names=names)
     rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
+    check_vertical(np.einsum("ij,nmj->nmi", rotation, xyz), source=str(path),
+                   convention=f"axes {FileAxes(axes).value!r} (OpenSim TRC files are Y-up)",
+                   unit_field=f"Units {header['Units']!r} (header line 3)")
     markers = Markers(time=time, names=tuple(names), xyz=xyz, rate=rate, source=str(path))
     return rotate_markers(markers, rotation)

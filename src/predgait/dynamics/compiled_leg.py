@@ -111,6 +111,7 @@ class FastLeg:
         self.rhs = self._rhs_function(leg_dynamics(system.model))
         self._key = function_cache.key_of([self.rhs.serialize()])
         self._inputs = None  # (times, inputs) of the latest call
+        self._recovered = None  # (t, x, rows) of the latest recover()
 
     # -- symbolic ---------------------------------------------------------------------
     def _parameter(self, value):
@@ -260,8 +261,24 @@ class FastLeg:
 
         return run
 
+    def grid_solver(self, options: IntegratorOptions):
+        """The CVODES run of :mod:`predgait.dynamics.cvodes_leg`, or None (see there)."""
+        from predgait.dynamics.cvodes_leg import cvodes_solver
+
+        return cvodes_solver(self, options)
+
     def recover(self, t: np.ndarray, x: np.ndarray):
-        """(q, v, a, reaction) of every output row (n, 5), (n, 5), (n, 5), (n, 3)."""
+        """(q, v, a, reaction) of every output row (n, 5), (n, 5), (n, 5), (n, 3).
+
+        The last result is kept (a CVODES run recovers its rows' rates, then the engine
+        its output rows: often the same).
+        """
+        last = self._recovered
+        if last is None or not (np.array_equal(last[0], t) and np.array_equal(last[1], x)):
+            last = self._recovered = (np.array(t), np.array(x), self._recover(t, x))
+        return tuple(rows.copy() for rows in last[2])
+
+    def _recover(self, t: np.ndarray, x: np.ndarray):
         n = len(t)
         u = self.inputs(t)
         key = function_cache.key_of([self._key, "outputs", str(CHUNK)])

@@ -6,6 +6,11 @@ methods (RK45, Radau, BDF, LSODA) step SciPy's ``OdeSolver`` classes, the engine
 ``scipy.integrate.solve_ivp``. Stepping them here rather than through ``solve_ivp``
 keeps every method on the same footing: the same divergence check after each step
 (with the partial result kept), the same terminal events, a progress bar by time.
+CVODES (SUNDIALS' variable-order BDF, through CasADi) runs a whole system written in
+CasADi at once (a ``grid_solver``, e.g. :mod:`predgait.dynamics.cvodes_leg`) and returns
+the states on the output grid only: divergence and events are then checked on that grid
+(events located on the cubic Hermite interpolant between output rows, not root-found by
+CVODES), and a system without one runs on SciPy's RK45 at the same tolerances.
 
 Modified Euler (thesis 3.2.4, 3.3.4 Fig. 3.3.7, 4.2 Figs. 4.2.4-4.2.5; Wylie and Barrett
 1982): with ``iterations = k`` each step makes k evaluations of f: one at the start of
@@ -26,6 +31,7 @@ returns ``data.ddq``, which the next call overwrites: copy it or concatenate it)
 from __future__ import annotations
 
 import enum
+import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -38,6 +44,14 @@ from predgait.errors import InputError, SimulationDiverged
 Rhs = Callable[[float, np.ndarray], np.ndarray]
 #: (grid (n+1,), x0 (nx,)) -> (X (n+1, nx), F (n+1, nx)): a whole fixed-step run at once.
 Stepper = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+#: (grid (n+1,), x0 (nx,)) -> (X (n+1, nx), F (n+1, nx), n_rhs): a whole adaptive run
+#: reported on the grid; raises :class:`GridSolverFailed` when the solver stops.
+GridSolver = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, int]]
+log = logging.getLogger(__name__)
+
+
+class GridSolverFailed(RuntimeError):
+    """A grid solver stopped before the end (its message says why)."""
 
 
 class Method(enum.Enum):
@@ -50,6 +64,7 @@ class Method(enum.Enum):
     RADAU = "radau"
     BDF = "bdf"
     LSODA = "lsoda"
+    CVODES = "cvodes"
 
     @property
     def fixed_step(self) -> bool:
@@ -95,7 +110,8 @@ class IntegratorOptions:
 
     Attributes:
         method: Integration method.
-        step: Step of fixed-step methods and output grid of adaptive ones, s (1e-6..0.1).
+        step: Step of fixed-step methods and output grid of adaptive ones, s (1e-6..0.1);
+            for CVODES also the grid on which divergence and events are checked.
         iterations: Modified Euler only: evaluations of f per step (1..100): 1 = explicit
             Euler, 2 = Heun (predictor + one corrector), k = predictor + k - 1 correctors.
         rtol: Relative tolerance of adaptive methods.
@@ -230,7 +246,8 @@ def integrate(rhs: Rhs, t_span: tuple[float, float], x0, *,
               events: Sequence[Event] = (), progress: bool = False,
               divergence_limit: float = 1e6,
               state_names: Sequence[str] | None = None,
-              stepper: Stepper | None = None) -> Integration:
+              stepper: Stepper | None = None,
+              grid_solver: GridSolver | None = None) -> Integration:
     """Integrate x' = rhs(t, x) from ``t_span[0]`` to ``t_span[1]``.
 
     Fixed-step methods return every step (a shorter last step ends exactly at t_end);
@@ -256,6 +273,12 @@ def integrate(rhs: Rhs, t_span: tuple[float, float], x0, *,
             F_i = rhs(t_i, X_i)), e.g. compiled (:mod:`predgait.dynamics.compiled_leg`);
             divergence, events and output are then checked on its rows as they are here
             after each step. Ignored by adaptive methods.
+        grid_solver: CVODES only: ``(grid, x0) -> (X, F, n_rhs)``, the whole run on the
+            output grid (t_eval with t0 and t_end added, else the ``step`` grid).
+            Divergence and events are checked on those rows: an event is detected at
+            output-grid resolution and located on the rows' cubic Hermite interpolant.
+            Without one, or when it fails, the run is SciPy's RK45 at the same
+            tolerances (a one-line warning; ``Integration.method`` says RK45).
 
     Returns:
         The :class:`Integration`.
@@ -288,6 +311,16 @@ def integrate(rhs: Rhs, t_span: tuple[float, float], x0, *,
     try:
         if options.method.fixed_step:
             return _fixed_step(run, t0, t1, x0, events, bar)
+        if options.method is Method.CVODES:
+            if grid_solver is None:
+                log.warning("cvodes needs a system written in CasADi (the leg with the "
+                            "solver cache on and sampled drivers): running rk45 instead")
+            else:
+                try:
+                    return _on_grid(run, grid_solver, t0, t1, x0, events, bar)
+                except GridSolverFailed as exc:
+                    log.warning("cvodes stopped (%s): running rk45 instead", exc)
+            run = replace(run, options=replace(options, method=Method.RK45))
         return _adaptive(run, t0, t1, x0, events, bar)
     finally:
         if bar is not None:
@@ -372,7 +405,8 @@ def _fixed_step(run, t0, t1, x0, events, bar):
     correctors = range(opts.iterations - 1)
     per_step = 4 if kind == 2 else (opts.iterations if kind == 1 else 1)
     if run.stepper is not None:
-        return _stepped(run, grid, x0, events, bar, per_step)
+        X, F = run.stepper(grid, x0)
+        return _checked_rows(run, grid, X, F, events, bar, lambda i: 1 + i * per_step)
     f = np.array(rhs(t0, x0), dtype=float)
     if f.shape != x0.shape:
         raise ValueError(f"rhs returned shape {f.shape}, expected {x0.shape}.")
@@ -411,7 +445,7 @@ def _fixed_step(run, t0, t1, x0, events, bar):
         F[i + 1] = f
         t = tn
         if events:
-            ended = _step_event(run, events, g_prev, times, X, F, i, per_step)
+            ended = _step_event(run, events, g_prev, times, X, F, i, 1 + (i + 1) * per_step)
             if ended is not None:
                 return ended
         if bar is not None and (i % stride == 0 or i == n - 1):
@@ -422,11 +456,11 @@ def _fixed_step(run, t0, t1, x0, events, bar):
                       f"completed {n} steps to t = {t1:g} s")
 
 
-def _step_event(run, events, g_prev, times, X, F, i, per_step):
+def _step_event(run, events, g_prev, times, X, F, i, nfev):
     """The EVENT result if an event triggers over step i, else None.
 
     Rows i and i + 1 of X and F are done; the event is located on the step's cubic
-    Hermite interpolant.
+    Hermite interpolant. ``nfev``: right-hand sides reported with the result.
     """
     ta, tn = times[i], times[i + 1]
 
@@ -440,20 +474,37 @@ def _step_event(run, events, g_prev, times, X, F, i, per_step):
     grid = np.asarray(times[: i + 2])
     t_out, x_out = _output(grid, X[: i + 2], F[: i + 2], run.t_eval, end=t_ev,
                            x_end=dense(t_ev))
-    return run.result(t_out, x_out, Status.EVENT, 1 + (i + 1) * per_step,
+    return run.result(t_out, x_out, Status.EVENT, nfev,
                       f"event {name!r} at t = {t_ev:.6g} s", name, t_ev)
 
 
-def _stepped(run, grid, x0, events, bar, per_step):
-    """:func:`_fixed_step` on the rows of ``run.stepper``: the same checks, in order."""
-    X, F = run.stepper(grid, x0)
+def _on_grid(run, grid_solver, t0, t1, x0, events, bar):
+    """CVODES through ``grid_solver``: the rows on the output grid, then the checks."""
+    if run.t_eval is None:
+        grid = t0 + run.options.step * np.arange(_n_steps(t0, t1, run.options.step) + 1.0)
+        grid[-1] = t1
+    else:
+        inner = run.t_eval[(run.t_eval > t0) & (run.t_eval < t1)]
+        grid = np.concatenate([[t0], inner, [t1]])
+    X, F, nfev = grid_solver(grid, x0)
+    return _checked_rows(run, grid, X, F, events, bar, lambda i: nfev,
+                         f"output steps of cvodes ({nfev} right-hand sides)")
+
+
+def _checked_rows(run, grid, X, F, events, bar, count, steps="steps"):
+    """:func:`_fixed_step`'s checks on precomputed rows X, F on ``grid``, in order.
+
+    ``count(i)``: right-hand sides spent up to row i (reported with the result);
+    ``steps``: what the rows are, for the message.
+    """
+    x0 = X[0]
     n, t1 = len(grid) - 1, float(grid[-1])
     bad = ~np.all(np.isfinite(X), axis=1) | np.any(np.abs(X) > run.limit, axis=1)
     first_bad = int(np.argmax(bad)) if bad.any() else n + 1
     g_prev = [event.function(grid[0], x0) for event in events]
     times = grid.tolist()
     for i in range(min(n, first_bad - 1) if events else 0):
-        ended = _step_event(run, events, g_prev, times, X, F, i, per_step)
+        ended = _step_event(run, events, g_prev, times, X, F, i, count(i + 1))
         if ended is not None:
             return ended
     if first_bad <= n:
@@ -461,13 +512,13 @@ def _stepped(run, grid, x0, events, bar, per_step):
         t_out, x_out = _output(grid[: i + 1], X[: i + 1], F[: i + 1], run.t_eval,
                                end=times[i], x_end=X[i])
         run.diverged(t_out, x_out, times[i + 1], *_offender(X[i + 1], run.limit),
-                     i * per_step + per_step)
+                     count(i + 1))
     if bar is not None:
         bar.n = n
         bar.refresh()
     t_out, x_out = _output(grid, X, F, run.t_eval)
-    return run.result(t_out, x_out, Status.COMPLETED, 1 + n * per_step,
-                      f"completed {n} steps to t = {t1:g} s")
+    return run.result(t_out, x_out, Status.COMPLETED, count(n),
+                      f"completed {n} {steps} to t = {t1:g} s")
 
 
 def _hermite(ta, tb, xa, fa, xb, fb, t):

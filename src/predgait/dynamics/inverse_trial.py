@@ -58,6 +58,9 @@ BUNDLED = "bundled:subject01"
 #: Largest median horizontal distance (m) of a contact's COP from the foot's heel-toe
 #: segment for the contact to load that foot.
 NEAR_FOOT = 0.1
+
+#: Fewest marker frames the pipeline analyses (the 5-point differences, the filter).
+MIN_FRAMES = 20
 #: N, default contact threshold: a contact must reach it; it lasts while the force stays
 #: above ``RELEASE_FRACTION`` of it (:func:`predgait.data.resample.contact_frames`).
 THRESHOLD = 10.0
@@ -364,6 +367,20 @@ def _foot_grf(plates: tuple[ForcePlate, ...], time: np.ndarray, heel: np.ndarray
     return force, cop, free + moment_o - np.cross(cop, force)
 
 
+def _cop_hint(plates: tuple[ForcePlate, ...], heel: np.ndarray, threshold: float) -> str:
+    """Why no contact was found: how far the loaded COPs lie from the foot (units, axes)."""
+    loaded = [p.cop[p.force[:, 2] >= threshold, :2] for p in plates]
+    loaded = [c for c in loaded if len(c)]
+    if not loaded:
+        return " (no plate is loaded in the trial: check the force's sign and axes)"
+    distance = np.linalg.norm(np.median(np.concatenate(loaded), axis=0)
+                              - np.nanmedian(heel[:, :2], axis=0))
+    if distance < 5.0:
+        return ""
+    return (f" (the loaded plates' COP lies {distance:.3g} m from the heel marker: check the "
+            "COP columns' units, OpenSim's are m, and the axes)")
+
+
 def _kinematic_events(time: np.ndarray, points: Mapping[str, np.ndarray], side: Side) -> Events:
     """Zeni et al. (2008) events with the hip centre as the pelvis reference."""
     names = ("heel", "toe", "hip")
@@ -398,9 +415,12 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     """
     trial, turn = read_trial(options) if loaded is None else loaded
     needed = _needed_markers(options.points)
+    if trial.markers.n_frames < MIN_FRAMES:
+        raise InputError(f"{trial.source}: the trial has {trial.markers.n_frames} frames; "
+                         f"inverse dynamics needs at least {MIN_FRAMES} (a gait cycle).")
     markers = fill_gaps(trial.markers, names=needed, max_gap_frames=options.max_gap_frames,
                         edges="trim")
-    if markers.n_frames < 20:
+    if markers.n_frames < MIN_FRAMES:
         raise InputError(f"{trial.source}: only {markers.n_frames} frames have all of "
                          f"{', '.join(needed)}; check the marker names.")
     cutoff, cutoff_note = marker_cutoff(markers.select(needed), options.cutoff)
@@ -437,7 +457,8 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     has_grf = bool(trial.plates)
     if has_grf and not np.any(force[:, 2] >= options.threshold):
         raise InputError(f"{options.grf or trial.source}: no plate has a contact (vertical "
-                         f"force >= {options.threshold:g} N) under the {options.side} foot.")
+                         f"force >= {options.threshold:g} N) under the {options.side} foot"
+                         f"{_cop_hint(trial.plates, points['heel'], options.threshold)}.")
     contact = (force[:, 2] != 0)[:, None]
     loads = [LoadHistory("foot", np.where(contact, force, 0.0), cop, np.where(contact, free, 0.0))]
     inv: LegInverse = leg_inverse_dynamics(model, q, qd, qdd, loads)

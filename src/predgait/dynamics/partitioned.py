@@ -34,7 +34,7 @@ free coordinates are solved in closed form.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
@@ -43,6 +43,7 @@ from predgait.dynamics.forces import Force, Kinematics, as_force
 from predgait.dynamics.integrators import (
     Event,
     IntegratorOptions,
+    Method,
     Status,
     integrate,
 )
@@ -304,9 +305,10 @@ class PartitionedSystem:
         return a_free, self.reaction(t, q, v, full, tau)
 
     def fast_path(self, options: IntegratorOptions):
-        """A faster equal evaluation of fixed-step runs, or None (here: None).
+        """A faster equal evaluation of fixed-step and CVODES runs, or None (here: None).
 
-        Configurations may return an object with ``trajectory(options) -> stepper`` (see
+        Configurations may return an object with ``trajectory(options) -> stepper`` and
+        ``grid_solver(options) -> grid solver or None`` (see
         :func:`~predgait.dynamics.integrators.integrate`) and ``recover(t, x) -> (q, v, a,
         reaction)`` (the rows :func:`simulate_partitioned` would compute), e.g. the leg's
         :mod:`~predgait.dynamics.compiled_leg`.
@@ -478,11 +480,13 @@ def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
     """
     options = options or IntegratorOptions()
     error = None
-    fast = system.fast_path(options) if options.method.fixed_step else None
+    on_grid = options.method is Method.CVODES
+    fast = system.fast_path(options) if options.method.fixed_step or on_grid else None
     try:
         run = integrate(system, t_span, x0, options=options, events=events,
                         progress=progress, state_names=system.state_names(), t_eval=t_eval,
-                        stepper=fast.trajectory(options) if fast else None)
+                        stepper=fast.trajectory(options) if fast and not on_grid else None,
+                        grid_solver=fast.grid_solver(options) if fast and on_grid else None)
     except SimulationDiverged as exc:
         run, error = exc.partial, exc
     if fast is not None:
@@ -496,7 +500,8 @@ def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
         t=run.t, q=q, qd=v, qdd=a, reaction=reaction, coordinate_names=names,
         free=tuple(names[i] for i in system.free), status=run.status,
         event=run.event_name, time_to_fall=fall, partial=error is not None,
-        message=run.message, options=options, n_rhs_evaluations=run.n_rhs_evaluations)
+        message=run.message, options=replace(options, method=run.method),  # cvodes -> rk45
+        n_rhs_evaluations=run.n_rhs_evaluations)
     if error is not None:
         raise SimulationDiverged(str(error), partial=result)
     return result

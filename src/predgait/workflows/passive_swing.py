@@ -83,7 +83,8 @@ def parse_swing(table: Table) -> SwingSpec:
         source=table.path, trial=trial, model=parse_passive_model(table.table("passive"),
                                                                   joints),
         settings=SwingSettings(
-            quiet_phases=parse_phases(table),
+            quiet_phases=parse_phases(table) if table.has("quiet_phases")
+            else SwingSettings().quiet_phases,
             step_s=sim.number("step_s", 0.01, low=1e-4, high=0.02, unit="s"),
             max_iter=int(sim.number("max_iter", 50, low=1, high=1000)),
             initial_angle_span=np.radians(sim.number("initial_angle_span_deg", 8.6, low=0.1,
