@@ -260,6 +260,13 @@ def test_mot_with_side_infix_columns_and_external_loads(tmp_path):
     np.testing.assert_allclose(right.force[0], [50.0, 10.0, 700.0])
     np.testing.assert_allclose(right.cop[0], [0.3, -0.1, 0.0])
     np.testing.assert_allclose(right.free_moment[0], [0.0, 0.0, 2.0])
+    # The same columns written Z-up (vertical force in the z column) are refused.
+    z_up = [row[:2] + [row[3], row[2]] + row[4:] for row in rows]
+    mot.write_text(header + "\t".join(labels) + "\n" + "\n".join(
+        "\t".join(f"{v:g}" for v in row) for row in z_up) + "\n")
+    with pytest.raises(InputError, match=r"grf_walk\.mot: plate r's force peaks at 702 N "
+                                         r"horizontally but 10 N vertically"):
+        read_grf_mot(mot)
 
 
 def test_grf_cop_in_mm_is_named_in_the_error(tmp_path):
@@ -318,3 +325,32 @@ def test_a_trial_too_short_says_so(tmp_path):
     with pytest.raises(InputError, match=r"two\.c3d: the trial has 2 frames; inverse dynamics "
                                          r"needs at least 20"):
         run_inverse(InverseOptions(markers=path, mass=70.0, height=1.75, points=points))
+
+
+def test_moment_units_that_put_the_cop_off_the_plate_are_refused(tmp_path):
+    # walking5's moments are N mm; labelled N m, its COP would lie metres off the plates.
+    import ezc3d
+
+    c3d = ezc3d.c3d(str(WALKING5))
+    units = list(c3d["parameters"]["ANALOG"]["UNITS"]["value"])
+    c3d["parameters"]["ANALOG"]["UNITS"]["value"] = ["Nm" if u == "Nmm" else u for u in units]
+    c3d.write(str(tmp_path / "nm.c3d"))
+    with pytest.raises(InputError, match=r"nm\.c3d: plate 1 \(TYPE 2\): the centre of pressure "
+                                         r"lies .* beyond the plate's edge .* ANALOG:UNITS"):
+        read_c3d(tmp_path / "nm.c3d")
+
+
+def test_type1_plate_with_cop_channels(tmp_path):
+    # TYPE 1: Fx, Fy, Fz, COPx, COPy (from the surface centre) and Tz, plate frame.
+    x_p, y_p = np.eye(3)[1], np.eye(3)[0]
+    centre = np.array([300.0, 250.0, 0.0])
+    values = [15.0, -40.0, -690.0, 70.0, -20.0, 1200.0]  # N, N, N, mm, mm, N mm
+    plate = PlateSpec(1, np.tile(values, (N_FRAMES * 10, 1)), corners_about(centre, x_p, y_p),
+                      (0.0, 0.0, 0.0), units=("N", "N", "N", "mm", "mm", "Nmm"))
+    p = read_c3d(write_c3d(tmp_path / "t1.c3d", C3DSpec(xyz=body(), names=NAMES,
+                                                        plates=(plate,)))).plates[0]
+    rot = np.column_stack([x_p, y_p, np.cross(x_p, y_p)])  # plate z = -Z
+    np.testing.assert_allclose(p.force[0], rot @ values[:3], atol=1e-4)  # (-40, 15, 690)
+    np.testing.assert_allclose(p.cop[0], (centre + rot @ [70.0, -20.0, 0.0]) / 1000.0,
+                               atol=1e-6)
+    np.testing.assert_allclose(p.free_moment[0], [0.0, 0.0, -1.2], atol=1e-6)

@@ -77,8 +77,9 @@ def test_thigh_driven_dynamics_is_the_free_leg_under_its_thigh(walk):
     assert checked > 20
 
 
-def test_compiled_step_equals_the_in_memory_one(walk, tmp_path, monkeypatch):
-    """The RK4 sample step with its sensitivities, compiled through the function cache."""
+def test_compiled_step_equals_the_in_memory_one(walk, compiled):
+    """The RK4 sample step with its sensitivities, compiled through the function cache
+    (the module's cache folder: the other fits here load this library)."""
     from predgait.problems.passive_swing_dynamics import step_function
 
     if function_cache.compiler() is None:
@@ -89,14 +90,13 @@ def test_compiled_step_equals_the_in_memory_one(walk, tmp_path, monkeypatch):
     args = (np.array([0.1, -0.9, 1.0, -3.0]), rng.normal(size=(4, 10)),
             np.tile(np.array([0.2, 0.9, 0.1, 1.0, 0.1, 2.0, 3.0, -1.0, 10.0])[:, None], 3),
             np.full(6, 0.3), 0.05)
-    monkeypatch.setenv(function_cache.SWITCH, "off")
-    memory = [np.array(v) for v in step_function(leg, model, 1, 0.01)(*args)]
-    monkeypatch.setenv(function_cache.SWITCH, "on")
-    monkeypatch.setenv(function_cache.FOLDER, str(tmp_path))
-    monkeypatch.setenv(function_cache.WHEN, "now")
-    compiled = step_function(leg, model, 1, 0.01)
-    assert list(tmp_path.glob("swing_step-*.so")), "nothing compiled"
-    for a, b in zip(memory, compiled(*args), strict=True):
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv(function_cache.SWITCH, "off")
+        memory = [np.array(v) for v in step_function(leg, model, 1, 0.01)(*args)]
+    compiled_step = step_function(leg, model, 1, 0.01)
+    folder = Path(os.environ[function_cache.FOLDER])
+    assert list(folder.glob("swing_step-*.so")), "nothing compiled"
+    for a, b in zip(memory, compiled_step(*args), strict=True):
         np.testing.assert_allclose(np.array(b), a, rtol=1e-12, atol=1e-12)
 
 

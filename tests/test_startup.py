@@ -167,3 +167,30 @@ def test_gait7_simulation_draws_its_plots_without_matplotlib(tmp_path):
                           timeout=600, check=True, cwd=repo)
     assert done.stdout.strip().splitlines()[-1] == "0 False"
     assert {"grf.png", "knee.png", "stick.png"} <= {p.name for p in out.iterdir()}
+
+
+#: Modules the leg's ``predgait inverse`` (plots included) has no use for: numpy.ma (np.median
+#: and np.unique load it), Pillow's BMP/JPEG/PPM plugins (``format=`` loads them), the HTML
+#: report and importlib's resource readers (zipfile).
+UNUSED_BY_LEG_INVERSE = ("numpy.ma", "PIL.BmpImagePlugin", "PIL.JpegImagePlugin",
+                         "PIL.PpmImagePlugin", "predgait.report.html", "importlib.readers")
+
+
+def test_leg_inverse_loads_only_what_it_uses(tmp_path):
+    """`predgait inverse problems/inverse_subject01.toml` with plots imports none of
+    UNUSED_BY_LEG_INVERSE (start-up is most of this command's time); the probe sees them
+    when they are used (np.median)."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    out = tmp_path / "out"
+    argv = ["inverse", "problems/inverse_subject01.toml", "--out", str(out)]
+    code = ("import sys; from predgait.cli import main; "
+            f"status = main({argv!r}); "
+            f"found = sorted(m for m in {UNUSED_BY_LEG_INVERSE!r} if m in sys.modules); "
+            "import numpy as np; np.median([1.0, 2.0]); "
+            "print(status, found, 'numpy.ma' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, check=True, cwd=repo)
+    assert done.stdout.strip().splitlines()[-1] == "0 [] True"
+    assert (out / "stick.gif").is_file() and (out / "moments.png").is_file()

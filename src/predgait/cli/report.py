@@ -6,7 +6,6 @@ import argparse
 from pathlib import Path
 
 from predgait.models.urdf import write_text_atomic
-from predgait.report.html import build_report
 
 
 def register(commands: argparse._SubParsersAction) -> None:
@@ -23,6 +22,8 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Build and write the report."""
+    from predgait.report.html import build_report  # not on every command's start-up path
+
     write_text_atomic(build_report(args.folder), args.output, force=args.force,
                       inputs=[args.folder])
     print(f"wrote {args.output}")

@@ -1,4 +1,4 @@
-"""Real trials shipped inside the package (read with importlib.resources).
+"""Real trials shipped inside the package (the ``predgait/datasets`` folder).
 
 * ``subject01_walk1``: OpenSim Gait2354 example walk (TRC 60 Hz, 41 markers; GRF MOT
   600 Hz, right foot prefix "", left foot prefix "1_"); treadmill-like, Y-up in the file.
@@ -10,7 +10,6 @@ Each folder has a README.md with source, license and the facts the tests rely on
 from __future__ import annotations
 
 import shlex
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -36,12 +35,14 @@ def bundled_path(name: str) -> Path:
         name: ``"subject01_walk1"``, ``"winter_a1"`` or a file in one, e.g.
             ``"subject01_walk1/subject01_walk1.trc"``.
     """
-    root = resources.files("predgait.datasets")
+    # The package's folder on disk (importlib.resources would import zipfile and its
+    # readers on every run for the same path: predgait is installed as files).
+    root = Path(__file__).resolve().parents[1] / "datasets"
     target = root.joinpath(*name.split("/"))
     if not target.is_file() and not target.is_dir():
         available = sorted(p.name for p in root.iterdir() if p.is_dir() and p.name[0] != "_")
         raise InputError(f"no bundled dataset entry {name!r}; datasets: {', '.join(available)}.")
-    return Path(str(target))
+    return target
 
 
 def subject_info(name: str) -> dict:

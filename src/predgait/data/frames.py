@@ -21,6 +21,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from predgait.data.medians import finite_median
 from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.errors import InputError
 
@@ -139,7 +140,7 @@ def check_vertical(xyz: np.ndarray, *, source: str, convention: str, unit_field:
         return
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        extent = np.nanmedian(np.nanmax(xyz, axis=1) - np.nanmin(xyz, axis=1), axis=0)
+        extent = finite_median(np.nanmax(xyz, axis=1) - np.nanmin(xyz, axis=1))
     if not np.all(np.isfinite(extent)):
         return
     low, high = BODY_EXTENT

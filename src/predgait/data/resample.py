@@ -9,6 +9,7 @@ import numpy as np
 
 from predgait.data.filters import lowpass
 from predgait.data.frames import parse_enum
+from predgait.data.medians import median
 from predgait.data.trial import ForcePlate
 from predgait.errors import InputError
 
@@ -137,7 +138,7 @@ def resample_plate(plate: ForcePlate, time, *, method: Resampling | str = Resamp
     time = np.asarray(time, dtype=float)
     if time.size < 2:
         raise InputError("resample_plate needs at least 2 marker times.")
-    dt = float(np.median(np.diff(time)))
+    dt = median(np.diff(time))
     tol = 0.5 / plate.rate + 1e-9
     if time[0] < plate.time[0] - tol or time[-1] > plate.time[-1] + tol:
         raise InputError(

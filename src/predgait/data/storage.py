@@ -206,8 +206,21 @@ def read_grf_mot(path, *, names: Mapping[str, str] | None = None,
         for kind, values in (("force", plate.force), ("cop", plate.cop),
                              ("moment", plate.free_moment)):
             check_magnitude(values, time, kind, source=f"{path} (plate {plate.name})")
-        plates.append(rotate_plate(plate, rotation))
+        plate = rotate_plate(plate, rotation)
+        _check_vertical_force(plate, axes, source=str(path))
+        plates.append(plate)
     return tuple(plates)
+
+
+def _check_vertical_force(plate: ForcePlate, axes, *, source: str) -> None:
+    """Refuse ground reactions whose largest component is horizontal (another up axis)."""
+    vertical = np.nanmax(np.abs(plate.force[:, 2]))
+    horizontal = np.nanmax(np.linalg.norm(plate.force[:, :2], axis=1))
+    if horizontal > max(vertical, 50.0):
+        raise InputError(
+            f"{source}: plate {plate.name}'s force peaks at {horizontal:.0f} N horizontally but "
+            f"{vertical:.0f} N vertically when read with axes {FileAxes(axes).value!r} (OpenSim "
+            "MOT files are Y-up); the file's vertical axis looks different. Re-export it Y-up.")
 
 
 def _expand(columns: Mapping[str, np.ndarray], n: int, source: str) -> dict[str, np.ndarray]:

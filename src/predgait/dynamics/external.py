@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from predgait.data.medians import median as median_of
 from predgait.models.loading import Model
 
 
@@ -116,7 +117,7 @@ def assign_contacts(cop: np.ndarray, loaded: np.ndarray,
     distances = {name: distance_to_foot(cop, heel, toe) for name, (heel, toe) in feet.items()}
     out = []
     for run in runs_of(loaded):
-        median = {name: float(np.median(d[run])) for name, d in distances.items()}
+        median = {name: median_of(d[run]) for name, d in distances.items()}
         nearest = min(median, key=median.get)
         out.append(PlateContact(run, nearest if median[nearest] <= reach else None,
                                 median[nearest]))

@@ -122,7 +122,8 @@ class Windows:
         Raises:
             InputError: No such window (naming ``where``).
         """
-        dt = float(np.median(np.diff(inverse.time)))
+        # Rounded: the step is a constant of the compiled function (and of its cache key).
+        dt = float(np.round(np.median(np.diff(inverse.time)), 12))
         substeps = max(1, int(np.ceil(dt / settings.step_s - 1e-9)))
         q, qd = np.asarray(inverse.q), np.asarray(inverse.qd)
         ok = samples.in_phases(settings.quiet_phases) & np.isfinite(q).all(axis=1) \

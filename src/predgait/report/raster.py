@@ -187,7 +187,10 @@ class Canvas:
         path = Path(path)
         image = self.image.reduce(self.scale) if self.scale > 1 else self.image
         self._write_texts(image, self.scale)
-        image.save(path, format="PNG", compress_level=1)
+        # Without format=, Pillow loads only its PNG plugin for a .png name (format= loads
+        # the BMP, GIF, JPEG and PPM plugins too: start-up time for nothing).
+        image.save(path, format=None if path.suffix.lower() == ".png" else "PNG",
+                   compress_level=1)
         return path
 
 

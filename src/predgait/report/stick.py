@@ -51,7 +51,10 @@ def stick_points(model, q: np.ndarray, *, plane: bool = True) -> list[np.ndarray
 def sample_times(t: np.ndarray, interval: float) -> np.ndarray:
     """Row indices of t nearest to t0, t0 + interval, ... (no repeats)."""
     targets = np.arange(t[0], t[-1] + 1e-9, interval)
-    return np.unique(np.clip(np.searchsorted(t, targets - 1e-9), 0, len(t) - 1))
+    rows = np.clip(np.searchsorted(t, targets - 1e-9), 0, len(t) - 1)  # non-decreasing
+    keep = np.ones(rows.size, dtype=bool)   # np.unique's result without its numpy.ma import
+    keep[1:] = rows[1:] != rows[:-1]
+    return rows[keep]
 
 
 def plot_stick(model, t, q, *, interval: float = 0.05, ax=None, color=None, label=None,

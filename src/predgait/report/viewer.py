@@ -11,7 +11,6 @@ draws.
 from __future__ import annotations
 
 import json
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -111,6 +110,8 @@ def write_viewer(path: str | Path, data: dict) -> Path:
 
 def viewer_script() -> str:
     """The renderer's JavaScript (included once per page)."""
+    from importlib import resources
+
     return resources.files("predgait.report").joinpath("viewer.js").read_text()
 
 
