@@ -55,12 +55,13 @@ def _setup(window):
 
 def _solve_timings(spec, drive, data, repeat: int) -> tuple[Timing, Timing, object]:
     from predgait.problems import fullbody_tracking as tracking
+    from predgait.problems import fullbody_tracking_stage as stage
 
     solutions = []
 
     def cold():
-        tracking.node_function.cache_clear()
-        tracking.stage_functions.cache_clear()
+        stage.node_function.cache_clear()
+        stage.stage_functions.cache_clear()
         solutions.append(tracking.solve_tracking(drive.model, data, spec.weights,
                                                  max_iter=spec.max_iter))
 

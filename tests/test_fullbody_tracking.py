@@ -25,10 +25,10 @@ from predgait.problems.fullbody_tracking import (
     POINTS,
     TrackingData,
     contact_inverse_dynamics,
-    node_function,
     solve_tracking,
     tracking_nlp,
 )
+from predgait.problems.fullbody_tracking_stage import node_function
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "fullbody_tracking.toml"
 CONTACT = ImpactContact(stiffness=2e5, exponent=1.0, damping=2e3, damping_depth=1e-3,

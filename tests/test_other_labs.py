@@ -354,3 +354,32 @@ def test_type1_plate_with_cop_channels(tmp_path):
     np.testing.assert_allclose(p.cop[0], (centre + rot @ [70.0, -20.0, 0.0]) / 1000.0,
                                atol=1e-6)
     np.testing.assert_allclose(p.free_moment[0], [0.0, 0.0, -1.2], atol=1e-6)
+
+
+def test_csv_markers_in_mm_read_as_m_are_refused(tmp_path):
+    from predgait.data import read_markers_csv
+
+    xyz = body(travel=300.0)[:, 1:]  # hip, heel, toe in mm, Z-up
+    header = "time," + ",".join(f"{n}_{a}" for n in NAMES[1:] for a in "xyz")
+    path = tmp_path / "walk.csv"
+    path.write_text(header + "\n" + "\n".join(
+        ",".join([f"{i / 100:.2f}", *(f"{v:.3f}" for v in frame.ravel())])
+        for i, frame in enumerate(xyz)) + "\n")
+    columns = {n: (f"{n}_x", f"{n}_y", f"{n}_z") for n in NAMES[1:]}
+    with pytest.raises(InputError, match=r"walk\.csv: the markers span 850 m .* units 'm'"):
+        read_markers_csv(path, columns)
+    heel = read_markers_csv(path, columns, units="mm").get("HEEL")[0]
+    np.testing.assert_allclose(heel, [-0.05, 0.1, 0.05])
+
+
+def test_vicon_subject_prefixed_labels_are_found_by_their_bare_name():
+    from predgait.data.trial import Markers
+
+    xyz = np.zeros((2, 3, 3))
+    xyz[:, 1] = 1.0
+    markers = Markers(time=[0.0, 0.01], names=("Daphnee:RASI", "Daphnee:LASI", "Other:LASI"),
+                      xyz=xyz, rate=100.0, source="vicon.c3d")
+    np.testing.assert_allclose(markers.get("Daphnee:LASI")[0], 1.0)
+    np.testing.assert_allclose(markers.get("RASI")[0], 0.0)
+    with pytest.raises(InputError, match="vicon.c3d: no marker named 'LASI'"):
+        markers.get("LASI")  # two subjects have it: ambiguous

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from predgait.data._io import check_magnitude, duplicate_labels, length_factor, read_input
-from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_markers
+from predgait.data.frames import FileAxes, Forward, check_vertical, lab_rotation, rotate_markers
 from predgait.data.trial import Markers, uniform_time
 from predgait.errors import InputError
 
@@ -82,5 +82,7 @@ def read_markers_csv(path, columns: Mapping[str, tuple[str, str, str]], *,
     xyz = data[:, 1:].reshape(len(time), len(columns), 3) * factor
     check_magnitude(xyz, time, "marker", source=str(path), names=list(columns))
     rotation = lab_rotation(axes, forward, xyz=xyz, source=str(path))
+    check_vertical(np.einsum("ij,nmj->nmi", rotation, xyz), source=str(path),
+                   convention=f"axes {FileAxes(axes).value!r}", unit_field=f"units {units!r}")
     markers = Markers(time=time, names=tuple(columns), xyz=xyz, rate=rate, source=str(path))
     return rotate_markers(markers, rotation)

@@ -41,7 +41,6 @@ ones (which also removes the trapezoidal rule's alternating mode).
 
 from __future__ import annotations
 
-import functools
 import time
 from dataclasses import dataclass
 
@@ -50,16 +49,16 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.blas_threads import one_blas_thread
-from predgait.dynamics.contact import adams_step
 from predgait.errors import SolveFailed
-from predgait.models.fullbody import CONTACTS
-from predgait.models.loading3d import Model3D, adam_kindyn
-
-#: Contact points, in the order of the force arrays: right heel, right toe, left heel,
-#: left toe; their feet.
-POINTS = ("heel_contact_r", "toe_contact_r", "heel_contact_l", "toe_contact_l")
-POINT_FOOT = ("r", "r", "l", "l")
-assert set(POINTS) == set(CONTACTS)
+from predgait.models.loading3d import Model3D
+from predgait.problems.fullbody_tracking_stage import (
+    FORCE_UNIT,
+    NG,
+    NI,
+    NZ,
+    POINTS,
+    stage_functions,
+)
 
 
 @dataclass(frozen=True)
@@ -154,19 +153,8 @@ class TrackingSolution:
                          self.forces[:, 2] + self.forces[:, 3]], axis=1)
 
 
-def _skew(w):
-    return cs.vertcat(cs.horzcat(0, -w[2], w[1]), cs.horzcat(w[2], 0, -w[0]),
-                      cs.horzcat(-w[1], w[0], 0))
-
-
-def cayley(c):
-    """Rotation matrix of the Cayley vector c (3,): I + 2/(1 + c.c) ([c]x + [c]x^2)."""
-    k = _skew(c)
-    return cs.DM.eye(3) + 2.0 / (1.0 + cs.dot(c, c)) * (k + k @ k)
-
-
 def cayley_numeric(c: np.ndarray) -> np.ndarray:
-    """:func:`cayley` in NumPy."""
+    """:func:`~predgait.problems.fullbody_tracking_stage.cayley` in NumPy."""
     k = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
     return np.eye(3) + 2.0 / (1.0 + c @ c) * (k + k @ k)
 
@@ -176,45 +164,6 @@ def corrected_configuration(q_ref: np.ndarray, dx: np.ndarray) -> np.ndarray:
     rot = pin.Quaternion(q_ref[6], *q_ref[3:6]).toRotationMatrix() @ cayley_numeric(dx[3:6])
     quat = pin.Quaternion(rot).normalized().coeffs()
     return np.concatenate([q_ref[:3] + dx[:3], quat, q_ref[7:] + dx[6:]])
-
-
-@functools.lru_cache(maxsize=4)
-def node_function(model: Model3D) -> cs.Function:
-    """``node(q_ref, dx, v, a, f) -> (eom, points, rot, pos, point_velocities)``.
-
-    q_ref (36,), dx (35,) correction, v, a (35,), f (12,) forces on :data:`POINTS`;
-    eom (6,) the floating-base rows (N, N m, pelvis frame); points (12,) lab positions of
-    the contact points; rot (9,) R column-major; pos (3,) pelvis position;
-    point_velocities (12,) lab velocities of the contact points.
-    """
-    kindyn = adam_kindyn(model)
-    q_ref, dx = cs.SX.sym("q_ref", 36), cs.SX.sym("dx", 35)
-    v, a, f = cs.SX.sym("v", 35), cs.SX.sym("a", 35), cs.SX.sym("f", 12)
-    qw, qv = q_ref[6], q_ref[3:6]
-    rot_ref = (2 * qw * qw - 1) * cs.DM.eye(3) + 2 * (qv @ qv.T) + 2 * qw * _skew(qv)
-    rot = rot_ref @ cayley(dx[3:6])
-    pos = q_ref[:3] + dx[:3]
-    s = q_ref[7:] + dx[6:]
-    frame = cs.vertcat(cs.horzcat(rot, pos), cs.DM([[0, 0, 0, 1]]))
-    mass = kindyn.mass_matrix(frame, s)
-    bias = kindyn.bias_force(frame, s, v[:6], v[6:])
-    points, velocities = [], []
-    force, moment = cs.DM.zeros(3), cs.DM.zeros(3)
-    for i, name in enumerate(POINTS):
-        pose = kindyn.forward_kinematics(name, frame, s)
-        point = pose[:3, 3]
-        points.append(point)
-        # Body-fixed representation: the frame's velocity in its own axes; to the lab.
-        velocities.append(pose[:3, :3] @ (kindyn.jacobian(name, frame, s)[:3, :] @ v))
-        fc = f[3 * i: 3 * i + 3]
-        force += fc
-        moment += cs.cross(point - pos, fc)
-    # Body-fixed base rows of J_c^T f: the wrench in the pelvis frame about its origin.
-    wrench = cs.vertcat(rot.T @ force, rot.T @ moment)
-    eom = mass[:6, :] @ a + bias[:6] - wrench
-    return cs.Function("fullbody_node", [q_ref, dx, v, a, f],
-                       [eom, cs.vertcat(*points), cs.reshape(rot, 9, 1), pos,
-                        cs.vertcat(*velocities)])
 
 
 def _initial_forces(data: TrackingData) -> np.ndarray:
@@ -230,18 +179,6 @@ def _initial_forces(data: TrackingData) -> np.ndarray:
         for j, c in enumerate(cols):
             out[:, c] = np.where(on[:, j:j + 1], force / count[:, None], 0.0)
     return out.reshape(data.nodes, 12)
-
-
-#: Sizes: unknowns per node (dx, v, a, f / FORCE_UNIT), node parameters, node constraints (base
-#: rows 6, contact heights 4, friction pyramid 16), interval constraints (joints 29,
-#: velocities 35, pelvis position 3, pelvis rotation 3), weights.
-NZ, NP, NG, NI, NW = 117, 129, 26, 70, 7
-#: Weight of the point forces' own cost relative to the foot-force tracking.
-REGULARISATION = 1e-4
-#: Unit of the force unknowns, N: forces of hundreds of N as numbers of order one (on
-#: subject01's cycle 63 Ipopt iterations instead of 81 with N; 500 N: 60 iterations
-#: but twice the linear-solver time).
-FORCE_UNIT = 100.0
 
 
 def _node_parameters(data: TrackingData) -> np.ndarray:
@@ -263,112 +200,6 @@ def _weight_vector(weights: TrackingWeights, body_weight: float) -> np.ndarray:
     return 1.0 / np.array([np.radians(w.angle_deg), w.position_m, w.velocity_rad_s,
                            w.acceleration_rad_s2, w.force_bw * body_weight,
                            w.moment_bw_m * body_weight, w.friction_bw * body_weight]) ** 2
-
-
-@dataclass(frozen=True, eq=False)
-class StageFunctions:
-    """CasADi functions of one node and one interval (the NLP is assembled from them).
-
-    Attributes:
-        node: ``(z, p, w) -> (g, cost)``: z (NZ,) unknowns, p (NP,) parameters, w (NW,)
-            weights; g (NG,) node constraints, cost (scalar).
-        node_jacobian: ``(z, p, w) -> dg/dz`` (NG, NZ).
-        node_gradient: ``(z, p, w) -> dcost/dz`` (NZ,).
-        node_hessian: ``(z, p, w, sigma, lam, mu)``: upper triangle of the Hessian of
-            sigma cost + lam.g + mu.(R v_lin).
-        interval: ``(z0, z1, q0, q1, h) -> g`` (NI,): the trapezoidal collocation of one
-            interval (q0, q1 the nodes' reference configurations, h s).
-        interval_jacobian: ``(z0, z1, q0, q1, h) -> dg/d(z0, z1)`` (NI, 2 NZ).
-        rotation_hessian: ``(q0, q1, c0, c1, lam)``: Hessian of lam.vee(skew(R0^T R1))
-            in (c0, c1).
-    """
-
-    node: cs.Function
-    node_jacobian: cs.Function
-    node_gradient: cs.Function
-    node_hessian: cs.Function
-    interval: cs.Function
-    interval_jacobian: cs.Function
-    rotation_hessian: cs.Function
-
-
-@functools.lru_cache(maxsize=4)
-def stage_functions(model: Model3D) -> StageFunctions:
-    """The node and interval functions of :class:`StageFunctions` (SX, built once)."""
-    node = node_function(model)
-    z, p, w = cs.SX.sym("z", NZ), cs.SX.sym("p", NP), cs.SX.sym("w", NW)
-    dx, v, a, f = z[:35], z[35:70], z[70:105], FORCE_UNIT * z[105:]
-    q_ref, v_ref, a_ref, on = p[:36], p[36:71], p[71:106], p[106:110]
-    force_t, cop, free_moment = p[110:116], p[116:122], p[122:124]
-    ground_z, belt, compliance, mu, ramp = p[124], p[125], p[126], p[127], p[128]
-    eom, points, rot, pos, point_vel = node(q_ref, dx, v, a, f)
-    fz = f[2::3]
-    heights = points[2::3] + on * fz * compliance - ground_z
-    friction = cs.vertcat(f[0::3] - mu * fz, -f[0::3] - mu * fz, f[1::3] - mu * fz,
-                          -f[1::3] - mu * fz)
-    g = cs.vertcat(eom, heights, friction)
-    cost = w[0] * (cs.sumsqr(dx[6:]) + cs.sumsqr(2 * dx[3:6])) + w[1] * cs.sumsqr(dx[:3])
-    cost += w[2] * cs.sumsqr(v - v_ref) + w[3] * cs.sumsqr(a - a_ref)
-    for foot in (0, 1):
-        cols = (2 * foot, 2 * foot + 1)
-        total = sum(f[3 * c: 3 * c + 3] for c in cols)
-        moment = sum(cs.cross(points[3 * c: 3 * c + 3] - cop[3 * foot: 3 * foot + 3],
-                              f[3 * c: 3 * c + 3]) for c in cols)
-        target = cs.vertcat(0, 0, free_moment[foot])
-        cost += w[4] * cs.sumsqr(total - force_t[3 * foot: 3 * foot + 3])
-        cost += w[5] * cs.sumsqr(moment - target)
-    for c in range(4):
-        slip = point_vel[3 * c: 3 * c + 2] - cs.vertcat(belt, 0)
-        coulomb = -mu * f[3 * c + 2] * adams_step(slip, -ramp, -1.0, ramp, 1.0)
-        cost += w[6] * on[c] * cs.sumsqr(f[3 * c: 3 * c + 2] - coulomb)
-    # The forces between two points of one foot that cancel (a squeeze along the
-    # heel-toe line) change nothing else: a small cost on every force fixes them.
-    cost += w[4] * REGULARISATION * cs.sumsqr(f)
-    u = cs.reshape(rot, 3, 3) @ v[:3]
-    node_f = cs.Function("tracking_node", [z, p, w], [g, cost])
-    node_jac = cs.Function("tracking_node_jacobian", [z, p, w], [cs.jacobian(g, z)])
-    node_grad = cs.Function("tracking_node_gradient", [z, p, w], [cs.gradient(cost, z)])
-    sigma, lam, mu3 = cs.SX.sym("sigma"), cs.SX.sym("lam", NG), cs.SX.sym("mu", 3)
-    lagrangian = sigma * cost + cs.dot(lam, g) + cs.dot(mu3, u)
-    hess = cs.Function("tracking_node_hessian", [z, p, w, sigma, lam, mu3],
-                       [cs.triu(cs.hessian(lagrangian, z)[0])])
-    q0, q1 = cs.SX.sym("q0", 36), cs.SX.sym("q1", 36)
-    c0, c1, lam_r = cs.SX.sym("c0", 3), cs.SX.sym("c1", 3), cs.SX.sym("lam_r", 3)
-    rel = (_rotation(q0) @ cayley(c0)).T @ (_rotation(q1) @ cayley(c1))
-    rot_lag = cs.dot(lam_r, _vee_skew(rel))
-    rot_hess = cs.Function("tracking_rotation_hessian", [q0, q1, c0, c1, lam_r],
-                           [cs.hessian(rot_lag, cs.vertcat(c0, c1))[0]])
-    z0, z1, step = cs.SX.sym("z0", NZ), cs.SX.sym("z1", NZ), cs.SX.sym("h")
-    g_int = _interval(z0, z1, q0, q1, step)
-    interval = cs.Function("tracking_interval", [z0, z1, q0, q1, step], [g_int])
-    interval_jac = cs.Function("tracking_interval_jacobian", [z0, z1, q0, q1, step],
-                               [cs.jacobian(g_int, cs.vertcat(z0, z1))])
-    return StageFunctions(node_f, node_jac, node_grad, hess, interval, interval_jac, rot_hess)
-
-
-def _interval(z0, z1, q0, q1, h):
-    """Trapezoidal collocation of one interval (NI,): joints, v, pelvis position, rotation."""
-    poses = []
-    for z, q in ((z0, q0), (z1, q1)):
-        poses.append((_rotation(q) @ cayley(z[3:6]), q[:3] + z[:3]))
-    (r0, p0), (r1, p1) = poses
-    v0, v1 = z0[35:70], z1[35:70]
-    return cs.vertcat(
-        q1[7:] + z1[6:35] - q0[7:] - z0[6:35] - h / 2 * (v1[6:] + v0[6:]),
-        v1 - v0 - h / 2 * (z1[70:105] + z0[70:105]),
-        p1 - p0 - h / 2 * (r1 @ v1[:3] + r0 @ v0[:3]),
-        _vee_skew(r0.T @ r1) - h / 2 * (v1[3:6] + v0[3:6]))
-
-
-def _rotation(q):
-    """Rotation matrix of the quaternion q[3:7] = (x, y, z, w) (CasADi)."""
-    qw, qv = q[6], q[3:6]
-    return (2 * qw * qw - 1) * cs.DM.eye(3) + 2 * (qv @ qv.T) + 2 * qw * _skew(qv)
-
-
-def _vee_skew(m):
-    """The vee of the skew part of a 3x3 matrix: (sin angle) axis for a rotation."""
-    return 0.5 * cs.vertcat(m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1])
 
 
 def _interval_columns(n: int) -> cs.DM:
