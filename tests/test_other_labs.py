@@ -370,3 +370,16 @@ def test_csv_markers_in_mm_read_as_m_are_refused(tmp_path):
         read_markers_csv(path, columns)
     heel = read_markers_csv(path, columns, units="mm").get("HEEL")[0]
     np.testing.assert_allclose(heel, [-0.05, 0.1, 0.05])
+
+
+def test_vicon_subject_prefixed_labels_are_found_by_their_bare_name():
+    from predgait.data.trial import Markers
+
+    xyz = np.zeros((2, 3, 3))
+    xyz[:, 1] = 1.0
+    markers = Markers(time=[0.0, 0.01], names=("Daphnee:RASI", "Daphnee:LASI", "Other:LASI"),
+                      xyz=xyz, rate=100.0, source="vicon.c3d")
+    np.testing.assert_allclose(markers.get("Daphnee:LASI")[0], 1.0)
+    np.testing.assert_allclose(markers.get("RASI")[0], 0.0)
+    with pytest.raises(InputError, match="vicon.c3d: no marker named 'LASI'"):
+        markers.get("LASI")  # two subjects have it: ambiguous

@@ -90,10 +90,17 @@ class Markers:
         return self.time.shape[0]
 
     def index(self, name: str) -> int:
-        """Column index of a marker; raises InputError listing the available names."""
+        """Column index of a marker; raises InputError listing the available names.
+
+        Vicon prefixes labels with the subject (``Subject:RASI``); such a label is found by
+        its bare name when only one subject has it.
+        """
         try:
             return self.names.index(name)
         except ValueError:
+            prefixed = [i for i, n in enumerate(self.names) if n.rpartition(":")[2] == name]
+            if len(prefixed) == 1:
+                return prefixed[0]
             raise InputError(
                 f"{self.source or 'markers'}: no marker named {name!r}. "
                 f"Available markers: {', '.join(self.names)}."
