@@ -318,7 +318,10 @@ def solve_tracking(model: Model3D, data: TrackingData,
     problem = tracking_nlp(model, data, weights)
     options = {"print_time": False, **problem.derivatives,
                "ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
-                         "tol": tol, "constr_viol_tol": 1e-9, "mu_strategy": "adaptive"}}
+                         "tol": tol, "constr_viol_tol": 1e-9, "mu_strategy": "adaptive",
+                         # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
+                         # 20 -> 11 s CPU
+                         "mumps_pivot_order": 5}}
     solver = cs.nlpsol("fullbody_tracking", "ipopt", problem.nlp, options)
     built = time.perf_counter()
     with one_blas_thread():  # MUMPS' fronts are small: BLAS threads only cost here
