@@ -30,6 +30,7 @@ from predgait.problems.passive_swing import (
     Windows,
     bootstrap_swing,
     fit_swing,
+    residuals_at,
 )
 from predgait.problems.passive_swing_dynamics import thigh_driven_dynamics, thigh_kinematics
 
@@ -125,6 +126,24 @@ def test_exact_motion_gives_the_parameters_back(exact, compiled):
     for key, true in passive_walk.TRUTH.items():
         assert abs(fit.values[key] / true - 1) < 0.015, (key, fit.values[key])
     assert max(fit.noise_sd.values()) < np.radians(0.01)
+
+
+def test_residuals_at_the_truth_and_their_jacobian(exact, compiled):
+    """residuals_at (the Cramér-Rao bound's Jacobian): at the true parameters and states
+    the exact windows' residuals vanish, and its SI parameter columns are the central
+    differences of the residuals."""
+    leg, windows = exact
+    model = build_model(["knee", "ankle"], fit=LINEAR_FIT)
+    r, jac = residuals_at(leg, windows, model, passive_walk.TRUTH, SWING)
+    assert r.shape == (2 * windows.samples,) and jac.shape == (r.size, 6 + 4 * len(windows))
+    assert np.sqrt(np.mean(r ** 2)) < np.radians(0.01)
+    for i, p in enumerate(model.fitted):
+        h = 1e-4 * max(abs(passive_walk.TRUTH[p.key]), 0.1)
+        up, down = ({**passive_walk.TRUTH, p.key: passive_walk.TRUTH[p.key] + s * h}
+                    for s in (1, -1))
+        difference = (residuals_at(leg, windows, model, up, SWING)[0]
+                      - residuals_at(leg, windows, model, down, SWING)[0]) / (2 * h)
+        np.testing.assert_allclose(jac[:, i], difference, atol=1e-5 * np.abs(difference).max())
 
 
 def test_a_stop_the_swing_never_reaches_is_not_identifiable(exact, monkeypatch):

@@ -153,3 +153,46 @@ def _report(p, fit, keys, se, correlation, spread) -> ParameterReport:
                 f"{interval[1]:.3g} {p.unit})")
     return ParameterReport(p.key, value, p.unit, Status.IDENTIFIED, interval, float(se[i]),
                            (), note)
+
+
+def cramer_rao(jacobian: np.ndarray, covariance: np.ndarray, parameters: int) -> np.ndarray:
+    """Cramér-Rao lower bound on the covariance of the first ``parameters`` unknowns.
+
+    For data y = g(theta) + e, e ~ N(0, Sigma), the Fisher information is
+    F = J^T Sigma^-1 J (J = dg/dtheta at the truth), and any unbiased estimator has
+    cov >= F^-1 (Kay 1993, Fundamentals of Statistical Signal Processing I, eq. 3.31).
+    The remaining columns (e.g. initial states) are nuisance parameters: the bound is
+    the leading block of F^-1, i.e. the inverse of the Schur complement (they are
+    profiled out, not held at the truth).
+
+    Args:
+        jacobian: (n, f + k) d data / d unknowns at the truth, parameters first.
+        covariance: (n, n) noise covariance of the data (correlated noise allowed), or
+            (n,) variances of independent noise.
+        parameters: f, how many leading columns are the parameters of interest.
+
+    Returns:
+        (f, f) the bound's covariance; sqrt of its diagonal are the bound's SDs.
+
+    Raises:
+        ValueError: Shapes disagree, the covariance is not positive definite, or the
+            Jacobian's columns are linearly dependent (F singular: no finite bound).
+    """
+    jacobian = np.asarray(jacobian, dtype=float)
+    covariance = np.asarray(covariance, dtype=float)
+    if covariance.ndim == 1:
+        covariance = np.diag(covariance)
+    n = jacobian.shape[0]
+    if covariance.shape != (n, n) or not 0 < parameters <= jacobian.shape[1]:
+        raise ValueError(f"cramer_rao: Jacobian {jacobian.shape}, covariance "
+                         f"{covariance.shape}, {parameters} parameters do not agree.")
+    from scipy.linalg import cho_factor, cho_solve, solve_triangular
+
+    factor = np.linalg.cholesky(covariance)                     # raises if not PD
+    whitened = solve_triangular(factor, jacobian, lower=True)   # Sigma^-1/2 J
+    information = whitened.T @ whitened
+    if np.linalg.matrix_rank(whitened) < jacobian.shape[1]:
+        raise ValueError("cramer_rao: singular Fisher information (dependent columns); "
+                         "no finite bound.")
+    bound = cho_solve(cho_factor(information), np.eye(jacobian.shape[1]))
+    return bound[:parameters, :parameters]

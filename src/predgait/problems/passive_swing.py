@@ -374,3 +374,31 @@ def _replicate(windows, fit, rng, labels, position, prior, f) -> np.ndarray:
     step = bounded_step(fit.jacobian[:, keep], fit.residual.ravel(order="F"),
                         joint_row_weights(weights, fit.inv_var), fit.z[keep], prior)
     return np.clip(fit.z[:f] + step[:f], 0.0, 1.0)
+
+
+
+def residuals_at(leg, windows: Windows, model: PassiveModel, values: dict,
+                 settings: SwingSettings = SwingSettings()) -> tuple[np.ndarray, np.ndarray]:
+    """The fit's residuals and Jacobian at given parameters, windows started at ``x0``.
+
+    The fit's own least-squares problem (:class:`_LeastSquares`; Jacobian by CasADi
+    forward mode) with each window started from ``windows.x0`` (for the Cramér-Rao bound,
+    :func:`predgait.problems.identifiability.cramer_rao`: pass windows whose ``x0`` is
+    the true state).
+
+    Returns:
+        r (2 n,): simulated minus measured angles on the n real samples, every ankle
+        angle window by window, then every knee angle, rad; J (2 n, f + 4 w): d r / d
+        (fitted parameters in ``model.fitted`` order, per SI unit; then per window its
+        initial ankle, knee, ankle rate, knee rate, per rad, rad/s).
+    """
+    fitted = model.fitted
+    problem = _LeastSquares.of(leg, model, windows, settings)
+    lower = np.array([p.lower for p in fitted])
+    spans = np.array([p.upper - p.lower for p in fitted])
+    z = np.concatenate([(np.array([values[p.key] for p in fitted]) - lower) / spans,
+                        np.full(4 * len(windows), 0.5)])
+    r, jac = problem.evaluate(z)
+    scale = np.concatenate([spans, np.tile(2 * problem.span, len(windows))])
+    real = np.tile(windows.mask.ravel(), 2)
+    return r.ravel(order="F")[real], jac[real] / scale
