@@ -1,6 +1,6 @@
 """Cramér-Rao lower bound of the passive knee and ankle from the swing angles.
 
-Run: python benchmarks/study_passive_crlb.py [--seeds 8]
+Run: python benchmarks/study_passive_crlb.py [--seeds 100]   (~1 min)
 
 The measurement setting of the known-answer test (tests/test_passive_swing.py,
 ``test_known_passive_walk_through_the_real_pipeline``): the synthetic walk of
@@ -13,23 +13,25 @@ window, profiled out). Data: the marker-derived ankle and knee angles in the win
   mode through the simulated windows) at the true parameters, each window started from
   its true state, under the noise-free pipeline's thigh motion.
 * Noise: measured, not assumed. The walk is written once noise-free and ``--seeds`` times
-  with the test's noise; the noise is the fit's residual at the truth with the noisy
-  data minus that with the noise-free data (so the filter's and inverse kinematics'
-  deterministic error is not counted). It holds the angle noise and the response of the
-  simulated shank and foot to the noise of the measured thigh motion (the thigh is
-  prescribed from the same markers), which drifts over a window (not stationary). Each
-  window's full (2 L, 2 L) covariance is the Monte Carlo mean of e e^T over every sampled
-  window (the 6 windows pooled, aligned at their start; Hartlap et al. 2007 factor so its
-  inverse is unbiased); windows independent. This is the bound's covariance.
+  with the test's noise. Per seed, the initial states that best fit its data at the true
+  parameters are found (3 Gauss-Newton steps: under the measured, noisy thigh, the true
+  knee state is not the shank's true state, and starting there the simulated knee drifts
+  by ~1 deg); the noise is the fit's residual there minus the residual of the noise-free
+  data at the truth (the filter's and inverse kinematics' deterministic error, 0.03 deg,
+  is not noise). It holds the angle noise and the response of the simulated shank and
+  foot to the noise of the measured thigh motion (prescribed from the same markers), so
+  it is neither white nor stationary: each window's full covariance is the Monte Carlo
+  mean of e e^T (6 windows a seed pooled, aligned at their start), taken off the
+  initial-state directions (:func:`projected_problem`); windows independent.
 
 Printed per parameter: the bound's SD in % of the truth; for comparison, the bound with
-(a) the fit's own noise model (independent samples of the residual's SD weighted by
-1 / m, m samples per correlation time 1 / (2 f_c)) and (b) the measured angles' noise
-alone (stationary, from its lagged auto- and cross-covariance) with the thigh taken as
-exactly known; and the empirical RMS errors of the angle fit over the test's 20
-repetitions (quoted) beside the RMS of the fit linearised at the truth (one Gauss-Newton
-step with the fit's weights) on the same noise samples. The bound is linearised at the
-truth (first order in the noise).
+the fit's own noise model (independent samples of the residual's SD weighted by 1 / m,
+m samples per correlation time 1 / (2 f_c)) and with white noise (m = 1, understates);
+the chance that an efficient estimator meets the issue's "within 5 % in 18 of 20"; and
+the empirical RMS errors of the angle fit over the test's 20 repetitions (quoted) beside
+the RMS of the fit linearised at the truth (one Gauss-Newton step with the fit's weights)
+on the same noise samples (all, and the test's 20 seeds). The bound is linearised at the
+truth (first order in the noise) and holds for unbiased estimators (priors can beat it).
 """
 
 from __future__ import annotations
@@ -52,6 +54,10 @@ EMPIRICAL = {"knee.k": (4.7, 10.5), "knee.c": (12.6, 25.0), "knee.theta0": (5.6,
              "ankle.k": (None, 6.0), "ankle.c": (None, 6.0), "ankle.theta0": (None, 6.0)}
 QUIET = (71.0, 95.0)
 CUTOFF_HZ = 20.0
+#: The test's repetitions use noise seeds 1000-1019, the first 20 here.
+TEST_SEEDS = 20
+#: The issue's requirement: within 5 % of the truth in at least 18 of the 20.
+TOLERANCE, PASSES = 0.05, 18
 
 
 def lagged_covariance(errors: list[np.ndarray], lags: int) -> np.ndarray:
@@ -65,50 +71,48 @@ def lagged_covariance(errors: list[np.ndarray], lags: int) -> np.ndarray:
     return out / len(errors)
 
 
-def window_covariance(lag_cov: np.ndarray, lengths) -> np.ndarray:
-    """Covariance of the stacked angles (every ankle sample window by window, then every
-    knee sample) of stationary noise with this lagged covariance; windows independent."""
-    blocks = []
-    for length in lengths:
-        lag = np.arange(length)[None, :] - np.arange(length)[:, None]          # s - t
-        blocks.append(np.block([[np.where(lag >= 0, lag_cov[np.abs(lag), i, j],
-                                          lag_cov[np.abs(lag), j, i]) for j in range(2)]
-                                for i in range(2)]))
-    return stack_windows(blocks, lengths)
+def pooled_covariance(series: list[np.ndarray], length: int) -> tuple[np.ndarray, int]:
+    """(2 L, 2 L) mean of e e^T (ankle samples, then knee samples, from the window's
+    start) over every sampled window at least L long, and how many there were."""
+    usable = np.array([np.concatenate([e[:length, 0], e[:length, 1]]) for e in series
+                       if len(e) >= length])
+    return usable.T @ usable / len(usable), len(usable)
 
 
-def monte_carlo_covariance(series: list[np.ndarray], lengths) -> tuple[np.ndarray, int]:
-    """Covariance of the stacked angles from zero-mean noise samples, windows independent.
+def projected_problem(jacobian, series, lengths, f):
+    """The data of each window projected off its initial-state columns (the nuisance
+    parameters' directions), with their Monte Carlo covariance.
 
-    Each window's (2 L, 2 L) covariance (ankle samples, then knee samples, from the
-    window's start; not assumed stationary) is the mean of e e^T over every sampled
-    window at least L long, cut to its first L samples, and is divided by the Hartlap et
-    al. (2007, A&A 464, 399) factor (N - p - 1) / N so that its inverse is unbiased
-    (N samples, p = 2 L). Returns the covariance and the smallest N.
+    For y = J_p theta + J_n eta + e, the information on theta with eta unknown (the Schur
+    complement) equals that of Q^T y, Q an orthonormal basis of the complement of J_n's
+    columns. Each window's projected covariance Q^T Sigma Q (Sigma pooled over the
+    sampled windows, aligned at their start) is divided by the Hartlap et al. (2007,
+    A&A 464, 399) factor (N - p - 1) / N so that its inverse is unbiased (N samples,
+    p = 2 L - 4 dimensions).
+
+    Returns:
+        (Q^T J_p stacked over windows, block-diagonal covariance, [Q_w per window],
+        fewest samples N).
     """
-    blocks, fewest = [], None
-    for length in lengths:
-        usable = [np.concatenate([e[:length, 0], e[:length, 1]]) for e in series
-                  if len(e) >= length]
-        n, p = len(usable), 2 * length
-        if n <= p + 2:
-            raise ValueError(f"{n} noise samples are too few for a {p}-dimensional "
-                             "covariance; use more seeds.")
-        sample = np.array(usable)
-        blocks.append(sample.T @ sample / n * n / (n - p - 1))
-        fewest = n if fewest is None else min(fewest, n)
-    return stack_windows(blocks, lengths), fewest
+    from scipy.linalg import block_diag
 
-
-def stack_windows(blocks, lengths) -> np.ndarray:
-    """Per-window (2 L, 2 L) blocks (ankle, then knee) into the fit's row order."""
+    n = int(np.sum(lengths))
     starts = np.concatenate([[0], np.cumsum(lengths)])
-    n = starts[-1]
-    sigma = np.zeros((2 * n, 2 * n))
-    for w, (block, length) in enumerate(zip(blocks, lengths, strict=True)):
+    rows_j, blocks, bases, fewest = [], [], [], None
+    for w, length in enumerate(lengths):
         rows = np.concatenate([starts[w] + np.arange(length), n + starts[w] + np.arange(length)])
-        sigma[np.ix_(rows, rows)] = block
-    return sigma
+        nuisance = jacobian[rows, f + 4 * w:f + 4 * w + 4]
+        basis = np.linalg.qr(nuisance, mode="complete")[0][:, 4:]
+        sigma, count = pooled_covariance(series, int(length))
+        p = basis.shape[1]
+        if count <= p + 2:
+            raise ValueError(f"{count} sampled windows are too few for a {p}-dimensional "
+                             "covariance; use more seeds.")
+        rows_j.append(basis.T @ jacobian[rows, :f])
+        blocks.append(basis.T @ sigma @ basis * count / (count - p - 1))
+        bases.append((rows, basis))
+        fewest = count if fewest is None else min(fewest, count)
+    return np.vstack(rows_j), block_diag(*blocks), bases, fewest
 
 
 def per_window(vector: np.ndarray, lengths) -> list[np.ndarray]:
@@ -121,8 +125,10 @@ def per_window(vector: np.ndarray, lengths) -> list[np.ndarray]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=40)
+    parser.add_argument("--seeds", type=int, default=100)
     args = parser.parse_args()
+
+    from scipy.stats import binom, norm
 
     import passive_walk
     from predgait.dynamics.inverse_trial import run_inverse
@@ -140,7 +146,7 @@ def main() -> None:
     model = build_model(["knee", "ankle"], fit={"knee": ["k", "c", "theta0"],
                                                 "ankle": ["k", "c", "theta0"]})
     truth = passive_walk.TRUTH
-    fit_noise, angle_noise, stacked = [], [], []
+    fit_noise, angle_noise, stacked, shifts = [], [], [], []
     with tempfile.TemporaryDirectory() as root:
         def inverse_of(name, **noise):
             folder = Path(root) / name
@@ -160,40 +166,50 @@ def main() -> None:
         reference = windows_of(clean)
         lengths = reference.length
         r_clean, jacobian = residuals_at(clean.model, reference, model, truth, swing)
+        f = len(model.fitted)
         for seed in range(args.seeds):
             noisy = windows_of(inverse_of(f"s{seed}", noise_seed=1000 + seed))
             assert np.array_equal(noisy.first, reference.first)
+            true_start = noisy.x0
+            # The initial states that fit this seed's data at the true parameters (under
+            # its measured thigh the true knee state is not the shank's true state).
+            for _ in range(3):
+                r_noisy, own = residuals_at(clean.model, noisy, model, truth, swing)
+                step = np.linalg.lstsq(own[:, f:], -r_noisy, rcond=None)[0]
+                noisy = replace(noisy, x0=noisy.x0 + step.reshape(-1, 4))
             r_noisy, _ = residuals_at(clean.model, noisy, model, truth, swing)
+            shifts.append(noisy.x0 - true_start)
             stacked.append(r_noisy - r_clean)
             fit_noise += per_window(stacked[-1], lengths)
             angle_noise += [(a - b)[:n] for a, b, n in zip(noisy.angles, reference.angles,
                                                            lengths, strict=True)]
-    f = len(model.fitted)
     m = reference.correlation_samples
-    sigma, fewest = monte_carlo_covariance(fit_noise, lengths)
-    rows = [("CRLB (Monte Carlo cov.)", cramer_rao(jacobian, sigma, f))]
+    projected, sigma, bases, fewest = projected_problem(jacobian, fit_noise, lengths, f)
+    rows = [("CRLB (Monte Carlo cov.)", cramer_rao(projected, sigma, f))]
     for name, series in (("fit residual", fit_noise), ("measured angles", angle_noise)):
         lag_cov = lagged_covariance(series, int(lengths.max()))
         sd = np.sqrt(lag_cov[0].diagonal())
         rho = lag_cov[:, [0, 1], [0, 1]] / lag_cov[0].diagonal()
-        print(f"{name} noise at the truth: SD ankle {np.degrees(sd[0]):.3f} deg, knee "
+        print(f"{name} noise: SD ankle {np.degrees(sd[0]):.3f} deg, knee "
               f"{np.degrees(sd[1]):.3f} deg, ankle-knee correlation "
               f"{lag_cov[0, 0, 1] / sd.prod():+.2f}; autocorrelation at lags 0-4: ankle "
               + " ".join(f"{r:+.2f}" for r in rho[:5, 0]) + ", knee "
               + " ".join(f"{r:+.2f}" for r in rho[:5, 1]))
         if name == "fit residual":
-            variances = np.repeat(sd ** 2, reference.samples)
-            rows.append((f"white x m = {m:.1f} (fit)", cramer_rao(jacobian, variances * m, f)))
+            variances = np.repeat(sd ** 2, reference.samples) * m
+            rows.append((f"white x m = {m:.1f} (fit)", cramer_rao(jacobian, variances, f)))
+            rows.append(("white (m = 1)", cramer_rao(jacobian, variances / m, f)))
             # The fit to first order: one Gauss-Newton step from the truth with its
             # weights, on each seed's noise; its spread over the seeds.
-            weighted = jacobian / (variances * m)[:, None]
+            weighted = jacobian / variances[:, None]
             steps = -np.linalg.solve(weighted.T @ jacobian, weighted.T @ np.array(stacked).T)
             linear_fit = np.sqrt(np.mean(steps[:f] ** 2, axis=1))
-        else:
-            rows.append(("angle noise, thigh exact", cramer_rao(
-                jacobian, window_covariance(lag_cov, lengths), f)))
+            linear_test = np.sqrt(np.mean(steps[:f, :TEST_SEEDS] ** 2, axis=1))
+    shift = np.sqrt(np.mean(np.concatenate(shifts) ** 2, axis=0))
     print(f"  window lengths {sorted(set(lengths.tolist()))} samples; Monte Carlo "
-          f"covariance from >= {fewest} sampled windows")
+          f"covariance from >= {fewest} sampled windows; initial states refitted per seed "
+          f"moved by RMS ankle {np.degrees(shift[0]):.2f} deg, knee {np.degrees(shift[1]):.2f} "
+          f"deg, rates {np.degrees(shift[2]):.1f}, {np.degrees(shift[3]):.1f} deg/s")
     spread = [np.std(np.concatenate(fit_noise)[:, j]) for j in range(2)]
     positions = trial.positions
     lengths_m = [np.linalg.norm(positions[a] - positions[b], axis=1).mean()
@@ -211,16 +227,23 @@ def main() -> None:
           f"samples per joint), 1 mm markers, 1 % force, {CUTOFF_HZ:g} Hz; noise from "
           f"{args.seeds} seeds; {time.perf_counter() - start:.0f} s")
     print(f"{'parameter':13s} {'truth':>6s} " + " ".join(f"{n:>26s}" for n, _ in rows)
-          + f" {'linearised fit RMS':>19s}   empirical RMS (max) %")
+          + f" {'linearised fit RMS':>19s} {'(its first 20)':>15s} {'P(18/20 in 5 %)':>16s}"
+          + "   empirical RMS (max) %")
     for i, p in enumerate(model.fitted):
         true = truth[p.key]
         cells = " ".join(f"{100 * np.sqrt(b[i, i]) / abs(true):25.2f}%" for _, b in rows)
         rms, worst = EMPIRICAL[p.key]
         empirical = f"{rms:.1f} ({worst:.1f})" if rms is not None else f"2.6-3.1 ({worst:.1f})"
-        print(f"{p.key:13s} {true:6.2f} {cells} {100 * linear_fit[i] / abs(true):18.2f}%   "
+        bound_sd = np.sqrt(rows[0][1][i, i]) / abs(true)
+        within = 2 * norm.cdf(TOLERANCE / bound_sd) - 1
+        print(f"{p.key:13s} {true:6.2f} {cells} {100 * linear_fit[i] / abs(true):18.2f}% "
+              f"{100 * linear_test[i] / abs(true):14.2f}% "
+              f"{binom.sf(PASSES - 1, TEST_SEEDS, within):16.3f}   "
               f"{empirical}")
-    print("Empirical: the angle fit in tests/test_passive_swing.py, 20 repetitions (ankle: "
-          "RMS 2.6-3.1 % over its k, c, theta0).")
+    print("P(18/20 in 5 %): chance that an efficient unbiased estimator (normal, SD = the "
+          "bound) is within 5 % in at least 18 of 20 repetitions. Empirical: the angle fit in "
+          "tests/test_passive_swing.py, 20 repetitions (ankle: RMS 2.6-3.1 % over its k, c, "
+          "theta0).")
 
 
 if __name__ == "__main__":

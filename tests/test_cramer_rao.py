@@ -63,3 +63,15 @@ def test_bad_shapes_and_singular_information_are_refused():
         cramer_rao(jac, np.ones(len(jac) - 1), 2)
     with pytest.raises(ValueError, match="singular"):
         cramer_rao(np.hstack([jac, jac[:, :1]]), np.ones(len(jac)), 2)
+
+
+def test_projecting_off_the_nuisance_directions_gives_the_same_bound():
+    """The information on theta with the nuisance unknown (Schur complement) equals that
+    of the data projected on the complement of the nuisance columns (used by
+    benchmarks/study_passive_crlb.py, whose noise is sampled on that complement)."""
+    jac = _design()
+    covariance = _ar1(len(jac), 0.2, 0.8)
+    basis = np.linalg.qr(jac[:, 2:], mode="complete")[0][:, 2:]
+    np.testing.assert_allclose(
+        cramer_rao(basis.T @ jac[:, :2], basis.T @ covariance @ basis, 2),
+        cramer_rao(jac, covariance, 2), rtol=1e-8)
