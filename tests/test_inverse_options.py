@@ -266,3 +266,18 @@ def test_fullbody_tables_are_nan_at_flagged_frames(tmp_path):
     assert info["status"] == "completed with 10 flagged frames"
     table = read_storage(tmp_path / "inverse_dynamics3d.sto")
     assert np.isnan(table.column("knee_r_y_moment")[38:52]).all()
+
+
+def test_plates_shorter_than_the_markers_name_the_force_file(tmp_path):
+    """A force file that stops before the markers: the message names that file."""
+    original = bundled_options().grf
+    lines = original.read_text().splitlines()
+    body = [line.strip() for line in lines].index("endheader") + 2  # header, column names
+    kept = lines[:body] + lines[body:body + 900]          # 900 of 1501 rows: 0..1.5 s
+    cut = tmp_path / "cut_grf.mot"
+    cut.write_text("\n".join(line.replace("nRows=1501", "nRows=900") for line in kept) + "\n")
+    with pytest.raises(InputError) as info:
+        run_inverse(with_options(bundled_options(), grf=cut))
+    message = str(info.value)
+    assert message.startswith(f"{cut}:") and "covers t = " in message
+    assert "trim the markers" in message

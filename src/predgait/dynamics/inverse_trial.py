@@ -452,8 +452,11 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     q = ik.q
     qd = differentiate(q, time, method="central5")
     qdd = differentiate(q, time, method="central5", order=2)
-    force, cop, free = _foot_grf(trial.plates, time, points["heel"], points["toe"], options,
-                                 grf_cutoff)
+    try:
+        force, cop, free = _foot_grf(trial.plates, time, points["heel"], points["toe"],
+                                     options, grf_cutoff)
+    except InputError as exc:   # a plate's own complaint: say which file it came from
+        raise InputError(f"{options.grf or trial.source}: {exc}") from None
     has_grf = bool(trial.plates)
     if has_grf and not np.any(force[:, 2] >= options.threshold):
         raise InputError(f"{options.grf or trial.source}: no plate has a contact (vertical "
