@@ -20,7 +20,7 @@ import numpy as np
 from predgait.errors import InputError
 from predgait.kinematics.clinical import clinical_joint
 from predgait.problems.passive_model import PassiveModel
-from predgait.problems.shooting import passive_torques, scaled_values
+from predgait.problems.shooting import passive_torques, rk4_steps, scaled_values
 
 #: Rows of one RK4 point's input: thigh pose s, rate s' and acceleration s'' (3 each).
 INPUT_ROWS = 9
@@ -132,14 +132,7 @@ def _build_step(leg, model, substeps, h):
     def rhs(x, column):
         return dynamics(x, column, passive_torques(leg, model, values, x, offset))
 
-    x = x0
-    for s in range(substeps):
-        a, m, b = u[:, 2 * s], u[:, 2 * s + 1], u[:, 2 * s + 2]
-        k1 = rhs(x, a)
-        k2 = rhs(x + 0.5 * h * k1, m)
-        k3 = rhs(x + 0.5 * h * k2, m)
-        k4 = rhs(x + h * k3, b)
-        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    x = rk4_steps(rhs, x0, u, substeps, h)
     moved = cs.jacobian(x, x0) @ sens + cs.horzcat(cs.SX.zeros(4, 4), cs.jacobian(x, z))
     return cs.Function("swing_step", [x0, sens, u, z, offset], [x, moved])
 

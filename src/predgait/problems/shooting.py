@@ -194,6 +194,16 @@ def _interval_function(leg, model: PassiveModel, substeps: int, h: float):
                         column[9:11] + passive_torques(leg, model, values, x, offset),
                         column[11:14])
 
+    x = rk4_steps(rhs, x0, u, substeps, h)
+    return cs.Function("shoot", [x0, u, z, offset], [x[:2]])
+
+
+def rk4_steps(rhs, x0, u, substeps: int, h: float):
+    """``substeps`` classical RK4 steps of length h (s) from x0.
+
+    ``rhs(x, column)`` is the state rate; ``u`` holds the drive at the RK4 points
+    (start, midpoint, end of each step: 2 substeps + 1 columns).
+    """
     x = x0
     for s in range(substeps):
         a, m, b = u[:, 2 * s], u[:, 2 * s + 1], u[:, 2 * s + 2]
@@ -202,7 +212,7 @@ def _interval_function(leg, model: PassiveModel, substeps: int, h: float):
         k3 = rhs(x + 0.5 * h * k2, m)
         k4 = rhs(x + h * k3, b)
         x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return cs.Function("shoot", [x0, u, z, offset], [x[:2]])
+    return x
 
 
 def scaled_values(model: PassiveModel, z) -> dict:

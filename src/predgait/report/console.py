@@ -11,6 +11,34 @@ from predgait.report.tidy import aligned, format_number
 RAD_TO_DEG = 57.29577951308232
 
 
+def parameter_lines(parameters: dict[str, dict], *, indent: str = "  ") -> list[str]:
+    """One line per fitted parameter of a ``solution.json`` (fixed ones left out).
+
+    Value and unit, then the 95 % interval or "not identifiable" with its reasons.
+    """
+    lines = []
+    for key, report in parameters.items():
+        if report["status"] == "fixed":
+            continue
+        head = f"{indent}{key} = {report['value']:.4g} {report['unit']}"
+        if report["status"] == "not identifiable":
+            lines.append(f"{head}: not identifiable ({'; '.join(report['reasons'])})")
+        elif report["interval95"] is None:
+            lines.append(f"{head} (no bootstrap: no interval)")
+        else:
+            low, high = report["interval95"]
+            note = f"; {report['note']}" if report["note"] else ""
+            lines.append(f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}")
+    return lines
+
+
+def cutoff_lines(sensitivity: dict[str, dict]) -> list[str]:
+    """The same fit at other marker cut-offs (Hz -> parameter values, or why it failed)."""
+    return [f"  at {cutoff} Hz: fit failed ({values['failed']})" if "failed" in values
+            else f"  at {cutoff} Hz: " + ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
+            for cutoff, values in sensitivity.items()]
+
+
 def table(rows: list[dict[str, str]], *, indent: str = "  ") -> str:
     """Rows of cells as aligned columns under a header (the keys of the first row)."""
     if not rows:

@@ -27,8 +27,9 @@ from predgait.problems.decomposition import (
     fit_decomposition,
 )
 from predgait.problems.gait_samples import GaitSamples
-from predgait.problems.identifiability import Status, assess
+from predgait.problems.identifiability import assess
 from predgait.problems.passive_model import JOINTS, PassiveModel, build_model
+from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.workflows.output import staged_output
@@ -88,9 +89,9 @@ def parse_phases(table: Table) -> tuple[tuple[float, float], ...]:
     return tuple(checked)
 
 
-def parse_cutoff(filt: Table) -> float | None:
+def parse_cutoff(filt: Table, default: float | str = "residual") -> float | None:
     """``marker_cutoff``: Hz, or None for "residual" (Winter's residual analysis)."""
-    cutoff = filt.get("marker_cutoff", (str, float), "residual")
+    cutoff = filt.get("marker_cutoff", (str, float), default)
     if isinstance(cutoff, str) and cutoff != "residual":
         raise filt.error("marker_cutoff", f"'{cutoff}': give a cut-off in Hz or \"residual\".")
     if isinstance(cutoff, str):
@@ -307,19 +308,7 @@ def summary_lines(solution: dict) -> list[str]:
              f"iterations, {solution['solve_time_s']:.3f} s; marker cut-off "
              f"{solution['marker_cutoff_hz']:.3g} Hz; {solution['gait_cycles']} gait cycle(s), "
              f"{solution['quiet_samples']} quiet samples"]
-    for key, report in solution["parameters"].items():
-        status = report["status"]
-        if status == Status.FIXED.value:
-            continue
-        head = f"  {key} = {report['value']:.4g} {report['unit']}"
-        if status == Status.NOT_IDENTIFIABLE.value:
-            lines.append(f"{head}: not identifiable ({'; '.join(report['reasons'])})")
-        elif report["interval95"] is None:
-            lines.append(f"{head} (no bootstrap: no interval)")
-        else:
-            low, high = report["interval95"]
-            note = f"; {report['note']}" if report["note"] else ""
-            lines.append(f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}")
+    lines += parameter_lines(solution["parameters"])
     noise = solution.get("noise_sensitivity")
     if noise:
         forces = "" if noise["force_noise_percent"] is None else \
@@ -327,10 +316,5 @@ def summary_lines(solution: dict) -> list[str]:
         lines.append(f"  spread from re-added noise ({noise['marker_noise_mm']:g} mm markers"
                      f"{forces}, {noise['repeats']} refits), SD: "
                      + ", ".join(f"{k} {v:.3g}" for k, v in noise["sd"].items()))
-    for cutoff, values in solution["cutoff_sensitivity"].items():
-        if "failed" in values:
-            lines.append(f"  at {cutoff} Hz: fit failed ({values['failed']})")
-        else:
-            lines.append(f"  at {cutoff} Hz: " + ", ".join(f"{k} = {v:.4g}"
-                                                          for k, v in values.items()))
+    lines += cutoff_lines(solution["cutoff_sensitivity"])
     return lines

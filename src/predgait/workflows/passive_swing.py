@@ -22,12 +22,14 @@ from predgait.data import write_storage
 from predgait.errors import InputError, SolveFailed
 from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, fit_decomposition
-from predgait.problems.identifiability import Status, assess
+from predgait.problems.identifiability import assess
 from predgait.problems.passive_model import PassiveModel
 from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_swing, fit_swing
+from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
     inverse_samples,
+    parse_cutoff,
     parse_joints,
     parse_passive_model,
     parse_phases,
@@ -70,11 +72,7 @@ def parse_swing(table: Table) -> SwingSpec:
     trial = leg_trial(table.table("trial"))
     filt = table.table("filter")
     filt.check_keys(("marker_cutoff", "sensitivity_hz"))
-    cutoff = filt.get("marker_cutoff", (str, float), DEFAULT_CUTOFF_HZ)
-    if isinstance(cutoff, str) and cutoff != "residual":
-        raise filt.error("marker_cutoff", f"'{cutoff}': give a cut-off in Hz or \"residual\".")
-    if not isinstance(cutoff, str):
-        cutoff = filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
+    cutoff = parse_cutoff(filt, DEFAULT_CUTOFF_HZ)
     sim = table.table("simulation")
     sim.check_keys(("step_s", "max_iter", "initial_angle_span_deg", "initial_rate_span_deg_s"))
     unc = table.table("uncertainty")
@@ -91,7 +89,7 @@ def parse_swing(table: Table) -> SwingSpec:
                                                      high=45.0, unit="deg")),
             initial_rate_span=np.radians(sim.number("initial_rate_span_deg_s", 172.0,
                                                     low=1.0, high=2000.0, unit="deg/s"))),
-        cutoff=None if isinstance(cutoff, str) else cutoff,
+        cutoff=cutoff,
         sensitivity_hz=tuple(filt.numbers("sensitivity_hz", [10.0, 15.0, 25.0], low=0.5,
                                           high=100, unit="Hz", increasing=True)),
         repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
@@ -210,23 +208,6 @@ def summary_lines(solution: dict) -> list[str]:
              f"marker cut-off {solution['marker_cutoff_hz']:.3g} Hz",
              f"  angle RMS error of the simulated windows: ankle {rms['ankle']:.3f} deg, "
              f"knee {rms['knee']:.3f} deg"]
-    for key, report in solution["parameters"].items():
-        status = report["status"]
-        if status == Status.FIXED.value:
-            continue
-        head = f"  {key} = {report['value']:.4g} {report['unit']}"
-        if status == Status.NOT_IDENTIFIABLE.value:
-            lines.append(f"{head}: not identifiable ({'; '.join(report['reasons'])})")
-        elif report["interval95"] is None:
-            lines.append(f"{head} (no bootstrap: no interval)")
-        else:
-            low, high = report["interval95"]
-            note = f"; {report['note']}" if report["note"] else ""
-            lines.append(f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}")
-    for cutoff, values in solution["cutoff_sensitivity"].items():
-        if "failed" in values:
-            lines.append(f"  at {cutoff} Hz: fit failed ({values['failed']})")
-        else:
-            lines.append(f"  at {cutoff} Hz: " + ", ".join(f"{k} = {v:.4g}"
-                                                          for k, v in values.items()))
+    lines += parameter_lines(solution["parameters"])
+    lines += cutoff_lines(solution["cutoff_sensitivity"])
     return lines

@@ -31,6 +31,7 @@ from predgait.problems.shooting import (
     engine_elements,
     fit_shooting,
 )
+from predgait.report.console import parameter_lines
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
@@ -231,19 +232,6 @@ def run_shooting(spec: ShootingSpec, out: Path, *, force: bool = False) -> dict:
     return solution
 
 
-def _parameter_line(key: str, report: dict) -> str | None:
-    if report["status"] == "fixed":
-        return None
-    head = f"    {key} = {report['value']:.4g} {report['unit']}"
-    if report["status"] == "not identifiable":
-        return f"{head}: not identifiable ({'; '.join(report['reasons'])})"
-    if report["interval95"] is None:
-        return f"{head} (no bootstrap: no interval)"
-    low, high = report["interval95"]
-    note = f"; {report['note']}" if report["note"] else ""
-    return f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}"
-
-
 def summary_lines(solution: dict) -> list[str]:
     """What the CLI prints: both fits, parameter by parameter."""
     rms = solution["interval_end_rms_deg"]
@@ -252,8 +240,7 @@ def summary_lines(solution: dict) -> list[str]:
              f"{solution['interval_s'] * 1e3:.1f} ms; marker cut-off "
              f"{solution['marker_cutoff_hz']:.3g} Hz",
              "  stabilising elements (multiple shooting; not tissue properties):"]
-    lines += [line for key, r in solution["parameters"].items()
-              if (line := _parameter_line(key, r)) is not None]
+    lines += parameter_lines(solution["parameters"], indent="    ")
     lines.append("    interval-end RMS error with / without them: " + ", ".join(
         f"{j} {rms['with_elements'][j]:.4f} / {rms['without_elements'][j]:.4f} deg"
         for j in ("ankle", "knee")))
@@ -268,6 +255,5 @@ def summary_lines(solution: dict) -> list[str]:
                  f", without {held(check['without_elements'])}")
     lines.append("  passive moments (decomposition, quiet phases "
                  f"{solution['decomposition']['quiet_phases_percent']} %):")
-    lines += [line for key, r in solution["decomposition"]["parameters"].items()
-              if (line := _parameter_line(key, r)) is not None]
+    lines += parameter_lines(solution["decomposition"]["parameters"], indent="    ")
     return lines
