@@ -88,6 +88,11 @@ def test_riccati_gains_tend_to_the_algebraic_solution():
         errors.append(np.abs(gains[0] / expected - 1.0).max())
         assert np.allclose(gains[-1], 0.0)   # no terminal cost
     assert errors[1] < 0.01 and errors[1] < 0.5 * errors[0]
+    # Ending on the algebraic solution (infinite horizon): the gains hold it everywhere.
+    held = riccati_gains(times, np.repeat(a_mat[None], times.size, 0),
+                         np.repeat(b_mat[None], times.size, 0), q, r, substeps=8,
+                         terminal=solve_continuous_are(a_mat, b_mat, q, r))
+    assert np.allclose(held, expected, rtol=0.01)
 
 
 def test_known_torque_perturbation_is_rejected(trial):

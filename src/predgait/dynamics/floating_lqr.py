@@ -14,9 +14,10 @@ da/dq and da/dv are central differences (q perturbed on its Lie group with
 M^-1 comes from ``pin.computeMinverse``. The configuration error's rate is taken as the
 velocity error (exact at the reference up to the root's adjoint term, which feedback
 absorbs). Gains from the finite-horizon Riccati equation stepped in its zero-order-hold
-form (:func:`predgait.dynamics.lqr.riccati_gains`); u = -K(t) dx on the joints
-(Kirk 1970, ch. 3 and 5; Tedrake, Underactuated Robotics, "time-varying LQR").
-Weights follow Bryson's rule, the torque cost of each joint its inertia
+form (:func:`predgait.dynamics.lqr.riccati_gains`), ending on the infinite-horizon
+(algebraic Riccati) solution of the last node, so that the gains do not fade to zero at
+the end of the window; u = -K(t) dx on the joints (Kirk 1970, ch. 3 and 5; Tedrake,
+Underactuated Robotics, "time-varying LQR"). Weights follow Bryson's rule
 (:class:`FloatingWeights`).
 """
 
@@ -35,39 +36,43 @@ from predgait.dynamics.lqr import riccati_gains
 
 @dataclass(frozen=True)
 class FloatingWeights:
-    """Bryson's-rule state weights and a closed-loop bandwidth that sets the torque cost.
+    """Bryson's-rule weights: the state errors and the joint torque that cost one unit.
 
-    A joint of inertia I alone (I x'' = u) under the cost x^2 / angle^2 + r u^2 closes
-    its loop at the natural frequency (1 / (angle^2 r I^2))^(1/4); the torque cost of
-    each actuated joint is chosen so that this is ``bandwidth_hz`` with its own diagonal
-    inertia M_jj (a foot and a thigh then respond alike instead of the light foot getting
-    gains 1000 times stiffer, which no fixed step could integrate).
+    Every actuated joint has the same torque cost 1 / ``torque_n_m``^2, so a joint alone
+    (I x'' = u, cost x^2 / angle^2 + u^2 / torque^2) gets the stiffness torque / angle
+    (N m/rad) whatever its inertia I, and from the Riccati equation the damping
+    sqrt(2 I torque / angle), i.e. a damping ratio of 0.71 at its natural frequency
+    sqrt(torque / (angle I)) (the double integrator's LQR; Bryson's rule: Franklin, Powell &
+    Emami-Naeini, Feedback Control of Dynamic Systems). The joint rates carry no weight:
+    a rate weight adds a velocity gain torque / rate, which over a foot's 0.005 kg m^2 is
+    a rate torque / (rate I) of ~6000 1/s alone and 10^7 1/s in the coupled body
+    (walking5's re-simulation diverged at its first RK4 step of 1e-4 s); the pelvis (no
+    actuator) keeps its rate weight.
 
     Attributes:
-        angle_deg: Joint and root orientation error, deg.
-        position_m: Root position error, m.
-        rate_deg_s: Joint and root angular rate error, deg/s (root linear rate: the
-            position error per 0.1 s).
-        bandwidth_hz: Closed-loop natural frequency of each joint alone, Hz.
+        angle_deg: Joint and pelvis orientation error, deg.
+        position_m: Pelvis position error, m.
+        rate_deg_s: Pelvis angular rate error, deg/s (pelvis linear rate: the position
+            error per 0.1 s).
+        torque_n_m: Feedback torque on any joint, N m.
     """
 
-    angle_deg: float = 2.0
+    angle_deg: float = 5.0
     position_m: float = 0.02
     rate_deg_s: float = 50.0
-    bandwidth_hz: float = 4.0
+    torque_n_m: float = 25.0
 
-    def matrices(self, inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(Q (2 nv, 2 nv), R (n, n)) for the diagonal inertias (n,) of the actuated rows.
+    def matrices(self, actuated: int) -> tuple[np.ndarray, np.ndarray]:
+        """(Q (2 nv, 2 nv), R (n, n)) for n = ``actuated`` joint rows, SI units.
 
-        SI units; nv is taken as 6 + n (a free-flyer root and the actuated joints).
+        nv is taken as 6 + n (a free-flyer root and the actuated joints).
         """
         angle, rate = np.radians(self.angle_deg), np.radians(self.rate_deg_s)
-        nv = 6 + inertia.size
-        q = np.concatenate([np.full(3, self.position_m), np.full(nv - 3, angle),
-                            np.full(3, self.position_m / 0.1), np.full(nv - 3, rate)])
-        omega = 2 * np.pi * self.bandwidth_hz
-        r = 1.0 / (angle**2 * omega**4 * inertia**2)
-        return np.diag(q**-2.0), np.diag(r)
+        nv = 6 + actuated
+        inverse_q = np.concatenate([np.full(3, self.position_m), np.full(nv - 3, angle),
+                                    np.full(3, self.position_m / 0.1), np.full(3, rate)])
+        q = np.concatenate([inverse_q**-2.0, np.zeros(actuated)])
+        return np.diag(q), np.eye(actuated) / self.torque_n_m**2
 
 
 def _accelerations(system, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -112,6 +117,8 @@ class FloatingLQR(Force):
         rows: Actuated velocity rows (n,).
         reference: t -> (q_ref (nq,), v_ref (nv,), ...).
         times: (m,) s. gains: (m, n, 2 nv), N m per rad (or m) and per rad/s.
+        fastest_rate: The largest |real part| of the closed-loop linearisation's
+            eigenvalues at the nodes, 1/s (RK4 is stable for steps below 2.78 / it).
     """
 
     model: object
@@ -119,6 +126,7 @@ class FloatingLQR(Force):
     reference: object
     times: np.ndarray
     gains: np.ndarray
+    fastest_rate: float = float("nan")
     name: str = "feedback"
     #: (t, q_ref, v_ref, K) of the latest time asked: RK4's middle stages share one t,
     #: and a step's last stage is the next step's first.
@@ -164,14 +172,18 @@ def floating_tvlqr(system, reference, times: np.ndarray, actuated,
         weights: Q and R by Bryson's rule.
         substeps: Zero-order-hold Riccati steps per grid interval.
     """
+    from scipy.linalg import solve_continuous_are
+
     times = np.asarray(times, dtype=float)
     actuated = np.asarray(actuated, dtype=int)
     linear = [linearize_floating(system, t, *reference(t)[:2], actuated) for t in times]
     a_mats = np.array([a for a, _ in linear])
     b_mats = np.array([b for _, b in linear])
-    inertia = np.diag(pin.crba(system.pm, system.pm.createData(),
-                               np.asarray(reference(times[0])[0], dtype=float)))[actuated]
-    q, r = weights.matrices(inertia)
+    q, r = weights.matrices(actuated.size)
     with one_blas_thread():  # ~100 x 100 exponentials: threads only cost here
-        gains = riccati_gains(times, a_mats, b_mats, q, r, substeps=substeps)
-    return FloatingLQR(system.model, actuated, reference, times, gains)
+        final = solve_continuous_are(a_mats[-1], b_mats[-1], q, r)
+        gains = riccati_gains(times, a_mats, b_mats, q, r, substeps=substeps,
+                              terminal=final)
+    fastest = max(np.abs(np.linalg.eigvals(a - b @ k).real).max()
+                  for a, b, k in zip(a_mats, b_mats, gains, strict=True))
+    return FloatingLQR(system.model, actuated, reference, times, gains, float(fastest))

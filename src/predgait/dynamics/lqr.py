@@ -113,12 +113,14 @@ def linearize(system, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def riccati_gains(times: np.ndarray, a_mats: np.ndarray, b_mats: np.ndarray, q: np.ndarray,
-                  r: np.ndarray, *, substeps: int = 5) -> np.ndarray:
+                  r: np.ndarray, *, substeps: int = 5,
+                  terminal: np.ndarray | None = None) -> np.ndarray:
     """Gains K (m, n, 2n) on ``times`` (m,) from the backward finite-horizon Riccati equation.
 
-    A and B (m, 2n, 2n), (m, 2n, n) are interpolated linearly between the nodes; S(t1) = 0
-    (no terminal cost: end the grid a few unstable time constants after the window of
-    interest so that the gains there have converged).
+    A and B (m, 2n, 2n), (m, 2n, n) are interpolated linearly between the nodes; S(t1) =
+    ``terminal`` (default 0, no terminal cost: then end the grid a few unstable time
+    constants after the window of interest so that the gains there have converged; or
+    give the algebraic Riccati solution of the last node, the infinite-horizon cost).
     The continuous equation is stiff (closed-loop rates of hundreds per second), so it is
     stepped as its sampled-data (zero-order-hold) equivalent, ``substeps`` steps per
     interval: A_d = exp(A h), B_d = int_0^h exp(A s) ds B, and the discrete Riccati
@@ -129,7 +131,7 @@ def riccati_gains(times: np.ndarray, a_mats: np.ndarray, b_mats: np.ndarray, q: 
 
     nx, nu = b_mats.shape[1:]
     m = times.size
-    s = np.zeros_like(q)
+    s = np.zeros_like(q) if terminal is None else np.array(terminal, dtype=float)
     gains = np.empty((m, nu, nx))
     gains[-1] = np.linalg.solve(r, b_mats[-1].T @ s)
     block = np.zeros((nx + nu, nx + nu))

@@ -118,7 +118,7 @@ def hold_with_feedback(spec: TrackingSpec, drive, data, solution):
                                           feedback=lqr, **floor)
     with_fb = resimulate(closed, history, ground, solution, step=spec.step)
     info = {"weights": vars(spec.feedback), "rk4_step_s": spec.step,
-            "gains_time_s": gains_s,
+            "gains_time_s": gains_s, "closed_loop_fastest_rate_1_s": lqr.fastest_rate,
             "without_feedback": without.summary(solution, data, body_weight),
             "with_feedback": with_fb.summary(solution, data, body_weight)}
     return info, lqr, with_fb
