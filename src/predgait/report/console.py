@@ -88,6 +88,17 @@ def simulate_text(summary: dict, out) -> str:
     return "\n".join(lines)
 
 
+def foot_flat_text(feet: dict | None) -> str | None:
+    """One line on the foot-flat calibration (``provenance.foot_flat_calibration``)."""
+    if not feet:
+        return None
+    return "; ".join(
+        f"{side} {f}" if isinstance(f, str) else
+        f"{side} pitch {f['pitch_corrected_deg']:+.1f} roll {f['roll_corrected_deg']:+.1f} "
+        f"deg, sole {1000 * f['sole_depth_m']:.0f} mm below the ankle"
+        for side, f in feet.items())
+
+
 def inverse3d_text(summary: dict, out) -> str:
     """What ``predgait inverse --model fullbody`` prints: IK fit and pelvis residuals."""
     ik = summary.get("ik_rms_m") or {}
@@ -104,4 +115,7 @@ def inverse3d_text(summary: dict, out) -> str:
                                       f"max {force.get('max', float('nan')):.1f} N"),
             ("pelvis residual moment", f"RMS {moment.get('rms', float('nan')):.1f} N m, "
                                        f"max {moment.get('max', float('nan')):.1f} N m")]
+    feet = foot_flat_text((summary.get("provenance") or {}).get("foot_flat_calibration"))
+    if feet:
+        rows.append(("feet levelled (foot flat)", feet))
     return f"3D inverse dynamics of the full body; wrote {out}/\n" + aligned(rows)

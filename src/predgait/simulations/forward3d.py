@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
@@ -144,6 +144,8 @@ class FullbodyDrive:
             force (N) then moment about the lab origin (N m).
         heel_strikes: Times at which a foot starts a stance, s.
         source: Provenance text.
+        calibration: How the marker frames were calibrated (the inverse result's
+            provenance: ``marker_calibration``, ``foot_flat_calibration``).
     """
 
     model: Model3D
@@ -155,6 +157,7 @@ class FullbodyDrive:
     foot_wrench: Mapping[str, np.ndarray]
     heel_strikes: tuple[float, ...] = ()
     source: str = ""
+    calibration: Mapping[str, object] = field(default_factory=dict)
 
     @classmethod
     def from_inverse(cls, result) -> FullbodyDrive:
@@ -164,7 +167,9 @@ class FullbodyDrive:
         starts = sorted({s.start for s in result.stances if s.start > result.ik.time[0]})
         return cls(result.model, result.ik.time, result.q, result.v, result.a,
                    result.dynamics.tau, foot_wrenches(result.plates, result.sides),
-                   tuple(starts), str(result.provenance.get("trial", "")))
+                   tuple(starts), str(result.provenance.get("trial", "")),
+                   {k: result.provenance.get(k) for k in ("marker_calibration",
+                                                          "foot_flat_calibration")})
 
 
 def foot_wrenches(plates, sides: np.ndarray) -> dict[str, np.ndarray]:

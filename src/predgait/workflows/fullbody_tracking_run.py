@@ -18,6 +18,7 @@ from predgait.problems.fullbody_tracking import (
     TrackingSolution,
     solve_tracking,
 )
+from predgait.report.console import foot_flat_text
 from predgait.report.tidy import write_summary
 from predgait.simulations.forward3d import FullbodyDrive
 from predgait.workflows.forward3d_run import inverse_for
@@ -94,7 +95,7 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
         "deviation": deviations(model, data, solution),
         "feedback": feedback,
         "provenance": {"problem": spec.source, "trial": drive.source,
-                       "predgait": __version__},
+                       "predgait": __version__, **drive.calibration},
     }
 
 
@@ -186,8 +187,13 @@ def summary_lines(info: dict) -> list[str]:
     for name in ("without_feedback", "with_feedback"):
         run = info["feedback"][name]
         fell = run["time_to_fall_s"]
-        lines.append(f"  re-simulated {name.replace('_', ' ')}: "
-                     + ("completes the window" if fell is None else f"falls at {fell:.3f} s")
-                     + f" ({run['status']}; joints {run['joint_rms_from_solution_deg']:.2f} "
-                       "deg RMS from the solution)")
+        ending = (f"falls at {fell:.3f} s" if fell is not None
+                  else f"diverges after {run['simulated_s']:.3f} s" if run["status"] == "diverged"
+                  else "completes the window")
+        lines.append(f"  re-simulated {name.replace('_', ' ')}: {ending}"
+                     f" ({run['status']}; joints {run['joint_rms_from_solution_deg']:.2f} "
+                     "deg RMS from the solution)")
+    feet = foot_flat_text(info["provenance"].get("foot_flat_calibration"))
+    if feet:
+        lines.append(f"  feet levelled at loaded mid-stance (foot flat): {feet}")
     return lines

@@ -19,6 +19,9 @@ Marker map (TOML, read with :func:`predgait.problemfile.load_problem`)::
     [weights]     # optional, model frame or trial marker = weight (default 1)
     [scaling]     # optional, segment lengths from the static trial (needs one), see
                   # predgait.kinematics.scaling; the scaled URDF is scaled_model.urdf
+    [calibration] # optional
+    foot_flat = "auto"   # level the soles at loaded mid-stance (predgait.kinematics.foot_flat):
+                         # "auto" (when there is no static trial), "on" or "off"
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ from predgait.dynamics.inverse3d import (
 from predgait.errors import InputError
 from predgait.kinematics.bounded_ik import frames_near
 from predgait.kinematics.clinical import PELVIS_3D, clinical_angles_3d
+from predgait.kinematics.foot_flat import FootFlatMode, calibrate_feet
 from predgait.kinematics.ik3d import (
     IKOptions,
     IKResult,
@@ -81,6 +85,7 @@ class MarkerMap:
     weights: dict[str, float] = field(default_factory=dict)  # frame or marker -> weight
     source: str = ""
     scaling: ScalingSpec | None = None     # [scaling]: segment lengths from a static trial
+    foot_flat: FootFlatMode = FootFlatMode.AUTO  # [calibration] foot_flat
 
     def fitted(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
         """(model frames, trial markers) fitted after calibration.
@@ -101,7 +106,7 @@ class MarkerMap:
 def read_marker_map(path: str | Path) -> MarkerMap:
     """Read a marker map TOML (see module docstring)."""
     table = load_problem(path)
-    table.check_keys(["markers", "segments", "weights", "scaling"])
+    table.check_keys(["markers", "segments", "weights", "scaling", "calibration"])
     markers, segments, weights = (table.table(k) for k in ("markers", "segments", "weights"))
     frames = {k: markers.get(k, str) for k in markers.data}
     unknown = [k for k in frames if k not in MARKERS + JOINT_CENTRES]
@@ -117,7 +122,10 @@ def read_marker_map(path: str | Path) -> MarkerMap:
         raise table.error("markers", "the map needs at least one model marker frame.")
     w = {k: weights.number(k, low=0.0, high=1e3) for k in weights.data}
     scaling = read_scaling(table.table("scaling"), frames) if table.has("scaling") else None
-    return MarkerMap(frames, segs, w, source=str(path), scaling=scaling)
+    calibration = table.table("calibration")
+    calibration.check_keys(["foot_flat"])
+    foot_flat = calibration.choice("foot_flat", FootFlatMode, FootFlatMode.AUTO)
+    return MarkerMap(frames, segs, w, source=str(path), scaling=scaling, foot_flat=foot_flat)
 
 
 def read_trial(files: Sequence[str | Path]) -> tuple[Markers, tuple[ForcePlate, ...]]:
@@ -322,14 +330,24 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
     markers, trimmed = _trim_unseen(markers, list(names))
     weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
                for f, m in zip(frames, names, strict=True)}
-    ik = solve_ik(model, markers.time, markers.select(list(names)).xyz, frames,
-                  marker_names=names, weights=weights, locked=unobserved, options=options)
-    q = _filter_q(model, ik.time, ik.q, cutoff)
-    v, a = velocities(model, ik.time, q)
+
+    def fit_walk(body):
+        ik = solve_ik(body, markers.time, markers.select(list(names)).xyz, frames,
+                      marker_names=names, weights=weights, locked=unobserved, options=options)
+        return ik, _filter_q(body, ik.time, ik.q, cutoff)
+
+    ik, q = fit_walk(model)
     if grf_cutoff:
         plates = [filter_plate(p, grf_cutoff) for p in plates]
     at_markers = tuple(resample_plate(p, ik.time) for p in plates)
     sides, stances = assign_plates(model, q, at_markers)
+    feet = None
+    if marker_map.foot_flat.applies(static is not None):  # level the soles, then refit
+        model, feet = calibrate_feet(model, ik.time, q, at_markers, sides,
+                                     {f: body_of(model, f) for f in frames})
+        ik, q = fit_walk(model)
+        sides, stances = assign_plates(model, q, at_markers)
+    v, a = velocities(model, ik.time, q)
     dynamics = inverse_dynamics_3d(model, q, v, a, at_markers, sides)
     provenance = {
         "trial": source_name(markers.source), "marker_calibration": calibration,
@@ -341,6 +359,8 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "scaling": None if scaling is None else {
             "factors": {k: round(v, 5) for k, v in scaling.factors.items()},
             "lengths_m": {k: round(v, 5) for k, v in scaling.lengths.items()}},
+        "foot_flat_calibration": None if feet is None else {
+            side: f if isinstance(f, str) else f.summary() for side, f in feet.items()},
         "coordinate_cutoff_hz": cutoff, "grf_cutoff_hz": grf_cutoff,
         "window_s": [float(ik.time[0]), float(ik.time[-1])],
     }
