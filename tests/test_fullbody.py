@@ -9,7 +9,13 @@ import pinocchio as pin
 import pytest
 
 from predgait.errors import InputError
-from predgait.models.fullbody import CONTACTS, JOINT_CENTRES, MARKERS, build_fullbody_urdf
+from predgait.models.fullbody import (
+    CONTACTS,
+    JOINT_CENTRES,
+    MARKERS,
+    SOLE_EDGES,
+    build_fullbody_urdf,
+)
 from predgait.models.loading3d import (
     adam_kindyn,
     base_transform,
@@ -92,6 +98,31 @@ def test_frames_and_geometry():
     assert head[2] - sole == pytest.approx(height, rel=1e-9)
     with pytest.raises(InputError, match="no frame"):
         model.frame_id("nose")
+
+
+def test_sole_edges_lie_half_a_foot_breadth_beside_the_centre_line():
+    """Winter (2009) Fig. 4.1: foot breadth 0.055 H for a foot 0.152 H long, so the
+    medial and lateral points lie 0.055 / 0.152 / 2 of the foot length either side of
+    the heel and toe points, on the sole, lateral outward (right: -Y)."""
+    model = fullbody_for_subject(70.0, 1.7, "female", lengths={"foot_r": 0.25,
+                                                               "foot_l": 0.22})
+    pm, data = model.pin_model, model.pin_model.createData()
+    pin.framesForwardKinematics(pm, data, model.neutral())
+
+    def at(name):
+        return data.oMf[model.frame_id(name)].translation
+
+    assert len(SOLE_EDGES) == 8
+    for side, sign, length in (("r", -1.0, 0.25), ("l", 1.0, 0.22)):
+        assert at(f"toe_contact_{side}")[0] - at(f"heel_contact_{side}")[0] == pytest.approx(
+            length, rel=1e-9)
+        for end in ("heel", "toe"):
+            centre = at(f"{end}_contact_{side}")
+            for edge, outward in (("medial", -1.0), ("lateral", 1.0)):
+                offset = at(f"{end}_{edge}_contact_{side}") - centre
+                np.testing.assert_allclose(
+                    offset, [0.0, sign * outward * 0.5 * 0.055 / 0.152 * length, 0.0],
+                    atol=1e-12)
 
 
 def random_state(model, rng):

@@ -20,6 +20,7 @@ from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.forces import GroundContact, JointFeedback, JointTorques
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.partitioned import PartitionedSystem, simulate_partitioned
+from predgait.models.fullbody import SOLE_EDGES
 from predgait.models.loading3d import base_transform, load_fullbody
 from predgait.problems.fullbody_tracking import (
     POINTS,
@@ -28,34 +29,36 @@ from predgait.problems.fullbody_tracking import (
     solve_tracking,
     tracking_nlp,
 )
-from predgait.problems.fullbody_tracking_stage import node_function
+from predgait.problems.fullbody_tracking_stage import node_function, point_feet
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "fullbody_tracking.toml"
 CONTACT = ImpactContact(stiffness=2e5, exponent=1.0, damping=2e3, damping_depth=1e-3,
                         friction=0.8, slip_transition=1.0)
 
 
-def test_node_function_equals_pinocchio():
+@pytest.mark.parametrize("points", [POINTS, SOLE_EDGES], ids=["centre_line", "sole_edges"])
+def test_node_function_equals_pinocchio(points):
     model = load_fullbody()
     rng = np.random.default_rng(11)
-    node = node_function(model)
+    node = node_function(model, points)
+    count = len(points)
     pm, data = model.pin_model, model.pin_model.createData()
     for _ in range(3):
         q_ref = pin.randomConfiguration(pm, -np.ones(36), np.ones(36))
         q_ref[7:] = rng.uniform(-0.5, 0.5, 29)
-        v, a, f = rng.uniform(-2, 2, 35), rng.uniform(-5, 5, 35), rng.uniform(-300, 300, 12)
-        eom, points, rot, pos, point_vel = (np.asarray(x).ravel() for x in
-                                            node(q_ref, np.zeros(35), v, a, f))
+        v, a, f = rng.uniform(-2, 2, 35), rng.uniform(-5, 5, 35), rng.uniform(-300, 300, 3 * count)
+        eom, xyz, rot, pos, point_vel = (np.asarray(x).ravel() for x in
+                                         node(q_ref, np.zeros(35), v, a, f))
         tau = contact_inverse_dynamics(model, q_ref[None], v[None], a[None],
-                                       f.reshape(1, 4, 3))[0]
+                                       f.reshape(1, count, 3), points)[0]
         np.testing.assert_allclose(eom, tau[:6], atol=1e-8)
         np.testing.assert_allclose(rot.reshape(3, 3, order="F"),
                                    base_transform(q_ref)[:3, :3], atol=1e-12)
         pin.forwardKinematics(pm, data, q_ref, v)
         pin.updateFramePlacements(pm, data)
-        for i, name in enumerate(POINTS):
+        for i, name in enumerate(points):
             fid = model.frame_id(name)
-            np.testing.assert_allclose(points[3 * i: 3 * i + 3],
+            np.testing.assert_allclose(xyz[3 * i: 3 * i + 3],
                                        data.oMf[fid].translation, atol=1e-12)
             vel = pin.getFrameVelocity(pm, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
             np.testing.assert_allclose(point_vel[3 * i: 3 * i + 3], vel, atol=1e-10)
@@ -96,10 +99,11 @@ def test_assembled_derivatives_equal_automatic_differentiation():
     assert np.abs(hess).max() > 1.0 and np.abs(jac).max() > 1.0
 
 
-def standing_sway(duration=0.3, settle=0.4, step=2.5e-4):
-    """The body standing on its sole springs, joints held by PD plus known sinusoids.
+def standing_sway(points=POINTS, duration=0.3, settle=0.4, step=2.5e-4):
+    """The body standing on its sole springs (``points``), joints held by PD plus known
+    sinusoids.
 
-    Returns (time, q, v, a, tau_true (n, 29), point forces (n, 4, 3)) sampled every 10 ms
+    Returns (time, q, v, a, tau_true (n, 29), point forces (n, P, 3)) sampled every 10 ms
     after ``settle`` s of settling.
     """
     model = load_fullbody()
@@ -109,8 +113,8 @@ def standing_sway(duration=0.3, settle=0.4, step=2.5e-4):
         for joint, angle in (("hip", -0.3), ("knee", 0.6), ("ankle", -0.3)):
             q0[7 + model.joint_names.index(f"{joint}_{side}_y")] = angle
     pin.framesForwardKinematics(pm, data, q0)
-    sole = min(data.oMf[model.frame_id(p)].translation[2] for p in POINTS)
-    q0[2] = -sole - model.total_mass() * model.gravity / (4 * CONTACT.stiffness)
+    sole = min(data.oMf[model.frame_id(p)].translation[2] for p in points)
+    q0[2] = -sole - model.total_mass() * model.gravity / (len(points) * CONTACT.stiffness)
     rows = np.arange(6, 35)
     hold = q0.copy()
 
@@ -125,7 +129,7 @@ def standing_sway(duration=0.3, settle=0.4, step=2.5e-4):
     ramp = np.clip((t_grid - 0.1) / 0.2, 0, 1)[:, None]
     drive = amplitude * ramp * np.sin(2 * np.pi * 1.5 * t_grid[:, None])
     known = JointTorques(rows, SampledHistory(t_grid, drive))
-    ground = GroundContact(model, POINTS, CONTACT, ground_z=0.0)
+    ground = GroundContact(model, points, CONTACT, ground_z=0.0)
     system = PartitionedSystem(model, range(35), reference, [known, feedback, ground])
     sim = simulate_partitioned(system, (0.0, settle + duration),
                                system.state(q0, np.zeros(35)),
@@ -141,16 +145,18 @@ def standing_sway(duration=0.3, settle=0.4, step=2.5e-4):
     return model, sim.t, sim.q, sim.v, sim.a, tau, np.array(forces)
 
 
-def feet_data(model, q, forces, plate_z=0.0):
+def feet_data(model, q, forces, points=POINTS, plate_z=0.0):
     """Foot force, COP (on z = plate_z) and free moment from point forces."""
     pm, data = model.pin_model, model.pin_model.createData()
     n = q.shape[0]
     force, cop, free = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
+    feet = np.array(point_feet(points))
     for k in range(n):
         pin.framesForwardKinematics(pm, data, q[k])
         for j in range(2):
-            pts = [data.oMf[model.frame_id(p)].translation for p in POINTS[2 * j: 2 * j + 2]]
-            fs = forces[k, 2 * j: 2 * j + 2]
+            pts = [data.oMf[model.frame_id(p)].translation
+                   for p, foot in zip(points, feet, strict=True) if foot == j]
+            fs = forces[k, feet == j]
             total = fs.sum(axis=0)
             moment = sum(np.cross(p, f) for p, f in zip(pts, fs, strict=True))
             x = (plate_z * total[0] - moment[1]) / total[2]
@@ -160,13 +166,16 @@ def feet_data(model, q, forces, plate_z=0.0):
     return force, cop, free
 
 
-@pytest.fixture(scope="module")
-def sway():
-    model, t, q, v, a, tau, forces = standing_sway()
-    force, cop, free = feet_data(model, q, forces)
-    data = TrackingData(t, q, v, a, np.ones((t.size, 4), bool), force, cop, free,
+@pytest.fixture(scope="module", params=[POINTS, SOLE_EDGES], ids=["centre_line", "sole_edges"])
+def sway(request):
+    """The sway on the centre-line points and on the medial and lateral sole points: the
+    engine's springs and the tracking problem agree on either set."""
+    points = request.param
+    model, t, q, v, a, tau, forces = standing_sway(points)
+    force, cop, free = feet_data(model, q, forces, points)
+    data = TrackingData(t, q, v, a, np.ones((t.size, len(points)), bool), force, cop, free,
                         ground_z=0.0, stiffness=CONTACT.stiffness, friction=CONTACT.friction,
-                        slip_transition=CONTACT.slip_transition)
+                        slip_transition=CONTACT.slip_transition, points=points)
     return model, data, tau, forces, solve_tracking(model, data)
 
 
@@ -269,3 +278,15 @@ def test_cli_bad_window_names_the_key(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "window.end" in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()
+
+
+def test_contact_frames_name_their_foot():
+    from predgait.errors import InputError
+    from predgait.problemfile import load_problem
+    from predgait.workflows.fullbody_tracking import parse_tracking
+
+    with pytest.raises(InputError, match=r"contact\.frames.*'nose'.*_r or _l"):
+        parse_tracking(load_problem(PROBLEM, ['contact.frames=["heel_contact_r", "nose"]']))
+    spec = parse_tracking(load_problem(PROBLEM, [f"contact.frames={list(SOLE_EDGES)}"
+                                                 .replace("'", '"')]))
+    assert spec.contact.frames == SOLE_EDGES

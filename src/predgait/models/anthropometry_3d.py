@@ -20,6 +20,10 @@ Geometry that de Leva does not give (documented estimates, fractions of height H
       22 % PW posterior and 36 % PW lateral of the mid-ASIS point (Bell, Pedersen & Brand
       1990, J Biomech 23:617-621); ASIS-PSIS depth 0.65 PW, PSIS 0.18 PW off the midline.
     * Shoulder joint centres 0.094 H lateral of the midline at the suprasternale level.
+    * Foot breadth 0.055 H with foot length 0.152 H (Winter 2009 Fig. 4.1, after Drillis &
+      Contini 1966), used as breadth = 0.055 / 0.152 of the (given) foot length: the
+      medial and lateral sole points lie half of it either side of the foot's centre
+      line, at the heel and at the toe (a rectangular sole; the real heel is narrower).
 
 Subject-specific lengths (e.g. measured on a static trial, :mod:`predgait.kinematics.scaling`)
 replace the height-scaled ones through ``lengths`` mappings keyed like
@@ -110,6 +114,8 @@ HJC_FROM_MID_ASIS = (-0.22, 0.36, -0.30)  # x (posterior), |y| (lateral), z (dis
 PELVIS_DEPTH_FRACTION = 0.65
 PSIS_HALF_WIDTH_FRACTION = 0.18
 SHOULDER_HALF_WIDTH_FRACTION = 0.094
+#: Winter (2009) Fig. 4.1 (Drillis & Contini 1966): foot breadth / foot length.
+FOOT_BREADTH_PER_LENGTH = 0.055 / 0.152
 
 
 @dataclass(frozen=True)
@@ -214,6 +220,11 @@ def body_geometry(mass: float, height: float, sex: Sex,
         suprasternale_above_lumbar=supr,
         shoulder_half_width=0.5 * size["shoulder_width"],
     )
+
+
+def foot_breadth(foot_length: float) -> float:
+    """Foot breadth (m) of a foot ``foot_length`` (m) long (:data:`FOOT_BREADTH_PER_LENGTH`)."""
+    return FOOT_BREADTH_PER_LENGTH * foot_length
 
 
 def foot(foot_length: float, height: float, sex: Sex) -> FootGeometry:

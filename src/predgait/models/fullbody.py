@@ -22,7 +22,10 @@ joints; thighs, shanks, feet, upper arms, forearms with the hands on fixed joint
 
 Marker frames (skin markers, first estimates; calibrate them on a static trial) and
 joint-centre frames are massless links on fixed joints (names in :data:`MARKERS`,
-:data:`JOINT_CENTRES`); ``heel_contact_*`` and ``toe_contact_*`` lie on the sole.
+:data:`JOINT_CENTRES`); ``heel_contact_*`` and ``toe_contact_*`` lie on the sole's centre
+line, the :data:`SOLE_EDGES` half a foot breadth medial and lateral of them
+(:func:`predgait.models.anthropometry_3d.foot_breadth`): a problem's ``[contact] frames``
+picks either set.
 """
 
 from __future__ import annotations
@@ -63,6 +66,10 @@ JOINT_CENTRES = (
     "elbow_center_r", "elbow_center_l", "lumbar_center",
 )
 CONTACTS = ("heel_contact_r", "heel_contact_l", "toe_contact_r", "toe_contact_l")
+#: Medial and lateral sole points at the heel and at the toe (4 per foot): the ground
+#: then supports the foot about its heel-toe line too.
+SOLE_EDGES = tuple(f"{end}_{edge}_contact_{side}" for side in SIDES
+                   for end in ("heel", "toe") for edge in ("medial", "lateral"))
 
 
 def _num(value: float) -> str:
@@ -218,6 +225,7 @@ def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry,
         lu, lf = size[f"upper_arm_{side}"], size[f"forearm_{side}"]
         foot = a3.foot(size[f"foot_{side}"], height, sex)
         foot_len = foot.toe_x - foot.heel_x
+        half_breadth = 0.5 * a3.foot_breadth(foot_len)
         out |= {
             f"asis_{side}": ("pelvis", (asis[0], sign * 0.5 * pw, asis[1])),
             f"psis_{side}": ("pelvis", (asis[0] - a3.PELVIS_DEPTH_FRACTION * pw,
@@ -233,6 +241,9 @@ def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry,
             f"toe_{side}": (f"foot_{side}", (foot.heel_x + 0.72 * foot_len, 0, -0.35 * ha)),
             f"heel_contact_{side}": (f"foot_{side}", (foot.heel_x, 0, -ha)),
             f"toe_contact_{side}": (f"foot_{side}", (foot.toe_x, 0, -ha)),
+            **{f"{end}_{edge}_contact_{side}": (f"foot_{side}", (x, lateral * half_breadth, -ha))
+               for end, x in (("heel", foot.heel_x), ("toe", foot.toe_x))
+               for edge, lateral in (("medial", -sign), ("lateral", sign))},
             f"shoulder_{side}": ("torso", (0, sign * (geo.shoulder_half_width + 0.02 * h),
                                            supr + 0.02 * h)),
             f"shoulder_center_{side}": ("torso", (0, sign * geo.shoulder_half_width, supr)),
@@ -300,7 +311,7 @@ def build_fullbody_urdf(mass: float, height: float, sex: Sex | str = Sex.MALE, *
             _fixed(f"hand_{side}", f"forearm_{side}", (0, 0, -size[f"forearm_{side}"]),
                    massive=segs[f"hand_{side}"]),
         ]
-    for name in MARKERS + JOINT_CENTRES + CONTACTS:
+    for name in MARKERS + JOINT_CENTRES + CONTACTS + SOLE_EDGES:
         parent, xyz = frames[name]
         parts.append(_fixed(name, parent, xyz))
     parts.append("</robot>\n")

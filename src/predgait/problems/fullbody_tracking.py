@@ -4,7 +4,10 @@ The 35-DOF body (:mod:`predgait.models.fullbody`) with its pelvis a free flyer a
 residual actuators. Unknowns at every node k of the measured frames: the corrected
 configuration, velocity v_k and acceleration a_k (Pinocchio's: pelvis linear and angular
 velocity in the pelvis frame, then the joint rates) and the 3D forces f_c on the sole
-points ``heel_contact_*`` / ``toe_contact_*`` that are in contact. Implicit dynamics:
+points that are in contact (``TrackingData.points``: by default ``heel_contact_*`` /
+``toe_contact_*`` on each foot's centre line, or the medial and lateral points
+:data:`~predgait.models.fullbody.SOLE_EDGES`, which also support a foot about its
+heel-toe line). Implicit dynamics:
 only the 6 floating-base rows of the equations of motion are constraints,
 
     M(q)_{0:6,:} a + h(q, v)_{0:6} - sum_c J_c(q)_{:, 0:6}^T f_c = 0,
@@ -53,10 +56,9 @@ from predgait.errors import SolveFailed
 from predgait.models.loading3d import Model3D
 from predgait.problems.fullbody_tracking_stage import (
     FORCE_UNIT,
-    NG,
     NI,
-    NZ,
     POINTS,
+    point_feet,
     stage_functions,
 )
 
@@ -92,7 +94,7 @@ class TrackingData:
     Attributes:
         time: (N,) s, equally spaced.
         q, v, a: (N, 36), (N, 35), (N, 35) measured motion (Pinocchio's conventions).
-        contact: (N, 4) bool, point of :data:`POINTS` in contact.
+        contact: (N, P) bool, point of ``points`` in contact.
         force: (N, 2, 3) N, plate force on the right and left foot (lab).
         cop: (N, 2, 3) m, its COP (any point on a foot without load).
         free_moment: (N, 2) N m, vertical free moment of each foot's plate.
@@ -100,6 +102,7 @@ class TrackingData:
         stiffness: N/m, contact spring of the forward engine (exponent 1).
         friction: Coulomb coefficient of the friction pyramid and law.
         slip_transition: m/s, slip over which the engine's friction ramps to mu f_z.
+        points: The P contact frames (names end in the foot's side, ``_r`` / ``_l``).
     """
 
     time: np.ndarray
@@ -115,6 +118,7 @@ class TrackingData:
     stiffness: float = 2.0e5
     friction: float = 0.8
     slip_transition: float = 0.05
+    points: tuple[str, ...] = POINTS
 
     @property
     def nodes(self) -> int:
@@ -128,12 +132,13 @@ class TrackingSolution:
 
     Attributes:
         time: (N,) s. q: (N, 36). v, a: (N, 35).
-        forces: (N, 4, 3) N, lab forces on :data:`POINTS`.
+        forces: (N, P, 3) N, lab forces on ``points``.
         tau: (N, 35) Pinocchio RNEA(q, v, a) - sum J_c^T f_c: rows 0..5 the pelvis
             residual (N, N m; zero to the solver's tolerance), rows 6.. joint torques, N m.
         iterations: Ipopt iterations. seconds: wall time of the solve (build excluded).
         build_seconds: wall time of building the NLP (symbolic functions cached).
         status: Ipopt's return status.
+        points: The P contact frames of ``forces``.
     """
 
     time: np.ndarray
@@ -146,11 +151,17 @@ class TrackingSolution:
     seconds: float
     build_seconds: float
     status: str
+    points: tuple[str, ...] = POINTS
 
     def foot_forces(self) -> np.ndarray:
         """(N, 2, 3) N, total force on the right and left foot."""
-        return np.stack([self.forces[:, 0] + self.forces[:, 1],
-                         self.forces[:, 2] + self.forces[:, 3]], axis=1)
+        return foot_totals(self.forces, self.points)
+
+
+def foot_totals(forces: np.ndarray, points: tuple[str, ...]) -> np.ndarray:
+    """(N, 2, 3): forces (N, P, 3) on ``points`` summed per foot (right, left)."""
+    feet = np.array(point_feet(points))
+    return np.stack([forces[:, feet == j].sum(axis=1) for j in (0, 1)], axis=1)
 
 
 def cayley_numeric(c: np.ndarray) -> np.ndarray:
@@ -167,9 +178,11 @@ def corrected_configuration(q_ref: np.ndarray, dx: np.ndarray) -> np.ndarray:
 
 
 def _initial_forces(data: TrackingData) -> np.ndarray:
-    """(N, 12): each foot's plate force shared by its points in contact, inside the cone."""
-    out = np.zeros((data.nodes, 4, 3))
-    for foot, cols in ((0, (0, 1)), (1, (2, 3))):
+    """(N, 3 P): each foot's plate force shared by its points in contact, inside the cone."""
+    out = np.zeros((data.nodes, len(data.points), 3))
+    feet = np.array(point_feet(data.points))
+    for foot in (0, 1):
+        cols = np.flatnonzero(feet == foot)
         on = data.contact[:, cols]
         count = np.maximum(on.sum(axis=1), 1)
         force = data.force[:, foot].copy()
@@ -178,7 +191,7 @@ def _initial_forces(data: TrackingData) -> np.ndarray:
         force[:, :2] = np.clip(force[:, :2], -limit, limit)
         for j, c in enumerate(cols):
             out[:, c] = np.where(on[:, j:j + 1], force / count[:, None], 0.0)
-    return out.reshape(data.nodes, 12)
+    return out.reshape(data.nodes, -1)
 
 
 def _node_parameters(data: TrackingData) -> np.ndarray:
@@ -202,22 +215,22 @@ def _weight_vector(weights: TrackingWeights, body_weight: float) -> np.ndarray:
                            w.moment_bw_m * body_weight, w.friction_bw * body_weight]) ** 2
 
 
-def _interval_columns(n: int) -> cs.DM:
-    """Sparse (2 NZ (N-1), N NZ) selection of (z_k, z_k+1) for every interval k."""
-    rows = np.arange(2 * NZ * (n - 1))
-    cols = (np.arange(n - 1)[:, None] * NZ + np.arange(2 * NZ)[None]).ravel()
-    return cs.DM(cs.Sparsity.triplet(2 * NZ * (n - 1), NZ * n, rows.tolist(),
+def _interval_columns(n: int, nz: int) -> cs.DM:
+    """Sparse (2 nz (N-1), N nz) selection of (z_k, z_k+1) for every interval k."""
+    rows = np.arange(2 * nz * (n - 1))
+    cols = (np.arange(n - 1)[:, None] * nz + np.arange(2 * nz)[None]).ravel()
+    return cs.DM(cs.Sparsity.triplet(2 * nz * (n - 1), nz * n, rows.tolist(),
                                      cols.tolist()), 1.0)
 
 
-def _scatter(n: int) -> cs.DM:
-    """Sparse (6 (N-1), N NZ) selection of (c_k, c_k+1) for every interval k."""
+def _scatter(n: int, nz: int) -> cs.DM:
+    """Sparse (6 (N-1), N nz) selection of (c_k, c_k+1) for every interval k."""
     rows, cols = [], []
     for k in range(n - 1):
         for i in range(3):
             rows += [6 * k + i, 6 * k + 3 + i]
-            cols += [NZ * k + 3 + i, NZ * (k + 1) + 3 + i]
-    return cs.DM(cs.Sparsity.triplet(6 * (n - 1), NZ * n, rows, cols), 1.0)
+            cols += [nz * k + 3 + i, nz * (k + 1) + 3 + i]
+    return cs.DM(cs.Sparsity.triplet(6 * (n - 1), nz * n, rows, cols), 1.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,19 +256,20 @@ def tracking_nlp(model: Model3D, data: TrackingData,
                  weights: TrackingWeights = TrackingWeights()) -> TrackingNLP:
     """The tracking NLP (module docstring), its derivatives from one node and one interval.
 
-    Decision vector: node-major, z_k = (dx_k, v_k, a_k, f_k / FORCE_UNIT) (NZ each).
-    Constraints: NG per node, then NI per interval. The constraint Jacobian, the cost gradient and
+    Decision vector: node-major, z_k = (dx_k, v_k, a_k, f_k / FORCE_UNIT) (nz each).
+    Constraints: ng per node, then NI per interval. The constraint Jacobian, the cost gradient and
     the Hessian of the Lagrangian are assembled from one node's and one interval's
     symbolic derivatives (:func:`stage_functions`), so the symbolic work does not grow
     with the number of nodes and no derivative is taken through the mapped calls.
     """
     n = data.nodes
     h = float(np.mean(np.diff(data.time)))
-    stage = stage_functions(model)
+    stage = stage_functions(model, tuple(data.points))
+    nz, ng, count = stage.nz, stage.ng, len(data.points)
     params = _node_parameters(data)
     w = _weight_vector(weights, model.total_mass() * model.gravity)
-    x, no_p = cs.MX.sym("x", NZ * n), cs.MX.sym("p", 0)
-    z = cs.reshape(x, NZ, n)
+    x, no_p = cs.MX.sym("x", nz * n), cs.MX.sym("p", 0)
+    z = cs.reshape(x, nz, n)
     qs = data.q.T
     g_node, cost = stage.node.map(n)(z, params, w)
     int_args = (z[:, :-1], z[:, 1:], qs[:, :-1], qs[:, 1:], h)
@@ -263,20 +277,20 @@ def tracking_nlp(model: Model3D, data: TrackingData,
     jac_node = stage.node_jacobian.map(n)(z, params, w)
     grad_node = stage.node_gradient.map(n)(z, params, w)
     jac_int = stage.interval_jacobian.map(n - 1)(*int_args)
-    jacobian = cs.vertcat(cs.diagcat(*cs.horzsplit(jac_node, NZ)),
-                          cs.diagcat(*cs.horzsplit(jac_int, 2 * NZ)) @ _interval_columns(n))
+    jacobian = cs.vertcat(cs.diagcat(*cs.horzsplit(jac_node, nz)),
+                          cs.diagcat(*cs.horzsplit(jac_int, 2 * nz)) @ _interval_columns(n, nz))
     # Hessian of the Lagrangian.
     sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", g.size1())
-    lam_node = cs.reshape(lam[:NG * n], NG, n)
-    lam_int = cs.reshape(lam[NG * n:], NI, n - 1)
+    lam_node = cs.reshape(lam[:ng * n], ng, n)
+    lam_int = cs.reshape(lam[ng * n:], NI, n - 1)
     lam_pos, lam_rot = lam_int[64:67, :], lam_int[67:70, :]
     zero = cs.MX.zeros(3, 1)
     mu = -h / 2 * (cs.horzcat(lam_pos, zero) + cs.horzcat(zero, lam_pos))
     blocks = stage.node_hessian.map(n)(z, params, w, sigma / n, lam_node, mu)
-    hessian = cs.diagcat(*cs.horzsplit(blocks, NZ))
+    hessian = cs.diagcat(*cs.horzsplit(blocks, nz))
     rblocks = stage.rotation_hessian.map(n - 1)(qs[:, :-1], qs[:, 1:], z[3:6, :-1],
                                                 z[3:6, 1:], lam_rot)
-    scatter = _scatter(n)
+    scatter = _scatter(n, nz)
     hessian += cs.triu(scatter.T @ cs.diagcat(*cs.horzsplit(rblocks, 6)) @ scatter)
     derivatives = {
         "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam], [hessian],
@@ -288,12 +302,12 @@ def tracking_nlp(model: Model3D, data: TrackingData,
                               ["f", "grad_f_x"])}
     # Bounds: contact heights, friction pyramid, no force off contact.
     on = data.contact.T.astype(bool)
-    lbg_node, ubg_node = np.zeros((NG, n)), np.zeros((NG, n))
-    ubg_node[6:10] = np.where(on, 0.0, np.inf)
-    lbg_node[10:] = -np.inf
-    lbx, ubx = np.full((n, NZ), -np.inf), np.full((n, NZ), np.inf)
-    on_points = np.repeat(data.contact[:, :, None], 3, axis=2).reshape(n, 12)
-    lbx[:, 105:] = np.where(on_points, np.tile([-np.inf, -np.inf, 0.0], 4), 0.0)
+    lbg_node, ubg_node = np.zeros((ng, n)), np.zeros((ng, n))
+    ubg_node[6:6 + count] = np.where(on, 0.0, np.inf)
+    lbg_node[6 + count:] = -np.inf
+    lbx, ubx = np.full((n, nz), -np.inf), np.full((n, nz), np.inf)
+    on_points = np.repeat(data.contact[:, :, None], 3, axis=2).reshape(n, 3 * count)
+    lbx[:, 105:] = np.where(on_points, np.tile([-np.inf, -np.inf, 0.0], count), 0.0)
     ubx[:, 105:] = np.where(on_points, np.inf, 0.0)
     return TrackingNLP(
         {"x": x, "f": cs.sum2(cost) / n, "g": g}, derivatives,
@@ -329,7 +343,7 @@ def solve_tracking(model: Model3D, data: TrackingData,
                         ubg=problem.ubg)
     seconds = time.perf_counter() - built
     stats = solver.stats()
-    solution = _unpack(model, data, np.asarray(result["x"]).reshape(n, NZ), stats, seconds,
+    solution = _unpack(model, data, np.asarray(result["x"]).reshape(n, -1), stats, seconds,
                        built - start)
     if not stats["success"]:
         raise SolveFailed(f"whole-body tracking did not converge: {stats['return_status']} "
@@ -339,19 +353,31 @@ def solve_tracking(model: Model3D, data: TrackingData,
 
 def _unpack(model, data, z, stats, seconds, build_seconds) -> TrackingSolution:
     dx, v, a = z[:, :35], z[:, 35:70], z[:, 70:105]
-    f = FORCE_UNIT * z[:, 105:].reshape(-1, 4, 3)
+    f = FORCE_UNIT * z[:, 105:].reshape(z.shape[0], -1, 3)
     q = np.array([corrected_configuration(qr, d) for qr, d in zip(data.q, dx, strict=True)])
     return TrackingSolution(data.time.copy(), q, v.copy(), a.copy(), f.copy(),
-                            contact_inverse_dynamics(model, q, v, a, f),
+                            contact_inverse_dynamics(model, q, v, a, f, data.points),
                             int(stats["iter_count"]), seconds, build_seconds,
-                            str(stats["return_status"]))
+                            str(stats["return_status"]), tuple(data.points))
+
+
+def point_positions(model: Model3D, q: np.ndarray, points: tuple[str, ...]) -> np.ndarray:
+    """(N, P, 3) lab positions of the frames ``points`` at the configurations q (N, 36), m."""
+    pm, pdata = model.pin_model, model.pin_model.createData()
+    ids = [model.frame_id(p) for p in points]
+    out = np.empty((q.shape[0], len(ids), 3))
+    for k, row in enumerate(q):
+        pin.framesForwardKinematics(pm, pdata, row)
+        out[k] = [pdata.oMf[i].translation for i in ids]
+    return out
 
 
 def contact_inverse_dynamics(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                             forces: np.ndarray) -> np.ndarray:
-    """(N, 35) Pinocchio RNEA(q, v, a) - sum_c J_c^T f_c with lab forces (N, 4, 3) on POINTS."""
+                             forces: np.ndarray, points: tuple[str, ...] = POINTS
+                             ) -> np.ndarray:
+    """(N, 35) Pinocchio RNEA(q, v, a) - sum_c J_c^T f_c, lab forces (N, P, 3) on ``points``."""
     pm, pdata = model.pin_model, model.pin_model.createData()
-    ids = [model.frame_id(p) for p in POINTS]
+    ids = [model.frame_id(p) for p in points]
     out = np.empty((q.shape[0], model.nv))
     frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
     for k in range(q.shape[0]):

@@ -14,14 +14,31 @@ from dataclasses import dataclass
 import casadi as cs
 
 from predgait.dynamics.contact import adams_step
+from predgait.errors import InputError
 from predgait.models.fullbody import CONTACTS
 from predgait.models.loading3d import Model3D, adam_kindyn
 
-#: Contact points, in the order of the force arrays: right heel, right toe, left heel,
-#: left toe; their feet.
+#: Default contact points (the sole's centre line), in the order of the force arrays:
+#: right heel, right toe, left heel, left toe. A problem may give others
+#: (e.g. :data:`~predgait.models.fullbody.SOLE_EDGES`); each belongs to the foot of its
+#: name's side suffix (:func:`point_feet`).
 POINTS = ("heel_contact_r", "toe_contact_r", "heel_contact_l", "toe_contact_l")
-POINT_FOOT = ("r", "r", "l", "l")
 assert set(POINTS) == set(CONTACTS)
+
+
+def point_feet(points: tuple[str, ...]) -> tuple[int, ...]:
+    """Foot of each point: 0 right (name ends ``_r``), 1 left (``_l``).
+
+    Raises:
+        InputError: a name ends in neither.
+    """
+    feet = []
+    for name in points:
+        if not name.endswith(("_r", "_l")):
+            raise InputError(f"contact frame {name!r}: its name must end in _r or _l (the "
+                             "foot it belongs to), e.g. heel_contact_r.")
+        feet.append(0 if name.endswith("_r") else 1)
+    return tuple(feet)
 
 
 def _skew(w):
@@ -36,17 +53,17 @@ def cayley(c):
 
 
 @functools.lru_cache(maxsize=4)
-def node_function(model: Model3D) -> cs.Function:
+def node_function(model: Model3D, points: tuple[str, ...] = POINTS) -> cs.Function:
     """``node(q_ref, dx, v, a, f) -> (eom, points, rot, pos, point_velocities)``.
 
-    q_ref (36,), dx (35,) correction, v, a (35,), f (12,) forces on :data:`POINTS`;
-    eom (6,) the floating-base rows (N, N m, pelvis frame); points (12,) lab positions of
-    the contact points; rot (9,) R column-major; pos (3,) pelvis position;
-    point_velocities (12,) lab velocities of the contact points.
+    q_ref (36,), dx (35,) correction, v, a (35,), f (3 P,) forces on ``points`` (P);
+    eom (6,) the floating-base rows (N, N m, pelvis frame); points (3 P,) lab positions
+    of the contact points; rot (9,) R column-major; pos (3,) pelvis position;
+    point_velocities (3 P,) lab velocities of the contact points.
     """
     kindyn = adam_kindyn(model)
     q_ref, dx = cs.SX.sym("q_ref", 36), cs.SX.sym("dx", 35)
-    v, a, f = cs.SX.sym("v", 35), cs.SX.sym("a", 35), cs.SX.sym("f", 12)
+    v, a, f = cs.SX.sym("v", 35), cs.SX.sym("a", 35), cs.SX.sym("f", 3 * len(points))
     qw, qv = q_ref[6], q_ref[3:6]
     rot_ref = (2 * qw * qw - 1) * cs.DM.eye(3) + 2 * (qv @ qv.T) + 2 * qw * _skew(qv)
     rot = rot_ref @ cayley(dx[3:6])
@@ -55,12 +72,12 @@ def node_function(model: Model3D) -> cs.Function:
     frame = cs.vertcat(cs.horzcat(rot, pos), cs.DM([[0, 0, 0, 1]]))
     mass = kindyn.mass_matrix(frame, s)
     bias = kindyn.bias_force(frame, s, v[:6], v[6:])
-    points, velocities = [], []
+    positions, velocities = [], []
     force, moment = cs.DM.zeros(3), cs.DM.zeros(3)
-    for i, name in enumerate(POINTS):
+    for i, name in enumerate(points):
         pose = kindyn.forward_kinematics(name, frame, s)
         point = pose[:3, 3]
-        points.append(point)
+        positions.append(point)
         # Body-fixed representation: the frame's velocity in its own axes; to the lab.
         velocities.append(pose[:3, :3] @ (kindyn.jacobian(name, frame, s)[:3, :] @ v))
         fc = f[3 * i: 3 * i + 3]
@@ -70,14 +87,14 @@ def node_function(model: Model3D) -> cs.Function:
     wrench = cs.vertcat(rot.T @ force, rot.T @ moment)
     eom = mass[:6, :] @ a + bias[:6] - wrench
     return cs.Function("fullbody_node", [q_ref, dx, v, a, f],
-                       [eom, cs.vertcat(*points), cs.reshape(rot, 9, 1), pos,
+                       [eom, cs.vertcat(*positions), cs.reshape(rot, 9, 1), pos,
                         cs.vertcat(*velocities)])
 
 
-#: Sizes: unknowns per node (dx, v, a, f / FORCE_UNIT), node parameters, node constraints (base
-#: rows 6, contact heights 4, friction pyramid 16), interval constraints (joints 29,
-#: velocities 35, pelvis position 3, pelvis rotation 3), weights.
-NZ, NP, NG, NI, NW = 117, 129, 26, 70, 7
+#: Sizes: unknowns per node before the point forces (dx, v, a), interval constraints
+#: (joints 29, velocities 35, pelvis position 3, pelvis rotation 3), weights. Those that
+#: grow with the P contact points: :class:`StageFunctions` (nz, nparams, ng).
+NQ, NI, NW = 105, 70, 7
 #: Weight of the point forces' own cost relative to the foot-force tracking.
 REGULARISATION = 1e-4
 #: Unit of the force unknowns, N: forces of hundreds of N as numbers of order one (on
@@ -91,19 +108,23 @@ class StageFunctions:
     """CasADi functions of one node and one interval (the NLP is assembled from them).
 
     Attributes:
-        node: ``(z, p, w) -> (g, cost)``: z (NZ,) unknowns, p (NP,) parameters, w (NW,)
-            weights; g (NG,) node constraints, cost (scalar).
-        node_jacobian: ``(z, p, w) -> dg/dz`` (NG, NZ).
-        node_gradient: ``(z, p, w) -> dcost/dz`` (NZ,).
+        points: The P contact frames, in the order of the forces.
+        node: ``(z, p, w) -> (g, cost)``: z (nz,) unknowns (dx, v, a, f / FORCE_UNIT),
+            p (nparams,) parameters (:func:`~predgait.problems.fullbody_tracking.
+            node_parameters`), w (NW,) weights; g (ng,) node constraints (base rows 6,
+            contact heights P, friction pyramid 4 P), cost (scalar).
+        node_jacobian: ``(z, p, w) -> dg/dz`` (ng, nz).
+        node_gradient: ``(z, p, w) -> dcost/dz`` (nz,).
         node_hessian: ``(z, p, w, sigma, lam, mu)``: upper triangle of the Hessian of
             sigma cost + lam.g + mu.(R v_lin).
         interval: ``(z0, z1, q0, q1, h) -> g`` (NI,): the trapezoidal collocation of one
             interval (q0, q1 the nodes' reference configurations, h s).
-        interval_jacobian: ``(z0, z1, q0, q1, h) -> dg/d(z0, z1)`` (NI, 2 NZ).
+        interval_jacobian: ``(z0, z1, q0, q1, h) -> dg/d(z0, z1)`` (NI, 2 nz).
         rotation_hessian: ``(q0, q1, c0, c1, lam)``: Hessian of lam.vee(skew(R0^T R1))
             in (c0, c1).
     """
 
+    points: tuple[str, ...]
     node: cs.Function
     node_jacobian: cs.Function
     node_gradient: cs.Function
@@ -112,44 +133,63 @@ class StageFunctions:
     interval_jacobian: cs.Function
     rotation_hessian: cs.Function
 
+    @property
+    def nz(self) -> int:
+        """Unknowns per node."""
+        return NQ + 3 * len(self.points)
+
+    @property
+    def nparams(self) -> int:
+        """Parameters per node."""
+        return 106 + len(self.points) + 19
+
+    @property
+    def ng(self) -> int:
+        """Constraints per node."""
+        return 6 + 5 * len(self.points)
+
 
 @functools.lru_cache(maxsize=4)
-def stage_functions(model: Model3D) -> StageFunctions:
+def stage_functions(model: Model3D, points: tuple[str, ...] = POINTS) -> StageFunctions:
     """The node and interval functions of :class:`StageFunctions` (SX, built once)."""
-    node = node_function(model)
-    z, p, w = cs.SX.sym("z", NZ), cs.SX.sym("p", NP), cs.SX.sym("w", NW)
+    node = node_function(model, points)
+    feet = point_feet(points)
+    count = len(points)
+    nz = NQ + 3 * count
+    z, p, w = cs.SX.sym("z", nz), cs.SX.sym("p", 125 + count), cs.SX.sym("w", NW)
     dx, v, a, f = z[:35], z[35:70], z[70:105], FORCE_UNIT * z[105:]
-    q_ref, v_ref, a_ref, on = p[:36], p[36:71], p[71:106], p[106:110]
-    force_t, cop, free_moment = p[110:116], p[116:122], p[122:124]
-    ground_z, belt, compliance, mu, ramp = p[124], p[125], p[126], p[127], p[128]
-    eom, points, rot, pos, point_vel = node(q_ref, dx, v, a, f)
+    q_ref, v_ref, a_ref, on = p[:36], p[36:71], p[71:106], p[106:106 + count]
+    rest = p[106 + count:]
+    force_t, cop, free_moment = rest[:6], rest[6:12], rest[12:14]
+    ground_z, belt, compliance, mu, ramp = rest[14], rest[15], rest[16], rest[17], rest[18]
+    eom, points_xyz, rot, pos, point_vel = node(q_ref, dx, v, a, f)
     fz = f[2::3]
-    heights = points[2::3] + on * fz * compliance - ground_z
+    heights = points_xyz[2::3] + on * fz * compliance - ground_z
     friction = cs.vertcat(f[0::3] - mu * fz, -f[0::3] - mu * fz, f[1::3] - mu * fz,
                           -f[1::3] - mu * fz)
     g = cs.vertcat(eom, heights, friction)
     cost = w[0] * (cs.sumsqr(dx[6:]) + cs.sumsqr(2 * dx[3:6])) + w[1] * cs.sumsqr(dx[:3])
     cost += w[2] * cs.sumsqr(v - v_ref) + w[3] * cs.sumsqr(a - a_ref)
     for foot in (0, 1):
-        cols = (2 * foot, 2 * foot + 1)
+        cols = [c for c in range(count) if feet[c] == foot]
         total = sum(f[3 * c: 3 * c + 3] for c in cols)
-        moment = sum(cs.cross(points[3 * c: 3 * c + 3] - cop[3 * foot: 3 * foot + 3],
+        moment = sum(cs.cross(points_xyz[3 * c: 3 * c + 3] - cop[3 * foot: 3 * foot + 3],
                               f[3 * c: 3 * c + 3]) for c in cols)
         target = cs.vertcat(0, 0, free_moment[foot])
         cost += w[4] * cs.sumsqr(total - force_t[3 * foot: 3 * foot + 3])
         cost += w[5] * cs.sumsqr(moment - target)
-    for c in range(4):
+    for c in range(count):
         slip = point_vel[3 * c: 3 * c + 2] - cs.vertcat(belt, 0)
         coulomb = -mu * f[3 * c + 2] * adams_step(slip, -ramp, -1.0, ramp, 1.0)
         cost += w[6] * on[c] * cs.sumsqr(f[3 * c: 3 * c + 2] - coulomb)
-    # The forces between two points of one foot that cancel (a squeeze along the
-    # heel-toe line) change nothing else: a small cost on every force fixes them.
+    # The forces between points of one foot that cancel (a squeeze along the line
+    # between them) change nothing else: a small cost on every force fixes them.
     cost += w[4] * REGULARISATION * cs.sumsqr(f)
     u = cs.reshape(rot, 3, 3) @ v[:3]
     node_f = cs.Function("tracking_node", [z, p, w], [g, cost])
     node_jac = cs.Function("tracking_node_jacobian", [z, p, w], [cs.jacobian(g, z)])
     node_grad = cs.Function("tracking_node_gradient", [z, p, w], [cs.gradient(cost, z)])
-    sigma, lam, mu3 = cs.SX.sym("sigma"), cs.SX.sym("lam", NG), cs.SX.sym("mu", 3)
+    sigma, lam, mu3 = cs.SX.sym("sigma"), cs.SX.sym("lam", 6 + 5 * count), cs.SX.sym("mu", 3)
     lagrangian = sigma * cost + cs.dot(lam, g) + cs.dot(mu3, u)
     hess = cs.Function("tracking_node_hessian", [z, p, w, sigma, lam, mu3],
                        [cs.triu(cs.hessian(lagrangian, z)[0])])
@@ -159,12 +199,13 @@ def stage_functions(model: Model3D) -> StageFunctions:
     rot_lag = cs.dot(lam_r, _vee_skew(rel))
     rot_hess = cs.Function("tracking_rotation_hessian", [q0, q1, c0, c1, lam_r],
                            [cs.hessian(rot_lag, cs.vertcat(c0, c1))[0]])
-    z0, z1, step = cs.SX.sym("z0", NZ), cs.SX.sym("z1", NZ), cs.SX.sym("h")
+    z0, z1, step = cs.SX.sym("z0", nz), cs.SX.sym("z1", nz), cs.SX.sym("h")
     g_int = _interval(z0, z1, q0, q1, step)
     interval = cs.Function("tracking_interval", [z0, z1, q0, q1, step], [g_int])
     interval_jac = cs.Function("tracking_interval_jacobian", [z0, z1, q0, q1, step],
                                [cs.jacobian(g_int, cs.vertcat(z0, z1))])
-    return StageFunctions(node_f, node_jac, node_grad, hess, interval, interval_jac, rot_hess)
+    return StageFunctions(points, node_f, node_jac, node_grad, hess, interval, interval_jac,
+                          rot_hess)
 
 
 def _interval(z0, z1, q0, q1, h):

@@ -27,7 +27,7 @@ from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.motion import MotionHistory
 from predgait.dynamics.partitioned import PartitionedSystem, simulate_partitioned
 from predgait.errors import SimulationDiverged
-from predgait.problems.fullbody_tracking import POINTS, TrackingData, TrackingSolution
+from predgait.problems.fullbody_tracking import TrackingData, TrackingSolution, foot_totals
 from predgait.simulations.forward3d import FULLBODY_FALL
 
 
@@ -36,7 +36,8 @@ class FeedbackRun:
     """One re-simulation.
 
     Attributes:
-        t: (n,) s, the solution's nodes reached. q: (n, nq). forces: (n, 4, 3) N on POINTS.
+        t: (n,) s, the solution's nodes reached. q: (n, nq). forces: (n, P, 3) N on the
+            solution's points.
         status: completed / event / diverged. time_to_fall: s from the start, or None.
         message: How it ended. seconds: wall time.
     """
@@ -54,8 +55,7 @@ class FeedbackRun:
         """Status, time to fall, joint RMS from the solution and GRF RMS from the plates."""
         n = self.t.size
         joints = np.degrees(self.q[:, 7:] - solution.q[:n, 7:])
-        feet = np.stack([self.forces[:, 0] + self.forces[:, 1],
-                         self.forces[:, 2] + self.forces[:, 3]], axis=1)
+        feet = foot_totals(self.forces, solution.points)
         grf = feet - data.force[:n]
         return {"status": str(self.status), "time_to_fall_s": self.time_to_fall,
                 "simulated_s": float(self.t[-1] - self.t[0]) if n else 0.0,
@@ -70,12 +70,16 @@ class FeedbackRun:
 def body_system(model, solution: TrackingSolution, law: ImpactContact, *,
                 ground_z: float, belt_velocity: float, feedback: FloatingLQR | None = None
                 ) -> tuple[PartitionedSystem, MotionHistory, GroundContact]:
-    """The free body driven by the solved joint torques on the contact law (+ feedback)."""
+    """The free body driven by the solved joint torques on the contact law (+ feedback).
+
+    The engine's contact points are the solution's (``solution.points``), so the
+    re-simulation stands on the points the solved forces assume.
+    """
     history = MotionHistory(model, solution.time, solution.q, solution.v, solution.a)
     torques = JointTorques(np.arange(6, model.nv),
                            SampledHistory(solution.time, solution.tau[:, 6:],
                                           name="solved joint torques"))
-    ground = GroundContact(model, POINTS, law, ground_z=ground_z,
+    ground = GroundContact(model, solution.points, law, ground_z=ground_z,
                            belt_velocity=belt_velocity)
     forces = [torques, ground] + ([feedback] if feedback is not None else [])
     return PartitionedSystem(model, range(model.nv), history, forces), history, ground
@@ -124,6 +128,6 @@ def resimulate(system: PartitionedSystem, history: MotionHistory, ground: Ground
         forces.append(ground.forces(data))
     # The nodes reached (not the time of a fall event).
     keep = np.isclose(run.t[:, None], solution.time[None], atol=1e-9).any(axis=1)
-    return FeedbackRun(run.t[keep], run.q[keep], np.array(forces).reshape(-1, 4, 3)[keep],
+    return FeedbackRun(run.t[keep], run.q[keep], np.array(forces).reshape(len(forces), -1, 3)[keep],
                        str(run.status), run.time_to_fall, run.message,
                        time.perf_counter() - start)

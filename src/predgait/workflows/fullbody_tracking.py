@@ -28,14 +28,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from predgait.dynamics.floating_lqr import FloatingWeights
-from predgait.dynamics.inverse3d import foot_points
+from predgait.errors import InputError
 from predgait.problemfile import Table
 from predgait.problems.fullbody_tracking import (
-    POINTS,
     TrackingData,
     TrackingSolution,
     TrackingWeights,
+    point_positions,
 )
+from predgait.problems.fullbody_tracking_stage import point_feet
 from predgait.simulations.forward3d import ContactSettings, FullbodyDrive, measured_ground
 from predgait.workflows.forward3d_spec import TrialSpec, parse_contact, parse_trial
 
@@ -79,8 +80,13 @@ def parse_tracking(table: Table) -> TrackingSpec:
     feedback = table.table("feedback")
     fb = FloatingWeights()
     feedback.check_keys((*vars(fb), "step"))
+    contact = parse_contact(table)
+    try:
+        point_feet(contact.frames)
+    except InputError as exc:
+        raise table.table("contact").error("frames", str(exc)) from None
     return TrackingSpec(
-        trial=parse_trial(table), contact=parse_contact(table),
+        trial=parse_trial(table), contact=contact,
         window=None if start is None else (start, end),
         weights=TrackingWeights(**{k: weights.number(k, v, low=1e-9)
                                    for k, v in vars(defaults).items()}),
@@ -97,8 +103,6 @@ def gait_cycle(drive: FullbodyDrive, stances) -> tuple[float, float]:
     """First right gait cycle: heel strike to the next right heel strike, s."""
     starts = sorted(s.start for s in stances if s.side == "r" and s.start > drive.time[0])
     if len(starts) < 2:
-        from predgait.errors import InputError
-
         raise InputError(f"{drive.source}: fewer than two right heel strikes on the plates; "
                          "give [window] start and end.")
     return starts[0], starts[1]
@@ -131,25 +135,27 @@ def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, flo
                   stride: int = 1) -> TrackingData:
     """The problem's nodes (every ``stride``-th marker frame of ``window``, s), what they track.
 
-    A sole point is in contact when its foot is loaded (plate force above
-    :data:`LOAD_THRESHOLD`) and its measured height is within ``contact_height`` (m) of
-    the floor (:func:`~predgait.simulations.forward3d.measured_ground`).
+    The contact points are ``contact.frames``. A sole point is in contact when its foot
+    is loaded (plate force above :data:`LOAD_THRESHOLD`) and its measured height is
+    within ``contact_height`` (m) of the floor
+    (:func:`~predgait.simulations.forward3d.measured_ground`).
     """
-    ground_z, belt = measured_ground(drive, POINTS, threshold=LOAD_THRESHOLD)
+    points = tuple(contact.frames)
+    feet = list(point_feet(points))
+    ground_z, belt = measured_ground(drive, points, threshold=LOAD_THRESHOLD)
     ground_z = ground_z if contact.ground_z is None else contact.ground_z
     belt = belt if contact.belt_velocity is None else contact.belt_velocity
     keep = np.flatnonzero((drive.time >= window[0] - 1e-9) & (drive.time <= window[1] + 1e-9))
     keep = keep[::stride]
-    points = foot_points(drive.model, drive.q[keep])
-    heights = np.column_stack([points[s][i][:, 2] for s, i in
-                               (("r", 0), ("r", 1), ("l", 0), ("l", 1))])
+    heights = point_positions(drive.model, drive.q[keep], points)[:, :, 2]
     force, cop, free = foot_cop(drive, plate_z)
-    loaded = force[keep][:, [0, 0, 1, 1], 2] > LOAD_THRESHOLD
+    loaded = force[keep][:, feet, 2] > LOAD_THRESHOLD
     law = contact.contact
     return TrackingData(drive.time[keep], drive.q[keep], drive.v[keep], drive.a[keep],
                         loaded & (heights < ground_z + contact_height), force[keep],
                         cop[keep], free[keep], ground_z, belt, stiffness=law.stiffness,
-                        friction=law.friction, slip_transition=law.slip_transition)
+                        friction=law.friction, slip_transition=law.slip_transition,
+                        points=points)
 
 
 def plate_height(inverse) -> float:
@@ -164,7 +170,8 @@ def deviations(model, data: TrackingData, solution: TrackingSolution) -> dict:
     from predgait.kinematics.ik3d import pelvis_cardan
 
     joint_names, body_weight = model.joint_names, model.total_mass() * model.gravity
-    points = foot_points(model, solution.q)
+    points = point_positions(model, solution.q, solution.points)
+    point_foot = np.array(point_feet(solution.points))
 
     joints = np.degrees(solution.q[:, 7:] - data.q[:, 7:])
     pelvis = np.degrees(pelvis_cardan(solution.q) - pelvis_cardan(data.q))
@@ -177,8 +184,8 @@ def deviations(model, data: TrackingData, solution: TrackingSolution) -> dict:
         both = loaded & solved
         if not both.any():
             continue
-        pts = np.stack(points[side], axis=1)
-        weights = solution.forces[:, 2 * j: 2 * j + 2, 2]
+        pts = points[:, point_foot == j]
+        weights = solution.forces[:, point_foot == j, 2]
         cop = (pts[both] * weights[both, :, None]).sum(axis=1) / weights[both].sum(axis=1)[
             :, None]
         shift = np.linalg.norm((cop - data.cop[both, j])[:, :2], axis=1)

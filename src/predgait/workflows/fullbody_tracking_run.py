@@ -14,7 +14,6 @@ from predgait import __version__
 from predgait.data import write_storage
 from predgait.kinematics.ik3d import pelvis_cardan
 from predgait.problems.fullbody_tracking import (
-    POINTS,
     TrackingData,
     TrackingSolution,
     solve_tracking,
@@ -64,7 +63,7 @@ def write_solution(folder: Path, drive: FullbodyDrive, solution: TrackingSolutio
     write_storage(folder / "corrected_moments3d.sto", t, moments, header=header | {
         "units": "N m (joint moments about each Cardan axis); N, N m (pelvis residual, "
                  "pelvis frame: zero to the solver's tolerance)"})
-    forces = {p: solution.forces[:, i] for i, p in enumerate(POINTS)}
+    forces = {p: solution.forces[:, i] for i, p in enumerate(solution.points)}
     forces |= {f"foot_{s}": solution.foot_forces()[:, j] for j, s in enumerate("rl")}
     write_storage(folder / "contact_forces.sto", t, forces, header=header | {
         "units": "N (lab frame, on each sole point and each foot)"})
@@ -91,7 +90,8 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
         "measured_pelvis_residual_rms_n": float(np.sqrt(np.mean(
             drive.tau[np.isin(drive.time, data.time), :3] ** 2))),
         "floor_z_m": data.ground_z, "belt_velocity_m_per_s": data.belt_velocity,
-        "contact_nodes": {p: int(data.contact[:, i].sum()) for i, p in enumerate(POINTS)},
+        "contact_nodes": {p: int(data.contact[:, i].sum())
+                          for i, p in enumerate(data.points)},
         "deviation": deviations(model, data, solution),
         "feedback": feedback,
         "provenance": {"problem": spec.source, "trial": drive.source,
