@@ -19,6 +19,7 @@ from predgait.kinematics.foot_flat import (
     sole_frames,
 )
 from predgait.models.loading3d import fullbody_for_subject, model3d_from_urdf
+from predgait.simulations.forward3d import FullbodyDrive, measured_ground
 from predgait.workflows.inverse3d import inverse_fullbody, read_marker_map, read_trial
 
 MASS, HEIGHT = 70.0, 1.75
@@ -139,7 +140,7 @@ def test_foot_markers_off_the_model_are_levelled_by_the_recovered_angle(tmp_path
         assert entry["sole_depth_m"] == pytest.approx(entry["model_sole_depth_m"], abs=depth)
 
 
-def test_sole_frames_move_in_the_urdf_too(tmp_path):
+def test_sole_frames_move_in_the_urdf_too_and_the_plates_are_the_floor(tmp_path):
     model = fullbody_for_subject(MASS, HEIGHT)
     markers, plates = standing_trial(model, raised_toe)
     plates = [replace(p, cop=p.cop - [0.0, 0.0, 0.03]) for p in plates]  # floor 3 cm lower
@@ -157,6 +158,9 @@ def test_sole_frames_move_in_the_urdf_too(tmp_path):
         pin.framesForwardKinematics(pm, data, q)
         heights = [data.oMf[on.model.frame_id(f)].translation[2] for f in frames]
         np.testing.assert_allclose(heights, -0.03, atol=1e-3)
+    # The engine's and the tracking's floor is the plates' surface the soles were set on.
+    floor, _ = measured_ground(FullbodyDrive.from_inverse(on))
+    assert floor == pytest.approx(-0.03, abs=1e-4)
 
 
 def test_bad_foot_flat_value_names_the_key(tmp_path):

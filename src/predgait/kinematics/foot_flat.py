@@ -64,6 +64,7 @@ class FootFlat:
         roll_deg: sole tilt before about the foot's X (positive: its +Y, left, side up), deg.
         sole_depth_m: depth of the sole below the ankle centre after (before: the model's).
         previous_depth_m: the model's sole depth before, m.
+        floor_z_m: the plates' surface the sole was set on (lab Z), m.
     """
 
     side: str
@@ -72,6 +73,7 @@ class FootFlat:
     roll_deg: float
     sole_depth_m: float
     previous_depth_m: float
+    floor_z_m: float
 
     def summary(self) -> dict:
         """JSON-ready description."""
@@ -80,7 +82,8 @@ class FootFlat:
                 "pitch_corrected_deg": round(self.pitch_deg, 2),
                 "roll_corrected_deg": round(self.roll_deg, 2),
                 "sole_depth_m": round(self.sole_depth_m, 4),
-                "model_sole_depth_m": round(self.previous_depth_m, 4)}
+                "model_sole_depth_m": round(self.previous_depth_m, 4),
+                "floor_z_m": round(self.floor_z_m, 4)}
 
 
 def foot_poses(model: Model3D, q: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:
@@ -191,7 +194,8 @@ def calibrate_feet(model: Model3D, time: np.ndarray, q: np.ndarray,
         for frame, parent in markers.items():
             if parent == body:
                 placements[frame] = (body, correction.T @ _in_foot(model, frame, side))
-        depth = float(np.mean(pos[flat, 2]) - np.median(floor))
+        floor_z = float(np.median(floor))
+        depth = float(np.mean(pos[flat, 2]) - floor_z)
         previous = []
         for frame in sole_frames(model, side):
             xyz = _in_foot(model, frame, side)
@@ -199,7 +203,8 @@ def calibrate_feet(model: Model3D, time: np.ndarray, q: np.ndarray,
             xyz = np.array([xyz[0], xyz[1], -depth])
             placements[frame] = (body, xyz)
             urdf = _urdf_with_origin(urdf, frame, xyz)
-        out[side] = FootFlat(side, time[flat], pitch, roll, depth, float(np.mean(previous)))
+        out[side] = FootFlat(side, time[flat], pitch, roll, depth, float(np.mean(previous)),
+                             floor_z)
     if not placements:
         return model, out
     moved = with_marker_frames(model, placements)

@@ -193,22 +193,26 @@ def measured_ground(drive: FullbodyDrive, frames=CONTACTS, *, threshold: float =
                     ) -> tuple[float, float]:
     """Floor height (m) and belt velocity along X (m/s) seen in the measured motion.
 
-    Floor: median over frames of the lowest contact frame (a sole is on the floor).
-    Belt: median X velocity of the loaded feet's sole mid-points (vertical load above
-    ``threshold`` N); about 0 over ground, the belt speed on a treadmill.
+    Floor: the plates' surface when the feet were levelled on it (foot flat,
+    ``drive.calibration``), else the median over frames of the lowest contact frame (a
+    sole is on the floor; a rigid foot's toe dipping at push-off biases it low: 5 mm on
+    walking5). Belt: median X velocity of the loaded feet's sole mid-points (vertical load
+    above ``threshold`` N); about 0 over ground, the belt speed on a treadmill.
     """
     model = drive.model
-    pm, data = model.pin_model, model.pin_model.createData()
-    ids = [model.frame_id(f) for f in frames]
-    lowest = []
-    for row in drive.q:
-        pin.framesForwardKinematics(pm, data, row)
-        lowest.append(min(data.oMf[i].translation[2] for i in ids))
+    floor = [f["floor_z_m"] for f in (drive.calibration.get("foot_flat_calibration")
+                                       or {}).values() if isinstance(f, dict)]
+    if not floor:
+        pm, data = model.pin_model, model.pin_model.createData()
+        ids = [model.frame_id(f) for f in frames]
+        for row in drive.q:
+            pin.framesForwardKinematics(pm, data, row)
+            floor.append(min(data.oMf[i].translation[2] for i in ids))
     soles = sole_points(model, drive.q)
     speeds = [np.gradient(soles[s][:, 0], drive.time)[w[:, 2] > threshold]
               for s, w in drive.foot_wrench.items()]
     speeds = np.concatenate(speeds)
-    return float(np.median(lowest)), float(np.median(speeds)) if speeds.size else 0.0
+    return float(np.median(floor)), float(np.median(speeds)) if speeds.size else 0.0
 
 
 def free_rows(mode: Mode, joint_names) -> list[int]:
