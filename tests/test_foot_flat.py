@@ -12,7 +12,12 @@ import pytest
 from predgait.data.trial import ForcePlate, Markers
 from predgait.dynamics.inverse3d import foot_points
 from predgait.errors import InputError
-from predgait.kinematics.foot_flat import FootFlatMode, foot_poses, levelling_rotation
+from predgait.kinematics.foot_flat import (
+    FootFlatMode,
+    foot_poses,
+    levelling_rotation,
+    sole_frames,
+)
 from predgait.models.loading3d import fullbody_for_subject, model3d_from_urdf
 from predgait.workflows.inverse3d import inverse_fullbody, read_marker_map, read_trial
 
@@ -141,13 +146,17 @@ def test_sole_frames_move_in_the_urdf_too(tmp_path):
     on = inverse_fullbody(markers, plates, marker_map(tmp_path), mass=MASS, height=HEIGHT,
                           cutoff=None)
     rebuilt = model3d_from_urdf(on.model.urdf)
-    for frame in ("heel_contact_r", "toe_contact_l"):
+    frames = sole_frames(on.model, "r") + sole_frames(on.model, "l")
+    assert len(frames) >= 4
+    for frame in frames:  # the centre-line points and the medial and lateral edges
         placed = on.model.pin_model.frames[on.model.frame_id(frame)].placement.translation
         again = rebuilt.pin_model.frames[rebuilt.frame_id(frame)].placement.translation
         np.testing.assert_allclose(again, placed, atol=1e-9)
-    for side in "rl":
-        heel, toe = foot_points(on.model, on.q)[side]
-        assert np.abs(heel[:, 2] + 0.03).max() < 1e-3 and np.abs(toe[:, 2] + 0.03).max() < 1e-3
+    pm, data = on.model.pin_model, on.model.pin_model.createData()
+    for q in on.q:
+        pin.framesForwardKinematics(pm, data, q)
+        heights = [data.oMf[on.model.frame_id(f)].translation[2] for f in frames]
+        np.testing.assert_allclose(heights, -0.03, atol=1e-3)
 
 
 def test_bad_foot_flat_value_names_the_key(tmp_path):
