@@ -26,3 +26,28 @@ def test_joint_alone_gets_the_double_integrators_gains(inertia):
     assert kd == pytest.approx(np.sqrt(2 * inertia * kp), rel=1e-9)
     assert np.all(np.diag(q)[nv + 6:] == 0.0)   # no weight on the joint rates
     assert np.all(np.diag(q)[nv:nv + 6] > 0.0)  # the pelvis keeps its rate weight
+
+
+def test_sole_height_weight_is_the_points_height_change():
+    """dq^T W dq = sum_i (dz_i / height)^2 for a small tangent step dq (round trip through
+    pin.integrate and the frames' placements), in a pitched and rolled pose."""
+    import pinocchio as pin
+
+    from predgait.dynamics.floating_lqr import sole_height_weights
+    from predgait.models.fullbody import CONTACTS
+    from predgait.models.loading3d import load_fullbody
+
+    model = load_fullbody()
+    pm, data = model.pin_model, model.pin_model.createData()
+    rng = np.random.default_rng(3)
+    quat = pin.Quaternion(pin.rpy.rpyToMatrix(0.2, -0.3, 1.0)).coeffs()
+    q = np.concatenate([[0.1, -0.2, 0.9], quat, rng.uniform(-0.4, 0.4, model.nv - 6)])
+    weight = sole_height_weights(model, q, CONTACTS, 0.002)
+    step = 1e-6 * rng.standard_normal(model.nv)
+
+    def heights(config):
+        pin.framesForwardKinematics(pm, data, config)
+        return np.array([data.oMf[model.frame_id(p)].translation[2] for p in CONTACTS])
+
+    dz = heights(pin.integrate(pm, q, step)) - heights(q)
+    assert step @ weight @ step == pytest.approx(np.sum((dz / 0.002) ** 2), rel=1e-4)

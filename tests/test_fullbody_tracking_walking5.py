@@ -2,12 +2,11 @@
 
 The solution of problems/fullbody_tracking_walking5.toml (1.97-2.96 s, 62 nodes) is
 re-simulated by the forward engine on its contact springs: without feedback the body falls
-within 0.1 s; with the time-varying LQR (Bryson's rule, the same torque cost on every
-joint) it holds the right heel strike (2.41 s), where the former inertia-scaled torque cost
-(1-2 N m/rad on the feet) fell at 0.44 s, and the whole right stance; it falls (if at all)
-only in the window's last 60 ms, where the left heel lands beside the plates (about
-2.90 s in the measured motion) while the solution, which has no force data for it, keeps
-that foot in the air.
+within 0.1 s; with the time-varying LQR (Bryson's rule: the same torque cost on every
+joint, a height error on every sole point) it completes the window, across the right heel
+strike (2.41 s) where the former inertia-scaled torque cost (1-2 N m/rad on the feet) fell
+at 0.44 s, and the left heel's landing beside the plates (~2.90 s) where the law without
+the sole-height weight fell at 2.94 s.
 """
 
 from pathlib import Path
@@ -37,11 +36,11 @@ def test_feedback_holds_walking5_across_the_heel_strike(walking5):
     assert np.abs(solution.tau[:, :6]).max() < 1e-6                # no pelvis residual
     without, with_fb = info["without_feedback"], info["with_feedback"]
     assert without["status"] == "event" and without["time_to_fall_s"] < 0.1
-    fell = with_fb["time_to_fall_s"]
-    assert fell is None or data.time[0] + fell > 2.89
-    assert run.t[-1] > 2.88
+    assert with_fb["status"] == "completed" and with_fb["time_to_fall_s"] is None
+    assert run.t.size == data.nodes and run.t[-1] == pytest.approx(data.time[-1])
     assert with_fb["joint_rms_from_solution_deg"] < 3.0
-    # The right foot's engine contact forces stay near its plate across its stance.
+    # The right foot's engine contact forces stay near its plate across its stance (the
+    # left's include the landing beside the plates, which they do not measure).
     grf = with_fb["grf_rms_from_plates_percent_bw"]
     assert max(grf["r_x"], grf["r_y"], grf["r_z"]) < 25.0
     # The RK4 step is inside its stability limit for the closed loop's fastest rate.

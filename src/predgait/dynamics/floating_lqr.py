@@ -47,7 +47,10 @@ class FloatingWeights:
     a rate weight adds a velocity gain torque / rate, which over a foot's 0.005 kg m^2 is
     a rate torque / (rate I) of ~6000 1/s alone and 10^7 1/s in the coupled body
     (walking5's re-simulation diverged at its first RK4 step of 1e-4 s); the pelvis (no
-    actuator) keeps its rate weight.
+    actuator) keeps its rate weight. The sole points' heights get their own error
+    (:func:`sole_height_weights`): a swing foot that drifts a centimetre low scuffs the
+    floor, one that arrives high and late meets the stance torques in the air (the
+    joints alone weigh that drift only through its few degrees).
 
     Attributes:
         angle_deg: Joint and pelvis orientation error, deg.
@@ -55,12 +58,14 @@ class FloatingWeights:
         rate_deg_s: Pelvis angular rate error, deg/s (pelvis linear rate: the position
             error per 0.1 s).
         torque_n_m: Feedback torque on any joint, N m.
+        sole_height_m: Height error of each sole (contact) point, m.
     """
 
     angle_deg: float = 5.0
     position_m: float = 0.02
     rate_deg_s: float = 50.0
     torque_n_m: float = 25.0
+    sole_height_m: float = 0.002
 
     def matrices(self, actuated: int) -> tuple[np.ndarray, np.ndarray]:
         """(Q (2 nv, 2 nv), R (n, n)) for n = ``actuated`` joint rows, SI units.
@@ -73,6 +78,22 @@ class FloatingWeights:
                                     np.full(3, self.position_m / 0.1), np.full(3, rate)])
         q = np.concatenate([inverse_q**-2.0, np.zeros(actuated)])
         return np.diag(q), np.eye(actuated) / self.torque_n_m**2
+
+
+def sole_height_weights(model, q: np.ndarray, points, height_m: float) -> np.ndarray:
+    """State weight (nv, nv) of the sole points' height errors at configuration q.
+
+    dz_i = J_z,i dq (J_z,i: the vertical row of point i's lab-aligned Jacobian, which acts
+    on the tangent dq = pin.difference(q_ref, q)); the cost sum_i (dz_i / height_m)^2 is
+    dq^T (sum_i J_z,i^T J_z,i / height_m^2) dq.
+    """
+    pm = model.pin_model
+    data = pm.createData()
+    pin.computeJointJacobians(pm, data, q)
+    pin.updateFramePlacements(pm, data)
+    rows = np.array([pin.getFrameJacobian(pm, data, model.frame_id(p),
+                                          pin.LOCAL_WORLD_ALIGNED)[2] for p in points])
+    return rows.T @ rows / height_m**2
 
 
 def _accelerations(system, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -160,7 +181,7 @@ class FloatingLQR(Force):
 
 
 def floating_tvlqr(system, reference, times: np.ndarray, actuated,
-                   weights: FloatingWeights = FloatingWeights(), *,
+                   weights: FloatingWeights = FloatingWeights(), *, points=(),
                    substeps: int = 2) -> FloatingLQR:
     """Time-varying LQR of a free-floating ``system`` along ``reference`` on ``times``.
 
@@ -170,6 +191,7 @@ def floating_tvlqr(system, reference, times: np.ndarray, actuated,
         times: (m,) s increasing grid of the linearisation and the gains.
         actuated: Velocity rows that receive feedback torques.
         weights: Q and R by Bryson's rule.
+        points: Sole (contact) frames whose height errors cost (``sole_height_m``).
         substeps: Zero-order-hold Riccati steps per grid interval.
     """
     from scipy.linalg import solve_continuous_are
@@ -180,8 +202,14 @@ def floating_tvlqr(system, reference, times: np.ndarray, actuated,
     a_mats = np.array([a for a, _ in linear])
     b_mats = np.array([b for _, b in linear])
     q, r = weights.matrices(actuated.size)
+    nv = system.pm.nv
+    q = np.repeat(q[None], times.size, axis=0)
+    if len(points):
+        for k, t in enumerate(times):
+            q[k, :nv, :nv] += sole_height_weights(system.model, reference(t)[0], points,
+                                                  weights.sole_height_m)
     with one_blas_thread():  # ~100 x 100 exponentials: threads only cost here
-        final = solve_continuous_are(a_mats[-1], b_mats[-1], q, r)
+        final = solve_continuous_are(a_mats[-1], b_mats[-1], q[-1], r)
         gains = riccati_gains(times, a_mats, b_mats, q, r, substeps=substeps,
                               terminal=final)
     fastest = max(np.abs(np.linalg.eigvals(a - b @ k).real).max()

@@ -117,7 +117,8 @@ def riccati_gains(times: np.ndarray, a_mats: np.ndarray, b_mats: np.ndarray, q: 
                   terminal: np.ndarray | None = None) -> np.ndarray:
     """Gains K (m, n, 2n) on ``times`` (m,) from the backward finite-horizon Riccati equation.
 
-    A and B (m, 2n, 2n), (m, 2n, n) are interpolated linearly between the nodes; S(t1) =
+    A and B (m, 2n, 2n), (m, 2n, n), and Q if given per node (m, 2n, 2n), are interpolated
+    linearly between the nodes; S(t1) =
     ``terminal`` (default 0, no terminal cost: then end the grid a few unstable time
     constants after the window of interest so that the gains there have converged; or
     give the algebraic Riccati solution of the last node, the infinite-horizon cost).
@@ -131,7 +132,7 @@ def riccati_gains(times: np.ndarray, a_mats: np.ndarray, b_mats: np.ndarray, q: 
 
     nx, nu = b_mats.shape[1:]
     m = times.size
-    s = np.zeros_like(q) if terminal is None else np.array(terminal, dtype=float)
+    s = np.zeros((nx, nx)) if terminal is None else np.array(terminal, dtype=float)
     gains = np.empty((m, nu, nx))
     gains[-1] = np.linalg.solve(r, b_mats[-1].T @ s)
     block = np.zeros((nx + nu, nx + nu))
@@ -141,11 +142,12 @@ def riccati_gains(times: np.ndarray, a_mats: np.ndarray, b_mats: np.ndarray, q: 
             w = (i + 0.5) / substeps                  # from node k back toward k - 1
             block[:nx, :nx] = (1 - w) * a_mats[k] + w * a_mats[k - 1]
             block[:nx, nx:] = (1 - w) * b_mats[k] + w * b_mats[k - 1]
+            q_h = (q if q.ndim == 2 else (1 - w) * q[k] + w * q[k - 1]) * h
             step = expm(block * h)
             a_d, b_d = step[:nx, :nx], step[:nx, nx:]
             sb = s @ b_d
             gain = np.linalg.solve(r * h + b_d.T @ sb, sb.T @ a_d)
-            s = q * h + a_d.T @ s @ a_d - (a_d.T @ sb) @ gain
+            s = q_h + a_d.T @ s @ a_d - (a_d.T @ sb) @ gain
             s = 0.5 * (s + s.T)
         gains[k - 1] = np.linalg.solve(r, b_mats[k - 1].T @ s)
     return gains

@@ -87,9 +87,9 @@ def body_system(model, solution: TrackingSolution, law: ImpactContact, *,
 
 def feedback_gains(system: PartitionedSystem, history: MotionHistory,
                    solution: TrackingSolution, weights: FloatingWeights) -> FloatingLQR:
-    """Time-varying LQR along the solution, linearised at its nodes."""
+    """Time-varying LQR along the solution, linearised at its nodes, on its sole points."""
     return floating_tvlqr(system, history, solution.time, np.arange(6, system.pm.nv),
-                          weights)
+                          weights, points=solution.points)
 
 
 def _latest_only(history: MotionHistory):
