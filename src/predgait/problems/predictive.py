@@ -92,18 +92,32 @@ IPOPT_OPTIONS = {"tol": 1e-6, "constr_viol_tol": 1e-6}
 
 
 class Start(enum.Enum):
-    """Where a solve starts, which sets Ipopt's barrier strategy.
+    """Where a solve starts, which sets Ipopt's barrier (:data:`BARRIER`).
 
     From a guess that does not solve the problem (the measured motion, or the unedited
     gait for an edited model), the monotone (Fiacco-McCormick) barrier converged where
     the adaptive one ended infeasible or ran out of iterations (measured guess, 40
     nodes; a right-ankle orthosis on a full cycle); from a solution of the problem with
-    other weights or on another grid, the adaptive barrier converged where the monotone
-    one, restarting at mu = 0.1, wandered for 1000 iterations (bundled trial, 40-50 nodes).
+    other weights, the adaptive barrier converged where the monotone one, restarting at
+    mu = 0.1, wandered for 1000 iterations (bundled trial, 40-50 nodes). From a solution
+    of the same problem on another grid, resampled, the monotone barrier from mu = 1e-4
+    stays by it: 40 intervals onto 44 / 50 / 60 took 30 / 24 / 53 iterations (adaptive
+    38 / 19 / 63, same optima), 20 onto 24 took 62 iterations to the same gait (2.1 deg),
+    where the adaptive barrier ran out of 1000 iterations and the monotone one from
+    mu = 0.1 found another gait (30 deg away).
     """
 
-    MEASURED = "monotone"
-    SOLUTION = "adaptive"
+    MEASURED = "measured"
+    SOLUTION = "solution"
+    RESAMPLED = "resampled"
+
+
+#: Ipopt's barrier settings for each :class:`Start`.
+BARRIER = {Start.MEASURED: {"mu_strategy": "monotone"},
+           Start.SOLUTION: {"mu_strategy": "adaptive"},
+           Start.RESAMPLED: {"mu_strategy": "monotone", "mu_init": 1e-4}}
+
+
 JOINT_RATE_BOUND = 15.0            # rad/s
 JOINT_ACCELERATION_BOUND = 500.0   # rad/s^2
 
@@ -309,7 +323,7 @@ class PredictiveProblem:
         if start not in self._solvers:
             opts = {"ipopt": {"print_level": 0, "sb": "yes", "max_iter": self._max_iter,
                               "linear_solver": "mumps", "hessian_approximation": "exact",
-                              "mu_strategy": start.value, **IPOPT_OPTIONS},
+                              **BARRIER[start], **IPOPT_OPTIONS},
                     "print_time": False}
             self._solvers[start] = cs.nlpsol("gait7_predictive", "ipopt", self._nlp, opts)
         return self._solvers[start]

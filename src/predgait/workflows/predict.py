@@ -149,7 +149,8 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
     """Solve ``spec`` on ``model`` (default: the unedited gait7) and check the result.
 
     ``guess`` defaults to the staged start (measured motion, tracking, grid continuation);
-    ``start`` (Ipopt's barrier, :class:`Start`) to SOLUTION when a guess is given.
+    ``start`` (Ipopt's barrier, :class:`Start`) to SOLUTION when a guess is given,
+    RESAMPLED when it is the grid continuation's.
 
     Raises:
         SolveFailed: Ipopt did not converge (message: status, iterations, violation).
@@ -174,6 +175,8 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
     stages = []
     if guess is None and spec.weights.tracking == 0:
         guess, stages = _staged_guess(spec, model, kw)
+        if start is None and stages[-1][0].startswith("predictive"):
+            start = Start.RESAMPLED
     if start is None:
         start = Start.MEASURED if guess is None else Start.SOLUTION
     gait = problem.solve(guess or measured.guess, measured.reference, spec.weights,
