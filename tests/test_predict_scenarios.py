@@ -130,10 +130,12 @@ def test_other_grids_start_from_the_coarse_solution_resampled(monkeypatch, basel
 
     monkeypatch.setattr(workflow, "START_INTERVALS", SPEC.nodes)
     fine = predict(replace(SPEC, nodes=SPEC.nodes + 4))
-    assert [what for what, _ in fine.stages] == ["tracking on 20 intervals",
-                                                 "predictive on 20 intervals"]
-    assert fine.stages[1][1].objective == pytest.approx(baseline.gait.solved.objective,
-                                                        rel=1e-6)
+    # (a start that failed on this machine's floating-point path is a stage of its own)
+    solved = [(what, s) for what, s in fine.stages if s.success]
+    assert all(what.endswith("(failed)") for what, s in fine.stages if not s.success)
+    assert [what for what, _ in solved] == ["tracking on 20 intervals",
+                                            "predictive on 20 intervals"]
+    assert solved[1][1].objective == pytest.approx(baseline.gait.solved.objective, rel=1e-6)
     assert fine.gait.solved.success and fine.gait.t.size == SPEC.nodes + 5
     assert np.abs(fine.residuals["base_residual_n"]).max() < 1e-3
     # the refined gait stays the coarse one: same stances, angles within a few degrees

@@ -104,7 +104,9 @@ class Start(enum.Enum):
     stays by it: 40 intervals onto 44 / 50 / 60 took 30 / 24 / 53 iterations (adaptive
     38 / 19 / 63, same optima), 20 onto 24 took 62 iterations to the same gait (2.1 deg),
     where the adaptive barrier ran out of 1000 iterations and the monotone one from
-    mu = 0.1 found another gait (30 deg away).
+    mu = 0.1 found another gait (30 deg away). Which barrier converges also depends on
+    the machine's floating-point kernels: a solve that fails is restarted with the others
+    (``workflows.predict.RESTARTS``).
     """
 
     MEASURED = "measured"

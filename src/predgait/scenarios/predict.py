@@ -24,7 +24,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from predgait.errors import SolveFailed
 from predgait.kinematics.clinical import clinical_joint
 from predgait.models.anthropometry import leg_from_subject
 from predgait.models.gait7 import build_gait7_urdf
@@ -96,21 +95,17 @@ def edited_prediction(spec: PredictSpec, model: Model, bounds, springs,
                       baseline: Prediction) -> Prediction:
     """The edited model's prediction from the unedited gait.
 
-    First with Ipopt's adaptive barrier (a null edit then stays at the unedited optimum);
-    if that fails, again with the monotone one (a right-ankle orthosis on a full cycle:
-    adaptive ran out of 1000 iterations, monotone converged in 260). See :class:`Start`.
+    Started as from a solution, with Ipopt's adaptive barrier (a null edit then stays at
+    the unedited optimum); if that fails, ``predict`` restarts with the other barriers
+    (a right-ankle orthosis on a full cycle: adaptive ran out of 1000 iterations, monotone
+    from mu = 0.1 converged in 260). See :class:`Start` and ``RESTARTS``.
 
     Raises:
-        SolveFailed: Both failed (the monotone attempt's status and violation).
+        SolveFailed: Every start failed (the last attempt's status and violation).
     """
     g = baseline.gait
-    guess = Guess(g.q, g.v, g.a)
-    try:
-        return predict(spec, model, bounds=bounds, springs=springs, guess=guess,
-                       start=Start.SOLUTION)
-    except SolveFailed:
-        return predict(spec, model, bounds=bounds, springs=springs, guess=guess,
-                       start=Start.MEASURED)
+    return predict(spec, model, bounds=bounds, springs=springs, guess=Guess(g.q, g.v, g.a),
+                   start=Start.SOLUTION)
 
 
 def run_predicted_scenario(scenario, spec: PredictSpec) -> PredictedScenario:

@@ -45,6 +45,10 @@ TRACKING_STAGE = Weights(tracking=1.0, grf=10.0, effort=1e-2, acceleration=1e-4)
 #: motion directly, 50 intervals ended in a stuttering gait (3 stances per foot); from
 #: the 40-interval gait resampled, in the same walking gait refined (17 iterations).
 START_INTERVALS = 40
+#: The starts (Ipopt barriers, :class:`Start`) tried in turn by a solve from each start.
+RESTARTS = {Start.MEASURED: (Start.MEASURED,),
+            Start.SOLUTION: (Start.SOLUTION, Start.RESAMPLED, Start.MEASURED),
+            Start.RESAMPLED: (Start.RESAMPLED, Start.SOLUTION, Start.MEASURED)}
 
 
 @dataclass(frozen=True)
@@ -174,13 +178,13 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
           "bounds": default_bounds() if bounds is None else bounds}
     stages = []
     if guess is None and spec.weights.tracking == 0:
-        guess, stages = _staged_guess(spec, model, kw)
-        if start is None and stages[-1][0].startswith("predictive"):
+        guess, stages, resampled = _staged_guess(spec, model, kw)
+        if start is None and resampled:
             start = Start.RESAMPLED
     if start is None:
         start = Start.MEASURED if guess is None else Start.SOLUTION
-    gait = problem.solve(guess or measured.guess, measured.reference, spec.weights,
-                         start=start, **kw)
+    gait = _solve(problem, guess or measured.guess, measured.reference, spec.weights, kw,
+                  start=start, what=f"predictive on {spec.nodes} intervals", failed=stages)
     _check_solved(gait, "solve")
     residuals = node_residuals(model, gait, spec.contact, spec.ground_z, springs)
     stride = full_stride(model, gait)
@@ -194,7 +198,7 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
                       tuple(stages))
 
 
-def _staged_guess(spec: PredictSpec, model: Model, kw: dict) -> tuple[Guess, list]:
+def _staged_guess(spec: PredictSpec, model: Model, kw: dict) -> tuple[Guess, list, bool]:
     """Guess of a predictive solve: tracking, then predictive on START_INTERVALS, resampled.
 
     The tracking stage starts from the measured motion; on a grid other than the final
@@ -213,11 +217,32 @@ def _staged_guess(spec: PredictSpec, model: Model, kw: dict) -> tuple[Guess, lis
     stages = [(f"tracking on {coarse.nodes} intervals", first.solved)]
     guess = Guess(first.q, first.v, first.a)
     if coarse.nodes == spec.nodes:
-        return guess, stages
-    second = problem.solve(guess, measured.reference, spec.weights, start=Start.SOLUTION, **kw)
+        return guess, stages, False
+    what = f"predictive on {coarse.nodes} intervals"
+    second = _solve(problem, guess, measured.reference, spec.weights, kw,
+                    start=Start.SOLUTION, what=what, failed=stages)
     _check_solved(second, f"predictive stage on {coarse.nodes} intervals")
-    stages.append((f"predictive on {coarse.nodes} intervals", second.solved))
-    return resampled_guess(second, spec.nodes), stages
+    stages.append((what, second.solved))
+    return resampled_guess(second, spec.nodes), stages, True
+
+
+def _solve(problem, guess, reference, weights, kw: dict, *, start: Start, what: str,
+           failed: list) -> PredictedGait:
+    """Solve from ``start``; if Ipopt fails, again from the same guess with the next start.
+
+    Ipopt's path through this non-convex problem depends on the machine's floating-point
+    kernels: from the 20-interval tracking stage the adaptive barrier reached the
+    predictive optimum with OpenBLAS's SkylakeX kernels and ended "infeasible" after 572
+    iterations with its Haswell kernels, where the monotone barrier from mu = 1e-4
+    converged (76 iterations, objective 0.359). Each failed attempt is appended to
+    ``failed`` as a ``(what, Solved)`` stage.
+    """
+    tries = RESTARTS[start]
+    for attempt in tries:
+        gait = problem.solve(guess, reference, weights, start=attempt, **kw)
+        if gait.solved.success or attempt is tries[-1]:
+            return gait
+        failed.append((f"{what} from a {attempt.value} start (failed)", gait.solved))
 
 
 def _check_solved(gait: PredictedGait, what: str) -> None:
