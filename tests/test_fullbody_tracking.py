@@ -92,7 +92,7 @@ def test_assembled_derivatives_equal_automatic_differentiation():
     d = problem.derivatives
     np.testing.assert_allclose(cs.densify(d["jac_g"](point, [])[1]), jac, atol=1e-9,
                                rtol=1e-9)
-    np.testing.assert_allclose(np.ravel(d["grad_f"](point, [])[1]), np.ravel(grad),
+    np.testing.assert_allclose(np.asarray(d["grad_f"](point, [])[1]).ravel(), np.ravel(grad),
                                atol=1e-9, rtol=1e-9)
     np.testing.assert_allclose(cs.densify(d["hess_lag"](point, [], 0.7, weights)), hess,
                                atol=1e-7, rtol=1e-9)
