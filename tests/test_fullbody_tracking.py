@@ -280,13 +280,17 @@ def test_cli_bad_window_names_the_key(tmp_path, capsys):
     assert not (tmp_path / "x").exists()
 
 
-def test_contact_frames_name_their_foot():
+def test_contact_frames_are_sole_points_that_name_their_foot():
     from predgait.errors import InputError
     from predgait.problemfile import load_problem
     from predgait.workflows.fullbody_tracking import parse_tracking
 
-    with pytest.raises(InputError, match=r"contact\.frames.*'nose'.*_r or _l"):
-        parse_tracking(load_problem(PROBLEM, ['contact.frames=["heel_contact_r", "nose"]']))
+    with pytest.raises(InputError, match=r"contact\.frames.*'nose', 'sternum': not a sole "
+                                         r"point.*heel_contact_r.*toe_lateral_contact_l"):
+        parse_tracking(load_problem(PROBLEM, ['contact.frames=["heel_contact_r", "nose", '
+                                              '"sternum"]']))
+    with pytest.raises(InputError, match=r"_r or _l"):
+        point_feet(("heel_contact_r", "toe"))
     spec = parse_tracking(load_problem(PROBLEM, [f"contact.frames={list(SOLE_EDGES)}"
                                                  .replace("'", '"')]))
     assert spec.contact.frames == SOLE_EDGES

@@ -95,6 +95,9 @@ def node_function(model: Model3D, points: tuple[str, ...] = POINTS) -> cs.Functi
 #: (joints 29, velocities 35, pelvis position 3, pelvis rotation 3), weights. Those that
 #: grow with the P contact points: :class:`StageFunctions` (nz, nparams, ng).
 NQ, NI, NW = 105, 70, 7
+#: Node parameters before the contact flags (q_ref, v_ref, a_ref) and after them (foot
+#: forces 6, COPs 6, free moments 2, floor height, belt velocity, compliance, mu, ramp).
+NP_MOTION, NP_PLATES = 106, 19
 #: Weight of the point forces' own cost relative to the foot-force tracking.
 REGULARISATION = 1e-4
 #: Unit of the force unknowns, N: forces of hundreds of N as numbers of order one (on
@@ -141,7 +144,7 @@ class StageFunctions:
     @property
     def nparams(self) -> int:
         """Parameters per node."""
-        return 106 + len(self.points) + 19
+        return NP_MOTION + len(self.points) + NP_PLATES
 
     @property
     def ng(self) -> int:
@@ -156,10 +159,10 @@ def stage_functions(model: Model3D, points: tuple[str, ...] = POINTS) -> StageFu
     feet = point_feet(points)
     count = len(points)
     nz = NQ + 3 * count
-    z, p, w = cs.SX.sym("z", nz), cs.SX.sym("p", 125 + count), cs.SX.sym("w", NW)
+    z, p, w = cs.SX.sym("z", nz), cs.SX.sym("p", NP_MOTION + count + NP_PLATES), cs.SX.sym("w", NW)
     dx, v, a, f = z[:35], z[35:70], z[70:105], FORCE_UNIT * z[105:]
-    q_ref, v_ref, a_ref, on = p[:36], p[36:71], p[71:106], p[106:106 + count]
-    rest = p[106 + count:]
+    q_ref, v_ref, a_ref, on = p[:36], p[36:71], p[71:NP_MOTION], p[NP_MOTION:NP_MOTION + count]
+    rest = p[NP_MOTION + count:]
     force_t, cop, free_moment = rest[:6], rest[6:12], rest[12:14]
     ground_z, belt, compliance, mu, ramp = rest[14], rest[15], rest[16], rest[17], rest[18]
     eom, points_xyz, rot, pos, point_vel = node(q_ref, dx, v, a, f)

@@ -29,6 +29,7 @@ import numpy as np
 
 from predgait.dynamics.floating_lqr import FloatingWeights
 from predgait.errors import InputError
+from predgait.models.fullbody import CONTACTS, SOLE_EDGES
 from predgait.problemfile import Table
 from predgait.problems.fullbody_tracking import (
     TrackingData,
@@ -81,10 +82,11 @@ def parse_tracking(table: Table) -> TrackingSpec:
     fb = FloatingWeights()
     feedback.check_keys((*vars(fb), "step"))
     contact = parse_contact(table)
-    try:
-        point_feet(contact.frames)
-    except InputError as exc:
-        raise table.table("contact").error("frames", str(exc)) from None
+    unknown = [f for f in contact.frames if f not in CONTACTS + SOLE_EDGES]
+    if unknown:
+        raise table.table("contact").error(
+            "frames", f"{', '.join(map(repr, unknown))}: not a sole point of the body; "
+            f"use some of {', '.join(CONTACTS + SOLE_EDGES)}.")
     return TrackingSpec(
         trial=parse_trial(table), contact=contact,
         window=None if start is None else (start, end),
