@@ -147,9 +147,35 @@ def test_sigterm_mid_run_leaves_no_staging_folder(tmp_path):
     assert list(tmp_path.glob(".res.predgait-*")), "the run never started staging"
     process.send_signal(signal.SIGTERM)
     _, err = process.communicate(timeout=60)
-    assert process.returncode == 130, err
-    assert "Traceback" not in err
+    assert process.returncode == 143, err
+    assert "terminated; no output was completed" in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
+
+
+TERMINATED_INSIDE_EXEC = """
+import argparse, sys
+from predgait import cli
+
+def run(args):  # SIGTERM lands inside an exec of a string, as while a dataclass is built
+    exec("import os, signal\\nos.kill(os.getpid(), signal.SIGTERM)\\nwhile True: pass")
+
+class Parser:
+    def parse_args(self, argv):
+        return argparse.Namespace(verbose=False, run=run)
+
+cli.build_parser = Parser
+sys.exit(cli.main([]))
+"""
+
+
+def test_sigterm_inside_exec_still_exits_with_its_status(tmp_path):
+    """Under ``python -m`` a handled KeyboardInterrupt that left an exec'd string made
+    CPython end the process by SIGINT (exit -2 in CI); SIGTERM is now its own exception."""
+    (tmp_path / "terminated_run.py").write_text(TERMINATED_INSIDE_EXEC)
+    done = subprocess.run([sys.executable, "-m", "terminated_run"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 143, done.stderr
+    assert done.stderr.strip() == "predgait: terminated; no output was completed."
 
 
 def test_provenance_names_bundled_files_and_user_paths(tmp_path, monkeypatch, capsys):

@@ -1,7 +1,8 @@
 """The ``predgait`` command line: one module per command, each with ``register``.
 
 Every command reports user errors (:class:`predgait.errors.PredgaitError`) as one line
-``predgait: error: ...`` on stderr and exits with status 2; no traceback.
+``predgait: error: ...`` on stderr and exits with status 2; no traceback. Interrupted
+runs leave no output and exit 130 (Ctrl-C) or 143 (SIGTERM).
 """
 
 from __future__ import annotations
@@ -96,17 +97,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("predgait: interrupted; no output was completed.", file=sys.stderr)
         return 130
+    except Terminated:
+        print("predgait: terminated; no output was completed.", file=sys.stderr)
+        return 128 + signal.SIGTERM
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
 
 
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so staging folders are removed on the way out.
+
+    Not a KeyboardInterrupt: CPython (3.11) remembers a KeyboardInterrupt that leaves an
+    ``exec`` of a string (dataclasses and namedtuples are built that way while modules are
+    imported) and, under ``python -m``, ends the process by SIGINT after ``main`` returned,
+    even though the exception was handled.
+    """
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated
 
 
 def _interrupt_on_sigterm():
-    """Turn SIGTERM into KeyboardInterrupt, so staging folders are removed on the way out.
+    """Turn SIGTERM into :class:`Terminated`, so staging folders are removed on the way out.
 
     Returns the previous handler (None when not in the main thread, where Python cannot
     install one).
@@ -115,7 +129,7 @@ def _interrupt_on_sigterm():
 
     if threading.current_thread() is not threading.main_thread():
         return None
-    return signal.signal(signal.SIGTERM, _raise_interrupt)
+    return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
 if __name__ == "__main__":  # pragma: no cover
