@@ -167,6 +167,6 @@ def test_sigterm_stops_a_local_sweep_at_once(tmp_path, monkeypatch, capsys):
     status = main(["sweep", str(problem), "--workers", "2", "--out", "res"])
     seconds = time.perf_counter() - started
     timer.join()
-    assert status == 130, capsys.readouterr().err
+    assert status == 143, capsys.readouterr().err
     assert seconds < 3.0 + 2.0  # not 12 points x 3 s / 2 workers = 18 s
     assert list(tmp_path.iterdir()) == []
