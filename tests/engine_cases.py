@@ -136,7 +136,7 @@ def resynthesis_answers() -> dict[str, np.ndarray]:
 
 def gait7_answers() -> dict[str, np.ndarray]:
     """problems/gait7_contact.toml: the kinematic run and the main knee-driven run."""
-    from predgait.simulations.gait7_motion import bundled_gait7_motion, gait7_model
+    from predgait.dynamics.gait7_motion import bundled_gait7_motion, gait7_model
     from predgait.simulations.gait7_sim import kinematic_run, knee_run
 
     spec = _spec("gait7")

@@ -55,6 +55,16 @@ class SampledHistory:
         self._last = None
         self._sampled = None  # (times, rows) of the latest sample()
 
+    @property
+    def time(self) -> np.ndarray:
+        """(n,) sample times, s (not to be modified)."""
+        return self._time
+
+    @property
+    def values(self) -> np.ndarray:
+        """(n, k) samples (not to be modified)."""
+        return self._values
+
     def __call__(self, t: float) -> np.ndarray:
         """Interpolated (k,) row at t (s), held at the end values outside the range."""
         if t == self._last_t:
@@ -94,21 +104,23 @@ class SampledHistory:
         return evaluate
 
 
-class _Columns:
-    """Some columns of a history: t -> (k,); ``sample(times)`` -> (m, k)."""
+class Columns:
+    """Some columns of a history: t -> (k,); ``sample(times)`` -> (m, k).
+
+    Attributes:
+        history: the :class:`SampledHistory`. columns: the slice of its columns.
+    """
 
     def __init__(self, history: SampledHistory, columns: slice):
         self.history, self.columns = history, columns
 
     def __call__(self, t: float) -> np.ndarray:
+        """The (k,) columns at t (s)."""
         return self.history(t)[self.columns]
 
     def sample(self, times: np.ndarray) -> np.ndarray:
+        """The (m, k) columns at the (m,) ``times``."""
         return self.history.sample(times)[:, self.columns]
-
-
-def _columns(history: SampledHistory, columns: slice) -> TimeFunction:
-    return _Columns(history, columns)
 
 
 def sample(function: TimeFunction, times: np.ndarray) -> np.ndarray:
@@ -230,15 +242,15 @@ class LegDrivers:
         q, qd, qdd, tau = (np.asarray(a, dtype=float) for a in (q, qd, qdd, tau))
         stacked = np.column_stack([q, qd, qdd, tau[:, 3:5], hip_force, hip_moment])
         history = SampledHistory(time, stacked, name="leg drivers")
-        return cls(prescribed_q=_columns(history, slice(0, 3)),
-                   prescribed_qd=_columns(history, slice(5, 8)),
-                   prescribed_qdd=_columns(history, slice(10, 13)),
-                   joint_torque=_columns(history, slice(15, 17)),
-                   hip_force=_columns(history, slice(17, 20)),
-                   hip_moment=_columns(history, slice(20, 23)),
-                   reference_q=_columns(history, slice(0, 5)),
-                   reference_qd=_columns(history, slice(5, 10)),
-                   reference_qdd=_columns(history, slice(10, 15)),
+        return cls(prescribed_q=Columns(history, slice(0, 3)),
+                   prescribed_qd=Columns(history, slice(5, 8)),
+                   prescribed_qdd=Columns(history, slice(10, 13)),
+                   joint_torque=Columns(history, slice(15, 17)),
+                   hip_force=Columns(history, slice(17, 20)),
+                   hip_moment=Columns(history, slice(20, 23)),
+                   reference_q=Columns(history, slice(0, 5)),
+                   reference_qd=Columns(history, slice(5, 10)),
+                   reference_qdd=Columns(history, slice(10, 15)),
                    time_range=(history.t0, history.t1))
 
     @classmethod

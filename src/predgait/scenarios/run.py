@@ -109,7 +109,7 @@ def parse_scenario(table: Table) -> ScenarioSpec:
         raise table.error("side", f"'{side}' is not one of: {', '.join(sides)}.")
     predict = None
     if predicts:
-        from predgait.workflows.predict import parse_predict
+        from predgait.problems.predictive_solve import parse_predict
 
         predict = parse_predict(table.table("predict"))
     elif table.has("predict"):

@@ -38,6 +38,7 @@ from predgait.dynamics.forces import (
     PassiveTorques,
     passive_generalized,
 )
+from predgait.dynamics.gait7_motion import SIDES, Gait7Motion
 from predgait.dynamics.integrators import IntegratorOptions
 from predgait.dynamics.motion import MotionHistory
 from predgait.dynamics.partitioned import (
@@ -51,7 +52,6 @@ from predgait.dynamics.roots import brentq
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model
-from predgait.simulations.gait7_motion import SIDES, Gait7Motion
 
 FEET = {"right": ("heel_r", "toe_r"), "left": ("heel_l", "toe_l")}
 
