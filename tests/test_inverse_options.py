@@ -239,14 +239,13 @@ def test_fullbody_tables_are_nan_at_flagged_frames(tmp_path):
     import dataclasses
 
     from predgait.data import read_storage, read_trc
-    from predgait.workflows.inverse3d import (
+    from predgait.dynamics.inverse3d_trial import (
         clinical,
         inverse_fullbody,
         read_marker_map,
         read_trial,
-        summary,
-        write_outputs,
     )
+    from predgait.workflows.inverse3d import summary, write_outputs
 
     data = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"
     markers, plates = read_trial([data / "subject01_walk1.trc",

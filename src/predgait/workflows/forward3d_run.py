@@ -28,7 +28,7 @@ from predgait.workflows.trials import bundled_fullbody_files
 
 def inverse_for(trial: TrialSpec):
     """Whole-body IK + ID of the spec's trial (an Inverse3DResult)."""
-    from predgait.workflows.inverse3d import inverse_fullbody, read_marker_map, read_trial
+    from predgait.dynamics.inverse3d_trial import inverse_fullbody, read_marker_map, read_trial
 
     if trial.files is None:
         files, static, mass, height = bundled_fullbody_files(trial.static)
