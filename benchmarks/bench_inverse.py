@@ -166,7 +166,8 @@ def whole_process_rows(repeat: int) -> list[Row]:
 
 def breakdown_rows(repeat: int) -> list[Row]:
     """Where the whole `predgait inverse` process goes: imports, compute, files (no peer)."""
-    from predgait.dynamics.inverse_trial import bundled_options, run_inverse
+    from predgait.dynamics.inverse_options import bundled_options
+    from predgait.dynamics.inverse_trial import run_inverse
     from predgait.workflows.inverse_io import write_inverse_outputs
 
     imports = time_process([sys.executable, "-c", "import predgait.cli.inverse, "
@@ -189,7 +190,8 @@ def breakdown_rows(repeat: int) -> list[Row]:
 
 def stage_rows() -> None:
     """Print the stages of run_inverse on subject01 (no peer)."""
-    from predgait.dynamics.inverse_trial import bundled_options, run_inverse
+    from predgait.dynamics.inverse_options import bundled_options
+    from predgait.dynamics.inverse_trial import run_inverse
 
     options = bundled_options("right")
     total = time_call(lambda: run_inverse(options), 3)

@@ -28,7 +28,8 @@ from predgait.dynamics.gait7_motion import (
     gait7_model,
 )
 from predgait.dynamics.integrators import IntegratorOptions, Method
-from predgait.dynamics.inverse_trial import bundled_options, read_trial
+from predgait.dynamics.inverse_options import bundled_options
+from predgait.dynamics.leg_measurements import read_trial
 from predgait.dynamics.partitioned import PartitionedSystem
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError

@@ -6,12 +6,8 @@ import pytest
 
 from predgait.dynamics.external import Load, joint_forces
 from predgait.dynamics.inverse import leg_inverse_dynamics
-from predgait.dynamics.inverse_trial import (
-    bundled_inverse,
-    bundled_options,
-    run_inverse,
-    with_options,
-)
+from predgait.dynamics.inverse_options import bundled_options, with_options
+from predgait.dynamics.inverse_trial import bundled_inverse, run_inverse
 from predgait.kinematics import clinical
 from predgait.kinematics.joint_centres import (
     calibrate_centre,
@@ -266,7 +262,7 @@ def test_same_trial_through_csv_gives_the_same_moments(tmp_path):
 
 
 def test_walking5_c3d_both_plates(shared_data):
-    from predgait.dynamics.inverse_trial import InverseOptions
+    from predgait.dynamics.inverse_options import InverseOptions
 
     results = {}
     for side, s in (("right", "R"), ("left", "L")):

@@ -15,12 +15,8 @@ from predgait.cli.inverse import options_from_args
 from predgait.data.cutoffs import CutoffRule, parse_cutoff
 from predgait.data.resample import contact_frames, threshold_plate
 from predgait.data.trial import ForcePlate
-from predgait.dynamics.inverse_trial import (
-    THRESHOLD,
-    bundled_options,
-    run_inverse,
-    with_options,
-)
+from predgait.dynamics.inverse_options import THRESHOLD, bundled_options, with_options
+from predgait.dynamics.inverse_trial import run_inverse
 from predgait.errors import InputError
 from predgait.kinematics.bounded_ik import bounded_step
 from predgait.kinematics.planar_ik import solve_ik

@@ -18,14 +18,13 @@ from predgait.data import read_grf_mot, read_trc, write_csv, write_storage
 from predgait.data.frames import OPENSIM_TO_LAB
 from predgait.dynamics.external import Load
 from predgait.dynamics.inverse import leg_inverse_dynamics
-from predgait.dynamics.inverse_trial import (
+from predgait.dynamics.inverse_options import (
     InverseOptions,
-    bundled_inverse,
     bundled_options,
-    run_inverse,
     subject01_points,
     with_options,
 )
+from predgait.dynamics.inverse_trial import bundled_inverse, run_inverse
 from predgait.errors import InputError
 from predgait.kinematics import clinical
 from predgait.models.loading import load_model

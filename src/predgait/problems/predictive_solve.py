@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from predgait.dynamics.contact import HuntCrossleyContact
-from predgait.dynamics.inverse_trial import bundled_source
+from predgait.dynamics.inverse_options import bundled_source
 from predgait.errors import SolveFailed
 from predgait.models.gait7 import LIMITS
 from predgait.models.loading import Model

@@ -26,7 +26,8 @@ from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, SimulationResult, simulate_leg
 from predgait.dynamics.integrators import IntegratorOptions, Method
-from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse, bundled_source
+from predgait.dynamics.inverse_options import bundled_source
+from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
 from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError, SimulationDiverged
 from predgait.kinematics.clinical import JOINT_SIGN

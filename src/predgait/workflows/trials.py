@@ -15,7 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from predgait.dynamics.inverse_trial import InverseOptions, InverseResult, bundled_source
+from predgait.dynamics.inverse_options import InverseOptions, bundled_source
+from predgait.dynamics.inverse_trial import InverseResult
 from predgait.problemfile import Table
 
 SIDES = ("right", "left")
@@ -39,7 +40,7 @@ class LegTrial:
         if self.direct is not None:
             return self.direct
         if self.inverse_problem is None:
-            from predgait.dynamics.inverse_trial import bundled_options
+            from predgait.dynamics.inverse_options import bundled_options
 
             return bundled_options(self.side)
         from predgait.problemfile import load_problem
