@@ -107,7 +107,7 @@ def synthetic_trial(tmp_path, *, rotation=None):
     feet = frame_positions(model, leg_motion(t_plate)[0])
     ours = ground_reaction(t_plate, feet["heel"], feet["toe"])
     # The other foot: loaded 0.55 m behind, over an overlapping window (must be ignored).
-    other = tuple(np.array(a) for a in ground_reaction(t_plate - 0.7, feet["heel"] - [0.55, 0, 0],
+    other = tuple(np.array(x) for x in ground_reaction(t_plate - 0.7, feet["heel"] - [0.55, 0, 0],
                                                        feet["toe"] - [0.55, 0, 0]))
     write_grf_mot(tmp_path / "grf.mot", t_plate, [other, ours], rotation=rotation)
     exact_grf = ground_reaction(t, *(frame_positions(model, q)[n] for n in ("heel", "toe")))

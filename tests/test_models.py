@@ -176,7 +176,7 @@ def test_rod_matches_thesis_equations():
         np.testing.assert_allclose(qdd, expected, atol=1e-10)
         # Body-based: the same forces in rod axes (x across, z along the rod), 3.2.26-28.
         c, s = np.cos(theta), np.sin(theta)
-        body = {k: (v[0] * c - v[1] * s, v[0] * s + v[1] * c) for k, v in
+        body = {k: (f[0] * c - f[1] * s, f[0] * s + f[1] * c) for k, f in
                 (("A", f_a), ("B", f_b))}
         x_dd = ((body["A"][0] + body["B"][0]) * c + (body["A"][1] + body["B"][1]) * s) / m
         z_dd = (-(body["A"][0] + body["B"][0]) * s + (body["A"][1] + body["B"][1]) * c

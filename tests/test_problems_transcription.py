@@ -41,9 +41,9 @@ def test_adam_forward_dynamics_and_jacobians_equal_pinocchio_aba_derivatives(leg
     for _ in range(5):
         qn, vn, taun = rng.normal(0, 0.5, leg.nq), rng.normal(0, 1, leg.nq), \
             rng.normal(0, 20, leg.nq)
-        a, da_dq, da_dv, da_dtau = (np.array(m) for m in jacobians(qn, vn, taun))
+        acc, da_dq, da_dv, da_dtau = (np.array(m) for m in jacobians(qn, vn, taun))
         pin.computeABADerivatives(leg.pin_model, data, qn, vn, taun)
-        np.testing.assert_allclose(a.ravel(), data.ddq, rtol=1e-8, atol=1e-8)
+        np.testing.assert_allclose(acc.ravel(), data.ddq, rtol=1e-8, atol=1e-8)
         # Joint columns (ankle, knee) against Pinocchio's analytical derivatives. For the
         # composite root (PX-PZ-RY) pin 4.1 differentiates in the joint's local frame
         # (translation rates rotating with the pitch), not the plain partial derivative,

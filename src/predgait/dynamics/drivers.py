@@ -239,7 +239,7 @@ class LegDrivers:
             hip_force: (n, 3) N.
             hip_moment: (n, 3) N m.
         """
-        q, qd, qdd, tau = (np.asarray(a, dtype=float) for a in (q, qd, qdd, tau))
+        q, qd, qdd, tau = (np.asarray(x, dtype=float) for x in (q, qd, qdd, tau))
         stacked = np.column_stack([q, qd, qdd, tau[:, 3:5], hip_force, hip_moment])
         history = SampledHistory(time, stacked, name="leg drivers")
         return cls(prescribed_q=Columns(history, slice(0, 3)),

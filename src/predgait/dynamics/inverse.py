@@ -122,7 +122,7 @@ def leg_inverse_dynamics(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.nd
     """
     pm = model.pin_model
     data = pm.createData()
-    q, qd, qdd = (np.asarray(a, dtype=float) for a in (q, qd, qdd))
+    q, qd, qdd = (np.asarray(x, dtype=float) for x in (q, qd, qdd))
     n = len(q)
     ankle, knee = pm.getJointId("ankle"), pm.getJointId("knee")
     hip_frame = pm.frames[model.frame_id("hip_center")]
