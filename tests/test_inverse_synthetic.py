@@ -45,11 +45,11 @@ def leg_motion(t):
     phase = np.array([0.0, 1.0, 0.5, 2.0, 1.0])
     arg = w * t[:, None] + phase
     q = mean + amp * np.sin(arg)
-    qd = amp * w * np.cos(arg)
-    qdd = -amp * w**2 * np.sin(arg)
+    v = amp * w * np.cos(arg)
+    a = -amp * w**2 * np.sin(arg)
     q[:, 0] += SPEED * t
-    qd[:, 0] += SPEED
-    return q, qd, qdd
+    v[:, 0] += SPEED
+    return q, v, a
 
 
 def frame_positions(model, q):
@@ -101,7 +101,7 @@ def synthetic_trial(tmp_path, *, rotation=None):
     model = load_model("leg")
     (tmp_path / "leg.urdf").write_text(model.urdf)
     t = np.arange(0.0, 2.4 + 1e-9, 1 / MARKER_RATE)
-    q, qd, qdd = leg_motion(t)
+    q, v, a = leg_motion(t)
     write_markers_csv(tmp_path / "markers.csv", t, frame_positions(model, q), rotation=rotation)
     t_plate = np.arange(0.0, 2.4 + 1e-9, 1 / PLATE_RATE)
     feet = frame_positions(model, leg_motion(t_plate)[0])
@@ -112,7 +112,7 @@ def synthetic_trial(tmp_path, *, rotation=None):
     write_grf_mot(tmp_path / "grf.mot", t_plate, [other, ours], rotation=rotation)
     exact_grf = ground_reaction(t, *(frame_positions(model, q)[n] for n in ("heel", "toe")))
     loads = [[Load("foot", f, point=c, moment=m)] for f, c, m in zip(*exact_grf, strict=True)]
-    exact = leg_inverse_dynamics(model, q, qd, qdd, loads)
+    exact = leg_inverse_dynamics(model, q, v, a, loads)
     options = InverseOptions(markers=tmp_path / "markers.csv", grf=tmp_path / "grf.mot",
                              mass=72.6, model=tmp_path / "leg.urdf", points=MARKER_NAMES)
     return options, dict(t=t, q=q, force=exact_grf[0], cop=exact_grf[1],

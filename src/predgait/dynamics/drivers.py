@@ -226,21 +226,21 @@ class LegDrivers:
         return self.reference_q(t), self.reference_qd(t)
 
     @classmethod
-    def from_samples(cls, time, q, qd, qdd, tau, hip_force, hip_moment) -> LegDrivers:
+    def from_samples(cls, time, q, v, a, tau, hip_force, hip_moment) -> LegDrivers:
         """Drivers interpolating sampled histories (all arrays with n rows).
 
         Args:
             time: (n,) s.
             q: (n, 5) leg coordinates (m, rad); the base columns are prescribed, the
                 joint columns are the reference motion.
-            qd: (n, 5) velocities.
-            qdd: (n, 5) accelerations.
+            v: (n, 5) velocities.
+            a: (n, 5) accelerations.
             tau: (n, 5) generalised forces; columns 3:5 are the ankle, knee torques.
             hip_force: (n, 3) N.
             hip_moment: (n, 3) N m.
         """
-        q, qd, qdd, tau = (np.asarray(x, dtype=float) for x in (q, qd, qdd, tau))
-        stacked = np.column_stack([q, qd, qdd, tau[:, 3:5], hip_force, hip_moment])
+        q, v, a, tau = (np.asarray(x, dtype=float) for x in (q, v, a, tau))
+        stacked = np.column_stack([q, v, a, tau[:, 3:5], hip_force, hip_moment])
         history = SampledHistory(time, stacked, name="leg drivers")
         return cls(prescribed_q=Columns(history, slice(0, 3)),
                    prescribed_qd=Columns(history, slice(5, 8)),
@@ -257,8 +257,8 @@ class LegDrivers:
     def from_inverse(cls, result, *, torque_offsets=None, passive=None) -> LegDrivers:
         """Drivers from a :class:`predgait.dynamics.inverse_trial.InverseResult`.
 
-        Prescribed foot motion = IK base coordinates (q, qd and the inverse-dynamics
-        qdd, so forward and inverse use the same accelerations); torques = RNEA ankle
+        Prescribed foot motion = IK base coordinates (q, v and the inverse-dynamics
+        a, so forward and inverse use the same accelerations); torques = RNEA ankle
         and knee torques (+ ``torque_offsets`` (n, 2) or (2,) N m, model sign); hip
         load = the solved hip force and moment; reference = IK coordinates.
 
@@ -276,12 +276,12 @@ class LegDrivers:
         if torque_offsets is not None:
             tau[:, 3:5] += np.broadcast_to(np.asarray(torque_offsets, dtype=float),
                                            tau[:, 3:5].shape)
-        drivers = cls.from_samples(result.time, result.q, result.qd, result.qdd, tau,
+        drivers = cls.from_samples(result.time, result.q, result.v, result.a, tau,
                                    result.hip_force, result.hip_moment)
         if not passive:
             return drivers
         offset = SampledHistory(result.time, passive_generalized(
-            result.model, passive, np.asarray(result.q), np.asarray(result.qd)),
+            result.model, passive, np.asarray(result.q), np.asarray(result.v)),
             name="passive moments at the measured motion")
         return replace(drivers, passive=dict(passive), passive_offset=offset)
 

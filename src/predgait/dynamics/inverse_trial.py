@@ -64,8 +64,8 @@ class InverseResult:
     model: Model
     side: str
     q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
     tau: np.ndarray
     hip_force: np.ndarray
     hip_moment: np.ndarray
@@ -110,7 +110,7 @@ class InverseResult:
 
     def clinical_rates(self) -> dict[str, np.ndarray]:
         """Their time derivatives, rad/s (NaN at flagged frames)."""
-        return self._masked(clinical.clinical_angles(self.qd))
+        return self._masked(clinical.clinical_angles(self.v))
 
     def clinical_moments(self) -> dict[str, np.ndarray]:
         """Hip flexion, knee flexion, ankle dorsiflexion moments, N m (NaN at flagged frames)."""
@@ -188,8 +188,8 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
                     markers.time[bad[0]], ik.limited_coordinates() or "not converged")
     time = markers.time
     q = ik.q
-    qd = differentiate(q, time, method="central5")
-    qdd = differentiate(q, time, method="central5", order=2)
+    v = differentiate(q, time, method="central5")
+    a = differentiate(q, time, method="central5", order=2)
     try:
         force, cop, free = foot_grf(trial.plates, time, points["heel"], points["toe"],
                                      options, grf_cutoff)
@@ -202,7 +202,7 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
                          f"{cop_hint(trial.plates, points['heel'], options.threshold)}.")
     contact = (force[:, 2] != 0)[:, None]
     loads = [LoadHistory("foot", np.where(contact, force, 0.0), cop, np.where(contact, free, 0.0))]
-    inv: LegInverse = leg_inverse_dynamics(model, q, qd, qdd, loads)
+    inv: LegInverse = leg_inverse_dynamics(model, q, v, a, loads)
     if has_grf:
         # Events from the unfiltered reaction: low-pass filtering smears the contact edges.
         raw = foot_grf(trial.plates, time, points["heel"], points["toe"], options, None)
@@ -223,7 +223,7 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
         "knee_flexion_standing_deg": float(np.degrees(knee_static)),
     }
     return InverseResult(
-        time=time - t0, model=model, side=str(options.side), q=q, qd=qd, qdd=qdd, tau=inv.tau,
+        time=time - t0, model=model, side=str(options.side), q=q, v=v, a=a, tau=inv.tau,
         hip_force=inv.hip_force, hip_moment=inv.hip_moment, joint_force=inv.joint_force,
         grf=force, cop=cop, free_moment=free, events=events.shifted(t0), ik=ik,
         body_mass=options.mass, has_grf=has_grf, provenance=provenance, leg=leg,

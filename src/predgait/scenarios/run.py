@@ -201,7 +201,7 @@ def _feedback_torque(result: SimulationResult, drivers: LegDrivers, gains) -> np
     ref_q = np.array([drivers.reference_q(t) for t in result.t])
     ref_qd = np.array([drivers.reference_qd(t) for t in result.t])
     return gains[0] * (ref_q[:, 3:] - result.q[:, 3:]) + gains[1] * (ref_qd[:, 3:]
-                                                                    - result.qd[:, 3:])
+                                                                    - result.v[:, 3:])
 
 
 def _drive_and_gains(spec: ScenarioSpec, inverse: InverseResult, drivers: LegDrivers):
@@ -250,7 +250,7 @@ def _metrics(base: SimulationResult, edit: SimulationResult, fb_base, fb_edit, d
         metrics[f"{joint}_feedback_rms_n_m"] = float(np.sqrt(np.mean(fb_edit[:, i] ** 2)))
         metrics[f"{joint}_extra_feedback_rms_n_m"] = float(
             np.sqrt(np.mean((fb_edit[:n, i] - fb_base[:n, i]) ** 2)))
-        power = (tau[:, i] + fb_edit[:, i]) * edit.qd[:, 3 + i]
+        power = (tau[:, i] + fb_edit[:, i]) * edit.v[:, 3 + i]
         metrics[f"{joint}_active_work_j"] = float(np.trapezoid(power, edit.t))
     if edit.grf is not None:
         metrics["peak_vertical_grf_n"] = float(edit.grf[:, 2].max())
