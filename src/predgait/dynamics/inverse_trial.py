@@ -28,7 +28,7 @@ from predgait.data import (
     read_trc,
 )
 from predgait.data.cutoffs import marker_cutoff, plate_cutoff
-from predgait.data.events import Events
+from predgait.data.events import Events, Side
 from predgait.data.frames import rotate_markers
 from predgait.data.trial import ForcePlate, Trial
 from predgait.dynamics.inverse import LegInverse, LoadHistory, leg_inverse_dynamics
@@ -62,7 +62,7 @@ class InverseResult:
 
     time: np.ndarray
     model: Model
-    side: str
+    side: Side
     q: np.ndarray
     v: np.ndarray
     a: np.ndarray
@@ -223,7 +223,7 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
         "knee_flexion_standing_deg": float(np.degrees(knee_static)),
     }
     return InverseResult(
-        time=time - t0, model=model, side=str(options.side), q=q, v=v, a=a, tau=inv.tau,
+        time=time - t0, model=model, side=options.side, q=q, v=v, a=a, tau=inv.tau,
         hip_force=inv.hip_force, hip_moment=inv.hip_moment, joint_force=inv.joint_force,
         grf=force, cop=cop, free_moment=free, events=events.shifted(t0), ik=ik,
         body_mass=options.mass, has_grf=has_grf, provenance=provenance, leg=leg,
@@ -231,7 +231,7 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
 
 
 @functools.lru_cache(maxsize=4)
-def bundled_inverse(side: str = "right") -> InverseResult:
+def bundled_inverse(side: Side | str = Side.RIGHT) -> InverseResult:
     """Inverse dynamics of the bundled subject01 trial with default options (cached)."""
     return run_inverse(bundled_options(side))
 

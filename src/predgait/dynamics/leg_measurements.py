@@ -126,7 +126,7 @@ def joint_points(markers: Markers, options: InverseOptions, static: Markers | No
             out[point] = markers.get(source)
         elif isinstance(source, HipRegression):
             out[point] = harrington_hip(markers.get(source.rasis), markers.get(source.lasis),
-                                        markers.get(source.sacrum), side=str(options.side))
+                                        markers.get(source.sacrum), side=options.side)
         else:
             if static is None:
                 raise InputError(f"the {point} centre is defined from a static trial; give "

@@ -25,7 +25,7 @@ import numpy as np
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, SimulationResult, simulate_leg
-from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.integrators import IntegratorOptions, Method, Status
 from predgait.dynamics.inverse_options import bundled_source
 from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
 from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
@@ -225,7 +225,7 @@ def _drive_and_gains(spec: ScenarioSpec, inverse: InverseResult, drivers: LegDri
 def _diverged(base: SimulationResult, edit: SimulationResult) -> dict | None:
     """Metrics of a scenario whose baseline or edited run diverged: status and time only."""
     for run, which in ((edit, "edited leg"), (base, "baseline")):
-        if run.status == "diverged":
+        if run.status is Status.DIVERGED:
             return {"status": f"diverged at t = {run.t[-1]:.3f} s ({which})",
                     "simulated_s": float(run.t[-1] - run.t[0]),
                     "time_to_fall_s": None, "baseline_time_to_fall_s": None,

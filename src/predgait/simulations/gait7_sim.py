@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from predgait.data.events import runs_of
+from predgait.data.events import Side, runs_of
 from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.falls import FallLimit, worst_joint
 from predgait.dynamics.forces import (
@@ -88,7 +88,7 @@ class Gait7Result:
     time_to_fall: float | None
     fall_cause: str | None
 
-    def foot_fz(self, side: str) -> np.ndarray:
+    def foot_fz(self, side: Side) -> np.ndarray:
         """(n,) N, vertical force of one foot (heel + toe)."""
         idx = [CONTACT_FRAMES.index(f) for f in FEET[side]]
         return self.forces[:, idx, 2].sum(axis=1)

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from predgait.data import write_storage
+from predgait.data.events import Side
 from predgait.dynamics.inverse_options import InverseOptions
 from predgait.dynamics.inverse_trial import run_inverse
 from predgait.errors import InputError, SolveFailed
@@ -48,7 +49,7 @@ class DecompositionSpec:
 
     source: Path
     inverse_problem: Path | None
-    side: str
+    side: Side
     model: PassiveModel
     settings: Settings
     cutoff: float | None            # Hz; None: residual analysis
