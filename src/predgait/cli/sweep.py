@@ -95,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
     from predgait.report.sweep_plots import save_sweep_plots
     from predgait.report.tidy import write_summary
     from predgait.scenarios.run import load_scenario, scenario_metrics
-    from predgait.scenarios.sweep import outcomes_table, run_sweep
+    from predgait.scenarios.sweep import PointStatus, outcomes_table, run_sweep
     from predgait.textfile import source_name
     from predgait.workflows.output import check_out, staged_output
 
@@ -115,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
             writer.writerow(header)
             writer.writerows(rows)
         failed = [o for o in outcomes if not o.ok]
-        diverged = [o for o in failed if o.status == "diverged"]
+        diverged = [o for o in failed if o.status is PointStatus.DIVERGED]
         summary = {"status": "completed" if not failed else
                    f"completed with failures: {len(failed)} of {len(outcomes)} points "
                    f"({len(diverged)} diverged) have no result",

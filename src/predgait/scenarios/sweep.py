@@ -8,6 +8,7 @@ order of the points, whatever order they finished in.
 
 from __future__ import annotations
 
+import enum
 import itertools
 import math
 import os
@@ -37,6 +38,14 @@ class SweepPoint:
         return tuple(f"{key}={value!r}" for key, value in self.values.items())
 
 
+class PointStatus(enum.StrEnum):
+    """How a sweep point ended (results.csv's ``status`` column)."""
+
+    OK = "ok"
+    FAILED = "failed"
+    DIVERGED = "diverged"
+
+
 @dataclass(frozen=True)
 class SweepOutcome:
     """What one point gave: metrics, or the reason it failed."""
@@ -46,11 +55,12 @@ class SweepOutcome:
     metrics: Mapping[str, float] = field(default_factory=dict)
     reason: str = ""
     seconds: float = 0.0
-    status: str = ""
+    status: PointStatus | None = None   # None: OK or FAILED from ``ok``
 
     def __post_init__(self):
-        if not self.status:
-            object.__setattr__(self, "status", "ok" if self.ok else "failed")
+        if self.status is None:
+            object.__setattr__(self, "status",
+                               PointStatus.OK if self.ok else PointStatus.FAILED)
 
 
 def grid_points(axes: Mapping[str, Sequence[float]]) -> list[SweepPoint]:
@@ -77,7 +87,7 @@ def run_point(task: Callable[[SweepPoint], Mapping[str, float]], point: SweepPoi
     try:
         metrics = dict(task(point))
     except SimulationDiverged as exc:
-        return SweepOutcome(point, False, reason=str(exc), status="diverged",
+        return SweepOutcome(point, False, reason=str(exc), status=PointStatus.DIVERGED,
                             seconds=time.perf_counter() - start)
     except PredgaitError as exc:
         return SweepOutcome(point, False, reason=str(exc), seconds=time.perf_counter() - start)

@@ -18,6 +18,7 @@ import numpy as np
 
 from predgait import __version__
 from predgait.data import read_trc, write_storage
+from predgait.dynamics.integrators import Status
 from predgait.errors import InputError
 from predgait.kinematics.ik3d import pelvis_cardan
 from predgait.report.tidy import write_summary
@@ -28,7 +29,7 @@ from predgait.workflows.trials import bundled_fullbody_files
 
 def inverse_for(trial: TrialSpec):
     """Whole-body IK + ID of the spec's trial (an Inverse3DResult)."""
-    from predgait.workflows.inverse3d import inverse_fullbody, read_marker_map, read_trial
+    from predgait.dynamics.inverse3d_trial import inverse_fullbody, read_marker_map, read_trial
 
     if trial.files is None:
         files, static, mass, height = bundled_fullbody_files(trial.static)
@@ -51,7 +52,7 @@ def write_states(folder: Path, run: Forward3DRun, joint_names, header: dict) -> 
     cols |= {f"pelvis_r{a}": np.degrees(c)
              for a, c in zip("xyz", pelvis_cardan(run.q).T, strict=True)}
     cols |= {n: np.degrees(run.q[:, 7 + i]) for i, n in enumerate(joint_names)}
-    tail = "_partial" if run.status == "diverged" else ""
+    tail = "_partial" if run.status is Status.DIVERGED else ""
     path = folder / f"states_{_slug(run.mode.name)}{tail}.sto"
     write_storage(path, run.t, cols, in_degrees=True, header=header | {
         "variant": run.mode.name, "status": run.status,
@@ -131,7 +132,8 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
     options = spec.integrator
     summary = {
         "kind": "fullbody",
-        "status": "diverged" if any(r.status == "diverged" for r in runs) else "completed",
+        "status": str(Status.DIVERGED if any(r.status is Status.DIVERGED for r in runs)
+                      else Status.COMPLETED),
         "message": "; ".join(f"{r.mode.name}: {r.message}" for r in runs),
         "time_to_fall_s": runs[0].time_to_fall, "time_span_s": [t0, t1],
         "integrator": {"method": options.method.value, "step_s": options.step,
