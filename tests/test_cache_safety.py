@@ -6,17 +6,14 @@ empty, a stub of another architecture) or the folder (read-only, another user's)
 time the solve must give the right answer, in memory, with one warning line, and the
 damaged library must be moved aside (``.quarantine-*``).
 
-Read-only folders: the tests run as root here, for whom permission bits do not stop a
-write, so the folder and its files are made immutable with ``chattr +i`` (ext4, as root;
-undone afterwards); as another user ``chmod a-w`` does it. Another user's folder: chown
-to uid 65534 (root only). A test says so when it cannot set its case up.
+Read-only folders: the ``read_only`` fixture of conftest.py (``chattr +i`` as root, for
+whom permission bits do not stop a write; ``chmod a-w`` otherwise). Another user's
+folder: chown to uid 65534 (root only). A test says so when it cannot set its case up.
 """
 
 import logging
 import os
-import shutil
 import struct
-import subprocess
 import time
 
 import numpy as np
@@ -218,36 +215,6 @@ def test_library_that_crashes_its_test_call_is_never_published(tmp_path, env, ca
     assert not list((tmp_path / "solvers").glob("*.so"))
     assert not list((tmp_path / "solvers").glob(".build-*"))
     assert "crashed (SIGSEGV)" in caplog.text
-
-
-def _immutable(paths, on: bool) -> None:
-    subprocess.run(["chattr", "+i" if on else "-i", *map(str, paths)], check=True,
-                   capture_output=True)
-
-
-@pytest.fixture
-def read_only():
-    """Make paths unwritable (chattr +i as root, chmod a-w otherwise); undone after."""
-    made = []
-
-    def make(*paths):
-        if os.geteuid() == 0:
-            if shutil.which("chattr") is None:
-                pytest.skip("root without chattr: cannot make a folder read-only for root")
-            try:
-                _immutable(paths, True)
-            except subprocess.CalledProcessError:
-                pytest.skip("chattr +i not supported on this file system")
-        else:
-            for path in paths:
-                path.chmod(path.stat().st_mode & ~0o222)
-        made.extend(paths)
-
-    yield make
-    if made and os.geteuid() == 0:
-        _immutable(made, False)
-    for path in made:
-        path.chmod(path.stat().st_mode | 0o200)
 
 
 def _one_warning_of_two_runs(caplog, folder):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from predgait.models.urdf import write_text_atomic
+from predgait.models.urdf import check_output_file, write_text_atomic
 
 
 def register(commands: argparse._SubParsersAction) -> None:
@@ -24,6 +24,7 @@ def run(args: argparse.Namespace) -> int:
     """Build and write the report."""
     from predgait.report.html import build_report  # not on every command's start-up path
 
+    check_output_file(args.output, force=args.force, inputs=[args.folder])  # before work
     write_text_atomic(build_report(args.folder), args.output, force=args.force,
                       inputs=[args.folder])
     print(f"wrote {args.output}")
