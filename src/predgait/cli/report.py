@@ -17,6 +17,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     report.add_argument("folder", type=Path, help="result folder (the --out of a command)")
     report.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.html")
     report.add_argument("--force", action="store_true", help="overwrite an existing report")
+    report.add_argument("--anonymise", action="store_true",
+                        help="also leave out the trial and input file names and the result "
+                             "folder's name (files are always named without their folders)")
     report.set_defaults(run=run)
 
 
@@ -25,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
     from predgait.report.html import build_report  # not on every command's start-up path
 
     check_output_file(args.output, force=args.force, inputs=[args.folder])  # before work
-    write_text_atomic(build_report(args.folder), args.output, force=args.force,
-                      inputs=[args.folder])
+    write_text_atomic(build_report(args.folder, anonymise=args.anonymise), args.output,
+                      force=args.force, inputs=[args.folder])
     print(f"wrote {args.output}")
     return 0
