@@ -214,6 +214,7 @@ def test_library_that_crashes_its_test_call_is_never_published(tmp_path, env, ca
         assert function_cache.compiled(function, "k") is None
     assert not list((tmp_path / "solvers").glob("*.so"))
     assert not list((tmp_path / "solvers").glob(".build-*"))
+    assert len(list((tmp_path / "solvers").glob(".quarantine-sphere-*"))) == 1
     assert "crashed (SIGSEGV)" in caplog.text
 
 

@@ -11,7 +11,8 @@ in the cache folder is trusted until it is checked:
   library's bytes.
 - Publishing (:func:`publish`): a library is built in a uniquely named temporary folder of
   the cache, evaluated once in a child process (each of its functions at zero inputs: a
-  library that crashes or hangs kills only the child), then renamed into place. Concurrent
+  library that crashes or hangs kills only the child and is quarantined), then renamed into
+  place. Concurrent
   writers each rename a whole file; the names differ when the bytes differ.
 - Loading (:func:`find`): the folder must be the user's own (owner = this user, writable
   by nobody else) and writable, else everything is solved in memory and that is said once
@@ -196,11 +197,18 @@ def publish(built: Path, folder: Path, library_stem: str, names: Sequence[str]) 
     ``built`` must be in a private temporary folder of ``folder`` (same file system).
 
     Raises:
-        RuntimeError: The test call crashed or failed (the library is not published).
+        RuntimeError: The test call crashed or failed: the library is not published but
+            quarantined (``.quarantine-*``, removed by the pruning after some days).
     """
     problem = test_in_child(built, names)
     if problem:
-        raise RuntimeError(f"{library_stem}: {problem}; not cached")
+        kept = folder / f".quarantine-{library_stem}.so-{os.getpid()}-{secrets.token_hex(4)}"
+        try:
+            os.replace(built, kept)
+            where = f"kept as {kept.name}"
+        except OSError:
+            where = "removed"
+        raise RuntimeError(f"{library_stem}: {problem}; not cached ({where})")
     os.chmod(built, 0o600)
     target = folder / f"{library_stem}-{digest_of(built.read_bytes())}.so"
     os.replace(built, target)
