@@ -12,8 +12,8 @@ in the cache folder is trusted until it is checked:
 - Publishing (:func:`publish`): a library is built in a uniquely named temporary folder of
   the cache, evaluated once in a child process (each of its functions at zero inputs: a
   library that crashes or hangs kills only the child and is quarantined), then renamed into
-  place. Concurrent
-  writers each rename a whole file; the names differ when the bytes differ.
+  place. Concurrent writers each rename a whole file; the names differ when the bytes
+  differ.
 - Loading (:func:`find`): the folder must be the user's own (owner = this user, writable
   by nobody else) and writable, else everything is solved in memory and that is said once
   per process. A library must be a regular file of the user's, not a link, whose bytes
