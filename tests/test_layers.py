@@ -24,8 +24,8 @@ DEVELOPING = Path(__file__).resolve().parents[1] / "docs" / "DEVELOPING.md"
 LAYERS = ("models", "data", "kinematics", "dynamics", "analysis", "problems", "simulations",
           "scenarios", "report", "workflows", "cli")
 #: Top-level modules every layer may import (``predgait`` itself: ``__version__``).
-SHARED = ("predgait", "errors", "textfile", "problemfile", "function_cache", "blas_threads",
-          "datasets")
+SHARED = ("predgait", "errors", "textfile", "problemfile", "function_cache", "cache_library",
+          "blas_threads", "datasets")
 #: Top-level modules that sit above every layer.
 TOP = ("__main__",)
 

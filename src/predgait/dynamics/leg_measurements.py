@@ -29,7 +29,8 @@ from predgait.data import (
 from predgait.data.bundled import read_winter_table
 from predgait.data.events import Events
 from predgait.data.frames import FileAxes, Forward, lab_rotation, rotate_trial
-from predgait.data.resample import hold_nearest
+from predgait.data.resample import check_plates_cover, hold_nearest
+from predgait.data.trc import trc_span
 from predgait.data.trial import ForcePlate, Markers, Trial
 from predgait.dynamics.external import assign_contacts
 from predgait.dynamics.inverse_options import (
@@ -62,7 +63,17 @@ def read_trial(options: InverseOptions) -> tuple[Trial, np.ndarray]:
         if options.grf is not None:
             raise InputError(f"{path}: a C3D file carries its own force plates; drop --grf.")
         return read_c3d(path), np.eye(3)
+    plates: tuple[ForcePlate, ...] = ()
+    if options.grf is not None:
+        grf = Path(options.grf)
+        xml = grf.with_suffix(".xml")
+        names = read_external_loads(xml) if xml.is_file() else None
+        plates = read_grf_mot(grf, names=names)
     if suffix == ".trc":
+        span = trc_span(path)  # plates checked from the header, before the full read
+        if span is not None:
+            check_plates_cover(span[0], span[1], plates, source=str(options.grf),
+                               markers=str(path))
         markers = read_trc(path)
     elif suffix == ".txt":
         markers = read_winter_table(path)
@@ -79,12 +90,6 @@ def read_trial(options: InverseOptions) -> tuple[Trial, np.ndarray]:
     else:
         raise InputError(f"{path}: unknown marker file type '{suffix}'; give .trc, .c3d, .csv "
                          "or Winter's Table A.1 (.txt).")
-    plates: tuple[ForcePlate, ...] = ()
-    if options.grf is not None:
-        grf = Path(options.grf)
-        xml = grf.with_suffix(".xml")
-        names = read_external_loads(xml) if xml.is_file() else None
-        plates = read_grf_mot(grf, names=names)
     turn = progression_rotation(markers)
     return rotate_trial(Trial(markers=markers, plates=plates, source=str(path)), turn), turn
 
