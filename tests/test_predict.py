@@ -118,6 +118,57 @@ def test_full_stride_mirrors_the_half_cycle(model, predictive):
     np.testing.assert_allclose(st["contact"][n - 1:, 0], g.contact[:, 2])
 
 
+def test_stride_from_heel_strike_starts_at_the_right_touch_down(model, predictive):
+    from predgait.problems.predictive_check import STANCE_THRESHOLD_N, heel_strikes
+
+    st, al = predictive.stride, predictive.aligned
+    fz_r = al["contact"][:, :2, 1].sum(axis=1)
+    assert al["t"][0] == 0.0 and fz_r[0] > STANCE_THRESHOLD_N and fz_r[-2] <= STANCE_THRESHOLD_N
+    assert al["t"][-1] == pytest.approx(st["t"][-1] - st["t"][0])
+    assert np.all(np.diff(al["t"]) > 0)
+    # the same gait, re-phased: the node the solver's stride had at the right heel strike
+    k = heel_strikes(st)["right"]
+    np.testing.assert_allclose(al["q"][0], st["q"][k])
+    x = model.coordinate_index("base_x")
+    assert al["q"][-1, x] - al["q"][0, x] == pytest.approx(st["q"][-1, x] - st["q"][0, x])
+    assert np.all(np.diff(al["q"][:, x]) > 0)
+
+
+def test_the_same_gait_started_elsewhere_aligns_to_the_same_curves(model, predictive):
+    """What scenario comparisons rely on (predicted_metrics compares aligned strides)."""
+    from predgait.problems.predictive_check import from_heel_strike
+    from predgait.scenarios.predict import percent_of_stride
+
+    st = predictive.stride
+    shift, x = 7, model.coordinate_index("base_x")
+    advance = st["q"][-1, x] - st["q"][0, x]
+    period = st["t"][-1] - st["t"][0]
+    later = {}
+    for key, values in st.items():
+        rolled = np.concatenate([values[shift:-1], values[:shift + 1]])
+        if key == "t":
+            rolled[-shift - 1:] += period
+        if key == "q":
+            rolled[-shift - 1:, x] += advance
+        later[key] = rolled
+    again = from_heel_strike(model, later)
+    knee = model.coordinate_index("knee_r")
+    np.testing.assert_allclose(percent_of_stride(again, knee),
+                               percent_of_stride(predictive.aligned, knee), atol=1e-12)
+    assert np.abs(percent_of_stride(again, knee)
+                  - np.interp(np.linspace(0, 1, 101), np.linspace(0, 1, len(later["t"])),
+                              later["q"][:, knee])).max() > 0.05
+
+
+def test_step_lengths_per_side_add_up_to_the_stride(predictive):
+    g = predictive.measures
+    right, left = g["right"]["step_length_m"], g["left"]["step_length_m"]
+    assert right + left == pytest.approx(2 * g["step_length_m"], abs=1e-6)
+    # a symmetric half cycle mirrored: both steps alike
+    assert right == pytest.approx(left, abs=0.02)
+    assert 0.3 < right < 1.0
+
+
 def test_weights_vector_order():
     assert Weights(1, 2, 3, 4).vector().tolist() == [1, 2, 3, 4]
 
@@ -138,7 +189,11 @@ def test_cli_solve_writes_a_tracking_prediction(tmp_path, capsys):
     assert summary["resimulation"]["max_angle_deviation_deg"] < 1.0
     states = read_storage(out / "states.sto")
     assert states.time.size == 2 * NODES + 1
-    assert "Pinocchio at every node" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "Pinocchio at every node" in printed
+    assert "not for clinical prediction" in printed and "stiff-legged" in summary["model_note"]
+    steps = summary["gait"]["right"]["step_length_m"], summary["gait"]["left"]["step_length_m"]
+    assert f"steps right {steps[0]:.3f} m / left {steps[1]:.3f} m" in printed
     from predgait.report.headline import headline
 
     head = headline(out)

@@ -136,7 +136,8 @@ def _run_predicted(spec, args) -> int:
         print(f"  {s}: swing hip torque RMS {m[f'swing_hip_torque_rms_{s}_n_m']:.1f} N m "
               f"(unedited {m[f'baseline_swing_hip_torque_rms_{s}_n_m']:.1f})")
     print(f"  effort {m['effort']:.4g} (unedited {m['baseline_effort']:.4g}, "
-          f"{m['effort_change_percent']:+.1f} %); step {m['step_length_m']:.3f} m at "
+          f"{m['effort_change_percent']:+.1f} %); steps right {m['step_length_right_m']:.3f}"
+          f" / left {m['step_length_left_m']:.3f} m at "
           f"{m['speed_m_s']:.2f} m/s, cadence {m['cadence_steps_min']:.1f} steps/min")
     if "resimulation_max_deviation_deg" in m:
         print(f"  engine re-simulation of the edited gait with TVLQR: max deviation "

@@ -5,8 +5,10 @@ the engine's own contact force (:class:`predgait.dynamics.forces.GroundContact`)
 passive elements (:func:`predgait.dynamics.forces.passive_generalized`), independent of
 the ADAM expressions the optimiser used: the unactuated base rows must vanish and the
 joint rows must equal the optimiser's torques. :func:`full_stride` turns a symmetric
-half cycle into a stride (the second half mirrored and shifted), and :func:`gait_measures`
-gives stance phases, step length, cadence and the vertical GRF's peaks.
+half cycle into a stride (the second half mirrored and shifted), :func:`from_heel_strike`
+re-phases that periodic stride to start at a foot's own heel strike (what gait plots and
+comparisons of two gaits use), and :func:`gait_measures` gives stance phases, step lengths
+per side, cadence and the vertical GRF's peaks.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import pinocchio as pin
 from predgait.data.events import runs_of
 from predgait.dynamics.forces import GroundContact, passive_generalized
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
+from predgait.errors import PredgaitError
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model
 from predgait.problems.predictive import JOINTS, Cycle, PredictedGait, mirror_matrix
@@ -80,6 +83,77 @@ def full_stride(model: Model, gait: PredictedGait) -> dict[str, np.ndarray]:
     return {k: np.concatenate([out[k], second[k]]) for k in out}
 
 
+def heel_strikes(stride: dict[str, np.ndarray]) -> dict[str, int]:
+    """Node of each foot's touch-down in a periodic stride.
+
+    The first node whose vertical force exceeds STANCE_THRESHOLD_N after one that does
+    not, wrapping around; the last node is the next stride's first and is not counted.
+
+    Raises:
+        PredgaitError: A foot never leaves or never touches the ground.
+    """
+    out = {}
+    for i, side in enumerate(("right", "left")):
+        on = stride["contact"][:-1, 2 * i:2 * i + 2, 1].sum(axis=1) > STANCE_THRESHOLD_N
+        onsets = np.flatnonzero(on & ~np.roll(on, 1))
+        if onsets.size == 0:
+            raise PredgaitError(f"the predicted stride has no {side} heel strike (the foot "
+                                "never leaves or never touches the ground): not a gait")
+        out[side] = int(onsets[0])
+    return out
+
+
+def from_heel_strike(model: Model, stride: dict[str, np.ndarray],
+                     side: str = "right") -> dict[str, np.ndarray]:
+    """The periodic ``stride`` re-phased to start at ``side``'s heel strike.
+
+    Time starts at 0 at that heel strike; nodes before it move to the end (one stride
+    period later, the base moved forward by the stride length), so the result is the same
+    gait seen from the foot's own touch-down, as gait-lab curves are. Adds ``heel_x``
+    (n, 2): the lab X of the right and left heel contact points (m), and
+    ``heel_strike_index``: the node of each foot's touch-down in the result.
+    """
+    start = heel_strikes(stride)[side]
+    period = stride["t"][-1] - stride["t"][0]
+    advance = np.zeros(model.nq)
+    advance[model.coordinate_index("base_x")] = (stride["q"][-1] - stride["q"][0])[
+        model.coordinate_index("base_x")]
+    out = {}
+    for key, values in stride.items():
+        body = values[:-1]
+        rolled = np.concatenate([body[start:], body[:start + 1]])
+        if key == "t":
+            rolled[len(body) - start:] += period
+            rolled = rolled - rolled[0]
+        elif key == "q":
+            rolled[len(body) - start:] += advance
+        out[key] = rolled
+    data = model.pin_model.createData()
+    frames = [model.frame_id(name) for name in ("heel_r", "heel_l")]
+    heel_x = []
+    for q in out["q"]:
+        pin.framesForwardKinematics(model.pin_model, data, q)
+        heel_x.append([data.oMf[f].translation[0] for f in frames])
+    out["heel_x"] = np.array(heel_x)
+    out["heel_strike_index"] = heel_strikes(out)
+    return out
+
+
+def step_lengths(aligned: dict[str, np.ndarray]) -> dict[str, float]:
+    """Right and left step lengths (m) of a stride from :func:`from_heel_strike`.
+
+    A step is named by the foot that lands: the left step runs from the right heel at
+    right heel strike to the left heel at left heel strike, the right step from there to
+    the right heel at the next right heel strike; the two add up to the stride length.
+    """
+    left_strike = aligned["heel_strike_index"]["left"]
+    right_at_strike = aligned["heel_x"][0, 0]
+    left_at_strike = aligned["heel_x"][left_strike, 1]
+    right_next = aligned["heel_x"][-1, 0]
+    return {"left": float(left_at_strike - right_at_strike),
+            "right": float(right_next - left_at_strike)}
+
+
 def stance_profile(fz: np.ndarray, body_weight: float) -> dict:
     """Loading peak, mid-stance valley and push-off peak of one foot's vertical force.
 
@@ -101,13 +175,15 @@ def stance_profile(fz: np.ndarray, body_weight: float) -> dict:
             "push_off_peak_bw": float(thirds[2].max() / body_weight)}
 
 
-def gait_measures(stride: dict[str, np.ndarray], speed: float, body_weight: float) -> dict:
-    """Stance phases, step length and cadence, vertical GRF peaks of a stride.
+def gait_measures(stride: dict[str, np.ndarray], speed: float, body_weight: float,
+                  steps: dict[str, float] | None = None) -> dict:
+    """Stance phases, step lengths and cadence, vertical GRF peaks of a stride.
 
     Per foot: ``stance_phases`` (runs of vertical force > STANCE_THRESHOLD_N, counting a
-    run that wraps around the cycle end once), ``stance_fraction``, ``peak_fz_n`` and
-    :func:`stance_profile` (``body_weight`` N).
-    Step length = speed * stride time / 2, cadence = 2 steps per stride time (steps/min).
+    run that wraps around the cycle end once), ``stance_fraction``, ``peak_fz_n``,
+    :func:`stance_profile` (``body_weight`` N) and ``step_length_m`` (from ``steps``,
+    :func:`step_lengths`; ``None`` when not given). ``step_length_m`` at the top is the
+    mean step (speed * stride time / 2); cadence = 2 steps per stride time (steps/min).
     """
     t = stride["t"]
     period = t[-1] - t[0]
@@ -121,6 +197,7 @@ def gait_measures(stride: dict[str, np.ndarray], speed: float, body_weight: floa
             runs = runs[1:]                          # the wrapped run counts once
         out[side] = {"stance_phases": len(runs), "stance_fraction": float(on.mean()),
                      "peak_fz_n": float(fz.max()),
-                     "vertical_grf": stance_profile(fz[:-1], body_weight)}
+                     "vertical_grf": stance_profile(fz[:-1], body_weight),
+                     "step_length_m": None if steps is None else steps[side]}
     return out
 

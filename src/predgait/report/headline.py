@@ -279,8 +279,8 @@ def _fullbody_tracking(s: dict) -> Headline:
 def _predict(s: dict) -> Headline:
     g, check, rs = s["gait"], s["pinocchio_check"], s["resimulation"]
     numbers = [("speed, stride", f"{g['speed_m_s']:.2f} m/s, {_t(g['stride_time_s'])}"),
-               ("step length, cadence", f"{g['step_length_m']:.3f} m, "
-                f"{g['cadence_steps_min']:.0f} steps/min"),
+               ("steps right / left, cadence", f"{g['right']['step_length_m']:.3f} / "
+                f"{g['left']['step_length_m']:.3f} m, {g['cadence_steps_min']:.0f} steps/min"),
                ("right stance", f"{100 * g['right']['stance_fraction']:.0f} % of the stride"),
                ("Pinocchio base residual", f"{check['max_base_residual_n']:.1e} N"),
                ("solve", f"{s['iterations']} iterations, {s['solve_time_s']:.1f} s")]

@@ -28,7 +28,7 @@ def save_prediction_plots(stage: Path, model, predictions: dict, *,
     n = len(predictions)
     fig, axes = new_figure(1, n, figsize=(4.5 * n, 4.0), squeeze=False)
     for ax, (label, pred) in zip(axes[0], predictions.items(), strict=True):
-        st = pred.stride
+        st = pred.aligned
         plot_stick(models.get(label, model), st["t"], st["q"], interval=0.1, ax=ax)
         ax.set_title(f"{label}: one stride, every 0.1 s")
     paths.append(save_figure(fig, stage / "predicted_stick.png"))
@@ -36,8 +36,8 @@ def save_prediction_plots(stage: Path, model, predictions: dict, *,
     fig, axes = new_figure(1, 3, figsize=(13, 3.8), squeeze=False)
     for ax, joint in zip(axes[0], ANGLES, strict=True):
         for label, pred in predictions.items():
-            st = pred.stride
-            cycle = 100 * (st["t"] - st["t"][0]) / (st["t"][-1] - st["t"][0])
+            st = pred.aligned
+            cycle = 100 * st["t"] / st["t"][-1]
             j = clinical_joint(model, f"{joint}_r")
             ax.plot(cycle, np.degrees(j.sign * st["q"][:, model.coordinate_index(f"{joint}_r")]),
                     label=label)
@@ -49,8 +49,8 @@ def save_prediction_plots(stage: Path, model, predictions: dict, *,
 
     fig, ax = new_figure(figsize=(6, 3.8))
     for label, pred in predictions.items():
-        st = pred.stride
-        cycle = 100 * (st["t"] - st["t"][0]) / (st["t"][-1] - st["t"][0])
+        st = pred.aligned
+        cycle = 100 * st["t"] / st["t"][-1]
         ax.plot(cycle, st["contact"][:, :2, 1].sum(axis=1), label=f"{label} (right foot)")
     ax.set_xlabel("% stride (from right heel strike)")
     ax.set_ylabel("vertical GRF (N)")

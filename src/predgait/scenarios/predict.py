@@ -73,6 +73,7 @@ class Prediction:
     resimulation: object | None
     springs: tuple
     stages: tuple = ()        # (what, Solved) of the stages before the final solve
+    aligned: dict | None = None   # the stride from the right heel strike (from_heel_strike)
 
 
 def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, springs=(),
@@ -89,10 +90,12 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
     """
     from predgait.dynamics.gait7_motion import gait7_model
     from predgait.problems.predictive_check import (
+        from_heel_strike,
         full_stride,
         gait_measures,
         node_residuals,
         passive_joints,
+        step_lengths,
     )
 
     model = model or gait7_model(spec.mass, spec.height)
@@ -122,9 +125,11 @@ def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, sprin
         from predgait.simulations.gait7_predicted import resimulate as run_engine
 
         rerun = run_engine(model, stride, spec.contact, spec.ground_z, passive_joints(springs))
-    measures = gait_measures(stride, speed, model.total_mass() * model.gravity)
+    aligned = from_heel_strike(model, stride)
+    measures = gait_measures(stride, speed, model.total_mass() * model.gravity,
+                             step_lengths(aligned))
     return Prediction(gait, measured, residuals, stride, measures, rerun, tuple(springs),
-                      tuple(stages))
+                      tuple(stages), aligned)
 
 
 @dataclass(frozen=True, eq=False)
@@ -220,15 +225,27 @@ def _swing_hip_torque(model: Model, prediction: Prediction, s: str) -> float:
     return float(np.sqrt(np.mean(st["tau"][swing, column] ** 2))) if swing.any() else 0.0
 
 
+def percent_of_stride(aligned: dict, column: int) -> np.ndarray:
+    """One coordinate of a stride from heel strike on 0, 1, ..., 100 % of the stride."""
+    t = aligned["t"]
+    return np.interp(np.linspace(0.0, t[-1], 101), t, aligned["q"][:, column])
+
+
 def predicted_metrics(model: Model, base: Prediction, edited: Prediction, sides) -> dict:
-    """Angles, torques, GRF, effort and their changes from the unedited prediction."""
-    b, e = base.stride, edited.stride
+    """Angles, torques, GRF, effort and their changes from the unedited prediction.
+
+    Angle changes compare the two gaits at the same % of the stride, each from its own
+    right heel strike (``Prediction.aligned``), not at the same solver time.
+    """
+    b, e = base.aligned, edited.aligned
     out = {"status": "solved", "edited_sides": list(sides),
            "effort": edited.gait.terms["effort"],
            "baseline_effort": base.gait.terms["effort"],
            "effort_change_percent": 100 * (edited.gait.terms["effort"]
                                            / base.gait.terms["effort"] - 1),
            "step_length_m": edited.measures["step_length_m"],
+           "step_length_right_m": edited.measures["right"]["step_length_m"],
+           "step_length_left_m": edited.measures["left"]["step_length_m"],
            "cadence_steps_min": edited.measures["cadence_steps_min"],
            "speed_m_s": edited.measures["speed_m_s"]}
     for s in ("r", "l"):
@@ -236,7 +253,8 @@ def predicted_metrics(model: Model, base: Prediction, edited: Prediction, sides)
         for joint in ANGLES:
             name = f"{joint}_{s}"
             i, sign = model.coordinate_index(name), clinical_joint(model, name).sign
-            angle_e, angle_b = np.degrees(sign * e["q"][:, i]), np.degrees(sign * b["q"][:, i])
+            angle_e = np.degrees(sign * percent_of_stride(e, i))
+            angle_b = np.degrees(sign * percent_of_stride(b, i))
             out[f"{name}_range_deg"] = float(angle_e.max() - angle_e.min())
             out[f"{name}_baseline_range_deg"] = float(angle_b.max() - angle_b.min())
             out[f"{name}_rms_change_deg"] = float(np.sqrt(np.mean((angle_e - angle_b) ** 2)))

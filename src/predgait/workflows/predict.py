@@ -27,6 +27,12 @@ __all__ = ["parse_predict", "prediction_summary", "run_predict", "summary_lines"
            "write_prediction"]
 
 
+#: What the torque-driven gait7 prediction is and is not (issue 26: it is not human).
+MODEL_NOTE = ("torque-driven 7-link gait: stiff-legged (little loading-response knee flexion, "
+              "no ankle push-off, a heel-strike GRF spike); not for clinical prediction: "
+              "use the muscle-driven predict_2d_muscles")
+
+
 def prediction_summary(spec: PredictSpec, prediction: Prediction) -> dict:
     """The JSON summary of a prediction (solver, objective terms, checks, gait measures)."""
     g, s = prediction.gait, prediction.gait.solved
@@ -35,7 +41,8 @@ def prediction_summary(spec: PredictSpec, prediction: Prediction) -> dict:
     fz = g.foot_fz()
     res = prediction.residuals
     return {
-        "status": "solved", "kind": "predict_gait7", "ipopt_status": s.status,
+        "status": "solved", "kind": "predict_gait7", "model_note": MODEL_NOTE,
+        "ipopt_status": s.status,
         "iterations": s.iterations, "solve_time_s": s.seconds, "objective": s.objective,
         "stages_before": [{"what": what, "status": x.status, "iterations": x.iterations,
                            "solve_time_s": x.seconds} for what, x in prediction.stages],
@@ -116,8 +123,10 @@ def summary_lines(summary: dict) -> list[str]:
              f"{summary['cycle']} cycle)" + "".join(
                  f"; before it {x['what']}: {x['iterations']} iterations, "
                  f"{x['solve_time_s']:.1f} s" for x in summary["stages_before"]),
-             f"  speed {g['speed_m_s']:.3f} m/s, stride {g['stride_time_s']:.3f} s, step "
-             f"{g['step_length_m']:.3f} m, cadence {g['cadence_steps_min']:.1f} steps/min",
+             f"  speed {g['speed_m_s']:.3f} m/s, stride {g['stride_time_s']:.3f} s, steps "
+             f"right {g['right']['step_length_m']:.3f} m / left "
+             f"{g['left']['step_length_m']:.3f} m, cadence {g['cadence_steps_min']:.1f} "
+             "steps/min",
              *(f"  {side} foot: {g[side]['stance_phases']} stance phase(s), "
                f"{100 * g[side]['stance_fraction']:.0f} % of the stride; vertical GRF "
                f"loading peak {g[side]['vertical_grf']['loading_peak_bw']:.2f} BW, valley "
@@ -134,4 +143,5 @@ def summary_lines(summary: dict) -> list[str]:
                      f"{rs['max_position_deviation_m'] * 1000:.1f} mm; feedback RMS "
                      f"{rs['feedback_rms_n_m']:.2f} N m vs feedforward "
                      f"{rs['feedforward_rms_n_m']:.2f} N m")
+    lines.append(f"  note: {summary['model_note']}")
     return lines
