@@ -25,7 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.dynamics.external import Load, generalized_load
-from predgait.kinematics.clinical import clinical_joint
+from predgait.kinematics.clinical import ClinicalJoint, clinical_joint
 from predgait.models.loading import RigidBodyModel
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -109,11 +109,12 @@ class PassiveTorques(Force):
     problems); see :meth:`predgait.dynamics.drivers.LegDrivers.from_inverse`.
 
     Attributes:
-        rows: joint name -> (velocity rows, sign). joints: joint name -> PassiveJoint.
+        rows: joint name -> (velocity rows, its ClinicalJoint). joints: joint name ->
+            PassiveJoint.
         offset: Optional t -> (nv,) generalised passive force at the measured motion.
     """
 
-    rows: Mapping[str, tuple[tuple[int, ...], float]]
+    rows: Mapping[str, tuple[tuple[int, ...], ClinicalJoint]]
     joints: Mapping[str, object]
     offset: Callable[[float], np.ndarray] | None = None
     name: str = "passive"
@@ -126,24 +127,25 @@ class PassiveTorques(Force):
 
     def add(self, tau, t, q, v, data) -> None:
         """Add the passive moments at (q, v) (minus the offset at t)."""
-        for name, (rows, sign) in self.rows.items():
+        for name, (rows, clinical) in self.rows.items():
             if len(rows) == 1:
-                angle, rate = sign * q[rows[0]], sign * v[rows[0]]
+                angle, rate = q[rows[0]], v[rows[0]]
             else:
-                angle, rate = sign * q[list(rows)].sum(), sign * v[list(rows)].sum()
-            moment = sign * float(self.joints[name].moment(angle, rate))
+                angle, rate = q[list(rows)].sum(), v[list(rows)].sum()
+            moment = float(clinical.generalized_force(self.joints[name].moment, angle, rate))
             for row in rows:
                 tau[row] += moment
         if self.offset is not None:
             tau -= self.offset(t)
 
 
-def passive_rows(model: RigidBodyModel, joints) -> dict[str, tuple[tuple[int, ...], float]]:
-    """Joint name -> (velocity rows, clinical sign) from the one joint-sign table."""
+def passive_rows(model: RigidBodyModel, joints
+                 ) -> dict[str, tuple[tuple[int, ...], ClinicalJoint]]:
+    """Joint name -> (velocity rows, ClinicalJoint) from the one joint-sign table."""
     out = {}
     for name in joints:
         joint = clinical_joint(model, name)
-        out[name] = (tuple(model.coordinate_index(c) for c in joint.coordinates), joint.sign)
+        out[name] = (tuple(model.coordinate_index(c) for c in joint.coordinates), joint)
     return out
 
 
@@ -155,10 +157,10 @@ def passive_generalized(model: RigidBodyModel, joints: Mapping[str, object], q, 
     """
     q, v = np.atleast_2d(q), np.atleast_2d(v)
     out = np.zeros(q.shape)
-    for name, (rows, sign) in passive_rows(model, joints).items():
-        angle = sign * q[:, list(rows)].sum(axis=1)
-        rate = sign * v[:, list(rows)].sum(axis=1)
-        moment = sign * np.asarray(joints[name].moment(angle, rate), dtype=float)
+    for name, (rows, clinical) in passive_rows(model, joints).items():
+        moment = np.asarray(clinical.generalized_force(
+            joints[name].moment, q[:, list(rows)].sum(axis=1), v[:, list(rows)].sum(axis=1)),
+            dtype=float)
         for row in rows:
             out[:, row] += moment
     return out
@@ -173,8 +175,7 @@ def joint_passive_torque(model: RigidBodyModel, joint: str, element) -> Callable
     clinical = clinical_joint(model, joint)
     if len(clinical.coordinates) != 1:
         raise ValueError(f"joint '{joint}' spans several coordinates; use PassiveTorques.")
-    sign = clinical.sign
-    return lambda q, v: sign * element.moment(sign * q, sign * v)
+    return lambda q, v: clinical.generalized_force(element.moment, q, v)
 
 
 @dataclass(frozen=True, eq=False)

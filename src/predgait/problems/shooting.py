@@ -235,10 +235,11 @@ def passive_torques(leg, model: PassiveModel, values, x, knee_offset):
     row = {"ankle": 0, "knee": 1}
     extra = [0, 0]
     for joint in model.joints:
-        sign = clinical_joint(leg, joint).sign
-        angle = sign * x[row[joint]] - (knee_offset if joint == "knee" else 0.0)
-        moment = model.passive_joint(joint, values).moment(angle, sign * x[2 + row[joint]])
-        extra[row[joint]] = sign * moment
+        element = model.passive_joint(joint, values)
+        offset = knee_offset if joint == "knee" else 0.0
+        extra[row[joint]] = clinical_joint(leg, joint).generalized_force(
+            lambda angle, rate, element=element, offset=offset:
+            element.moment(angle - offset, rate), x[row[joint]], x[2 + row[joint]])
     return cs.vertcat(*extra)
 
 
