@@ -196,8 +196,6 @@ def test_gait7_prediction_plot_and_edits(tmp_path, monkeypatch):
     from predgait.models.gait7 import build_gait7_urdf
     from predgait.models.loading import model_from_urdf
     from predgait.report import predict_plots
-    from predgait.scenarios.edits import LockJoint
-    from predgait.scenarios.predict import joint_constraints
 
     model = model_from_urdf(build_gait7_urdf(72.6, 1.8034))
     known = {"hip": 0.3, "knee": 0.6, "ankle": 0.1}    # clinical, rad: all positive
@@ -213,7 +211,65 @@ def test_gait7_prediction_plot_and_edits(tmp_path, monkeypatch):
     for ax, joint in zip(angle_fig.axes, ("hip", "knee", "ankle"), strict=True):
         [y] = curves(ax)
         assert np.allclose(y, np.degrees(known[joint])), joint
-    # A locked knee at +10 deg flexion bounds the model coordinate at the model's sign.
-    bounds, _ = joint_constraints(model, [LockJoint("knee", np.radians(10.0))], ("r",))
-    lo, hi = bounds["knee_r"]
-    assert clinical_joint(model, "knee_r").clinical(lo) == pytest.approx(np.radians(10.0))
+
+
+def test_gait7_table_signs_match_the_geometry():
+    """+hip flexion swings the knee forward, +knee flexion puts the ankle behind the knee,
+    +ankle dorsiflexion lifts the toe (pose set through the table, read by kinematics)."""
+    import pinocchio as pin
+
+    from predgait.models.gait7 import build_gait7_urdf
+    from predgait.models.loading import model_from_urdf
+
+    model = model_from_urdf(build_gait7_urdf(72.6, 1.8034))
+    data = model.pin_model.createData()
+
+    def frames(joint, clinical_value):
+        q = np.zeros(model.nq)
+        q[model.coordinate_index(joint)] = clinical_joint(model, joint).clinical(clinical_value)
+        pin.framesForwardKinematics(model.pin_model, data, q)
+        return {n: data.oMf[model.pin_model.getFrameId(n)].translation.copy()
+                for n in ("hip_center", "knee_center_r", "ankle_center_r", "toe_r")}
+
+    hip = frames("hip_r", 0.3)
+    assert hip["knee_center_r"][0] > hip["hip_center"][0] + 0.1
+    knee = frames("knee_r", 0.5)
+    assert knee["ankle_center_r"][0] < knee["knee_center_r"][0] - 0.1
+    neutral, ankle = frames("ankle_r", 0.0), frames("ankle_r", 0.3)
+    assert ankle["toe_r"][2] > neutral["toe_r"][2] + 0.02
+
+
+def test_gait7_edits_bound_the_clinical_range():
+    from predgait.models.gait7 import build_gait7_urdf
+    from predgait.models.loading import model_from_urdf
+    from predgait.scenarios.edits import LockJoint, RangeOfMotion
+    from predgait.scenarios.predict import joint_constraints
+
+    model = model_from_urdf(build_gait7_urdf(72.6, 1.8034))
+    for joint in ("hip", "knee", "ankle"):
+        sign = clinical_joint(model, f"{joint}_r")
+        bounds, _ = joint_constraints(model, [LockJoint(joint, 0.2)], ("r",))
+        assert [sign.clinical(b) for b in bounds[f"{joint}_r"]] == pytest.approx([0.2, 0.2])
+        bounds, _ = joint_constraints(model, [RangeOfMotion(joint, 0.1, 0.4)], ("r",))
+        clinical = sorted(sign.clinical(b) for b in bounds[f"{joint}_r"])
+        assert clinical == pytest.approx([0.1, 0.4])
+
+
+def test_leg_scenario_lock_holds_the_clinical_angle():
+    from dataclasses import dataclass
+
+    from predgait.scenarios.edits import LockJoint
+    from predgait.scenarios.run import _locked
+
+    @dataclass(frozen=True)
+    class Reference:
+        reference_q: object
+        reference_qd: object
+        reference_qdd: object
+
+    zero = Reference(*(lambda t: np.zeros(5) for _ in range(3)))
+    leg = SimpleNamespace(coordinate_index={"ankle": 3, "knee": 4}.__getitem__)
+    held, free = _locked(zero, leg, [LockJoint("knee", np.radians(20.0))])
+    assert free == ("ankle",)
+    assert clinical_angles(held.reference_q(0.0))["knee_flexion"] == pytest.approx(
+        np.radians(20.0))
