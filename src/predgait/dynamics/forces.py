@@ -233,8 +233,8 @@ class FrameLoad(Force):
     tau += J^T (f, m), J the frame Jacobian: LOCAL_WORLD_ALIGNED for lab-frame components,
     LOCAL with ``body_fixed`` (components on the frame's own axes, so the load turns with
     the segment: the thesis' body-based forces, 3.2.3 and 3.3.3). A load that is zero at
-    all times is not added to a system at all (no Jacobian). The wrench is read once per
-    time (the modified-Euler correctors ask for the same t again and again).
+    all times is not added to a system at all (no Jacobian). No state: the wrench is
+    read from ``force`` and ``moment`` at each call.
 
     Attributes:
         model: The model. frame: frame name. force, moment: t -> (3,) N, N m (lab frame,
@@ -248,23 +248,14 @@ class FrameLoad(Force):
     moment: Callable[[float], np.ndarray]
     name: str = "load"
     body_fixed: bool = False
-    _id: int = field(init=False, repr=False)
-    _wrench: np.ndarray = field(init=False, repr=False)
-    _time: list = field(init=False, repr=False)  # [t] of the wrench held in _wrench
-
-    def __post_init__(self):
-        object.__setattr__(self, "_id", self.model.frame_id(self.frame))
-        object.__setattr__(self, "_wrench", np.zeros(6))
-        object.__setattr__(self, "_time", [None])
 
     def add(self, tau, t, q, v, data) -> None:
         """Add J^T w at t."""
-        wrench = self._wrench
-        if t != self._time[0]:
-            wrench[:3], wrench[3:] = self.force(t), self.moment(t)
-            self._time[0] = t
-        tau += wrench.dot(pin.computeFrameJacobian(self.model.pin_model, data, q, self._id,
-                                                   pin.LOCAL if self.body_fixed else LWA))
+        wrench = np.concatenate([self.force(t), self.moment(t)])
+        jacobian = pin.computeFrameJacobian(self.model.pin_model, data, q,
+                                            self.model.frame_id(self.frame),
+                                            pin.LOCAL if self.body_fixed else LWA)
+        tau += wrench.dot(jacobian)
 
 
 @dataclass(frozen=True, eq=False)
@@ -287,7 +278,7 @@ class MeasuredLoads(Force):
             tau += generalized_load(self.model, data, loads)
 
 
-@dataclass(eq=False)
+@dataclass(frozen=True, eq=False)
 class GroundContact(Force):
     """Point contacts of model frames with the ground plane z = ``ground_z``.
 
@@ -295,7 +286,7 @@ class GroundContact(Force):
     d = ground_z - z and rate -z_dot, and (if the model has friction) tangential forces
     along X and Y from its slip velocities (:mod:`predgait.dynamics.contact`), taken
     relative to the ground surface (a treadmill belt moves at ``belt_velocity`` along X).
-    ``last_forces`` holds the (n_frames, 3) lab-frame forces of the latest call.
+    No state: :meth:`forces` and :meth:`forces_at` return the forces of a given state.
 
     Attributes:
         model: The model. frames: contact frame names. contact: a contact model with
@@ -310,13 +301,12 @@ class GroundContact(Force):
     ground_z: float = 0.0
     planar: bool = False
     belt_velocity: float = 0.0
-    last_forces: np.ndarray = field(init=False, repr=False)
+    _ids: tuple[int, ...] = field(init=False, repr=False)  # frame ids, fixed at creation
     name = "contact"
     needs = Kinematics.JACOBIANS
 
     def __post_init__(self):
-        self._ids = [self.model.frame_id(f) for f in self.frames]
-        self.last_forces = np.zeros((len(self._ids), 3))
+        object.__setattr__(self, "_ids", tuple(self.model.frame_id(f) for f in self.frames))
 
     def forces(self, data: pin.Data) -> np.ndarray:
         """(n_frames, 3) lab-frame contact forces for the kinematics stored in ``data``.
@@ -339,10 +329,18 @@ class GroundContact(Force):
             out[:, 1] = np.where(near, tangential[1], 0.0)
         return out
 
-    def add(self, tau, t, q, v, data) -> None:
-        """Add the contact forces' generalised force (stored in ``last_forces``)."""
+    def forces_at(self, q: np.ndarray, v: np.ndarray, data: pin.Data | None = None
+                  ) -> np.ndarray:
+        """(n_frames, 3) lab-frame contact forces at the state (q, v) (kinematics computed)."""
         pm = self.model.pin_model
-        self.last_forces = self.forces(data)
-        for fid, force in zip(self._ids, self.last_forces, strict=True):
+        data = pm.createData() if data is None else data
+        pin.forwardKinematics(pm, data, q, v)
+        pin.updateFramePlacements(pm, data)
+        return self.forces(data)
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the contact forces' generalised force at the kinematics in ``data``."""
+        pm = self.model.pin_model
+        for fid, force in zip(self._ids, self.forces(data), strict=True):
             if force.any():
                 tau += pin.getFrameJacobian(pm, data, fid, LWA)[:3].T @ force
