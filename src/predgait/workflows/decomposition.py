@@ -42,6 +42,56 @@ METHOD = ("decomposition of the inverse-dynamics moment, tau_ID = tau_active + "
 
 
 @dataclass(frozen=True)
+class Resampling:
+    """``[uncertainty]`` of the passive fits: bootstrap over gait cycles (or blocks).
+
+    Attributes:
+        repeats: Replicates (``bootstrap``; 0 or 1: none). seed: Random seed.
+        min_cycles: Fewest gait cycles to resample cycles (else blocks of ``block_s`` s).
+    """
+
+    repeats: int = 200
+    seed: int = 0
+    min_cycles: int = 6
+    block_s: float = 0.1
+
+
+def parse_uncertainty(unc: Table, *, blocks: bool = True, extra: tuple[str, ...] = ()
+                      ) -> Resampling:
+    """``[uncertainty]`` bootstrap, seed (and min_cycles, block_s with ``blocks``).
+
+    ``extra``: further keys the caller reads itself. The one parser of this table (the
+    same defaults and bounds in every passive fit).
+    """
+    unc.check_keys(("bootstrap", "seed", *(("min_cycles", "block_s") if blocks else ()),
+                    *extra))
+    default = Resampling()
+    return Resampling(
+        repeats=int(unc.number("bootstrap", default.repeats, low=0, high=10000)),
+        seed=int(unc.number("seed", default.seed, low=0)),
+        min_cycles=int(unc.number("min_cycles", default.min_cycles, low=2, high=1000))
+        if blocks else default.min_cycles,
+        block_s=unc.number("block_s", default.block_s, low=0.01, high=2.0, unit="s")
+        if blocks else default.block_s)
+
+
+def parse_filter(filt: Table, *, default_cutoff: float | str = "residual",
+                 sensitivity: tuple[float, ...] | None = None
+                 ) -> tuple[float | None, tuple[float, ...]]:
+    """``[filter]``: marker_cutoff (:func:`parse_cutoff`) and the sensitivity cut-offs.
+
+    ``sensitivity``: default of the ``sensitivity_hz`` key (Hz); None when the fit has
+    no such key (then the second value is empty).
+    """
+    filt.check_keys(("marker_cutoff", *(("sensitivity_hz",) if sensitivity else ())))
+    cutoff = parse_cutoff(filt, default_cutoff)
+    if not sensitivity:
+        return cutoff, ()
+    return cutoff, tuple(filt.numbers("sensitivity_hz", list(sensitivity), low=0.5, high=100,
+                                      unit="Hz", increasing=True))
+
+
+@dataclass(frozen=True)
 class DecompositionSpec:
     """A parsed ``passive_decomposition`` problem file (see problems/passive_decomposition.toml)."""
 
@@ -52,10 +102,7 @@ class DecompositionSpec:
     settings: Settings
     cutoff: float | None            # Hz; None: residual analysis
     sensitivity_hz: tuple[float, ...]
-    repeats: int
-    seed: int
-    min_cycles: int
-    block_s: float
+    resampling: Resampling
     noise_repeats: int = 0
     noise_marker_mm: float = 1.0
     noise_force_percent: float = 1.0
@@ -106,12 +153,11 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
     joints = parse_joints(table)
     checked = parse_phases(table)
     trial = leg_trial(table.table("trial"))
-    filt = table.table("filter")
-    filt.check_keys(("marker_cutoff", "sensitivity_hz"))
-    cutoff = parse_cutoff(filt)
+    cutoff, sensitivity = parse_filter(table.table("filter"),
+                                       sensitivity=(4.0, 6.0, 8.0, 12.0, 20.0))
     unc = table.table("uncertainty")
-    unc.check_keys(("bootstrap", "seed", "min_cycles", "block_s", "noise_repeats",
-                    "noise_marker_mm", "noise_force_percent"))
+    resampling = parse_uncertainty(unc, extra=("noise_repeats", "noise_marker_mm",
+                                               "noise_force_percent"))
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
     settings = Settings(quiet_phases=checked,
@@ -120,13 +166,7 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
     return DecompositionSpec(
         source=table.path, inverse_problem=trial.inverse_problem, side=trial.side,
         model=parse_passive_model(table.table("passive"), joints), settings=settings,
-        cutoff=cutoff,
-        sensitivity_hz=filt.numbers("sensitivity_hz", [4.0, 6.0, 8.0, 12.0, 20.0], low=0.5,
-                                    high=100, unit="Hz", increasing=True),
-        repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
-        seed=int(unc.number("seed", 0, low=0)),
-        min_cycles=int(unc.number("min_cycles", 6, low=2, high=1000)),
-        block_s=unc.number("block_s", 0.1, low=0.01, high=2.0, unit="s"),
+        cutoff=cutoff, sensitivity_hz=sensitivity, resampling=resampling,
         noise_repeats=int(unc.number("noise_repeats", 0, low=0, high=1000)),
         noise_marker_mm=unc.number("noise_marker_mm", 1.0, low=0.0, high=50.0, unit="mm"),
         noise_force_percent=unc.number("noise_force_percent", 1.0, low=0.0, high=50.0,
@@ -210,7 +250,7 @@ def noise_sensitivity(spec: DecompositionSpec, options: InverseOptions, cutoff: 
     from predgait.dynamics.inverse_trial import read_trial
 
     trial, turn = read_trial(options)
-    rng = np.random.default_rng(spec.seed + 1)
+    rng = np.random.default_rng(spec.resampling.seed + 1)
     options = replace(options, cutoff=cutoff, grf_cutoff=cutoff)
     rows, failed = [], 0
     for _ in range(spec.noise_repeats):
@@ -250,9 +290,10 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
     where = f"{spec.source}: quiet_phases"
     check_samples(samples, spec.model, spec.settings, where=where)
     fit = fit_decomposition(samples, spec.model, spec.settings)
-    boot = bootstrap(samples, spec.model, fit, spec.settings, repeats=spec.repeats,
-                     seed=spec.seed, min_cycles=spec.min_cycles, block_s=spec.block_s) \
-        if spec.repeats > 1 else None
+    res = spec.resampling
+    boot = bootstrap(samples, spec.model, fit, spec.settings, repeats=res.repeats,
+                     seed=res.seed, min_cycles=res.min_cycles, block_s=res.block_s) \
+        if res.repeats > 1 else None
     reports, correlation = assess(spec.model, fit, boot)
     sensitivity = cutoff_sensitivity(spec, options)
     noise = noise_sensitivity(spec, options, chosen)
@@ -272,7 +313,7 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         "cycle_timing": samples.timing,
         "bootstrap": None if boot is None else {
             "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
-            "units": boot.n_units, "seed": spec.seed},
+            "units": boot.n_units, "seed": spec.resampling.seed},
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
