@@ -156,7 +156,7 @@ def solve_feedback(spec: FeedbackSpec) -> dict:
     """Gains, re-simulations and the torque split (everything written by run_feedback)."""
     from predgait.dynamics.drivers import LegDrivers
     from predgait.dynamics.forward import LegSystem
-    from predgait.dynamics.lqr import LqrWeights, tvlqr
+    from predgait.dynamics.lqr import BrysonWeights, tvlqr
 
     inverse = spec.trial.inverse()
     window = _window(spec, inverse)
@@ -166,7 +166,7 @@ def solve_feedback(spec: FeedbackSpec) -> dict:
     end = min(window[1] + spec.horizon, float(inverse.time[-1]))
     n_nodes = max(2, int(np.ceil((end - window[0]) / spec.node_step)) + 1)
     nodes = np.linspace(window[0], end, n_nodes)
-    weights = LqrWeights(spec.angle_deg, spec.rate_deg_s, spec.torque_n_m)
+    weights = BrysonWeights(spec.angle_deg, spec.rate_deg_s, spec.torque_n_m)
     controller = tvlqr(LegSystem(inverse.model, feedforward), feedforward.reference, nodes,
                        weights)
     open_sim, open_loop = _simulate(inverse, feedforward, window, spec)
