@@ -188,7 +188,7 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
                               "what": "passive moment of the fitted model along the measured "
                                       "motion; active = inverse dynamics - passive",
                               "marker_cutoff_hz": f"{solution['marker_cutoff_hz']:.3g}"})
-        write_storage(stage / "swing_angles.sto", result["time"][index], angles,
+        write_storage(stage / "swing_angles.sto", result["time"][index], angles, in_degrees=True,
                       header={"units": "deg, model coordinates (knee: -flexion)",
                               "what": "measured and simulated angles in the quiet-phase "
                                       "windows of the fit"})
