@@ -273,3 +273,27 @@ def test_leg_scenario_lock_holds_the_clinical_angle():
     assert free == ("ankle",)
     assert clinical_angles(held.reference_q(0.0))["knee_flexion"] == pytest.approx(
         np.radians(20.0))
+
+
+def test_gait7_knee_plot(tmp_path, monkeypatch):
+    from predgait.dynamics.integrators import Status
+    from predgait.models.gait7 import build_gait7_urdf
+    from predgait.models.loading import model_from_urdf
+    from predgait.report import raster
+    from predgait.workflows import gait7_run
+
+    model = model_from_urdf(build_gait7_urdf(72.6, 1.8034))
+    q = np.zeros((N, model.nq))
+    for side in "rl":
+        name = f"knee_{side}"
+        q[:, model.coordinate_index(name)] = clinical_joint(model, name).clinical(0.6)
+    run = SimpleNamespace(run=SimpleNamespace(t=T, q=q), status=Status.COMPLETED)
+    charts = []
+    monkeypatch.setattr(raster, "save_chart", lambda path, panels, **k: charts.append(panels))
+    gait7_run._plot_knees(tmp_path, model, run,
+                          [({"name": "driven", "knee_run": {"sides": ["right", "left"]}}, None,
+                            run)])
+    [[panel]] = charts
+    assert panel.ylabel == "knee flexion (deg)" and len(panel.lines) == 4
+    for line in panel.lines:
+        assert np.allclose(line.y, np.degrees(0.6)), line.label
