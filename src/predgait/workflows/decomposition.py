@@ -146,6 +146,30 @@ def parse_cutoff(filt: Table, default: float | str = "residual") -> float | None
     return filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
 
 
+def write_passive_moments(path: Path, samples, joints, parts: dict, *, what: str,
+                          cutoff_hz: float, extra: dict | None = None) -> None:
+    """passive_moments.sto of a passive fit: the one writer (decomposition, shooting, swing).
+
+    Args:
+        path: The file.
+        samples: :class:`~predgait.problems.gait_samples.GaitSamples` (time, % gait cycle
+            and the inverse-dynamics clinical moments).
+        joints: Joints of the passive model, in column order.
+        parts: column suffix -> joint -> (n,) clinical moment, N m (e.g. "passive").
+        what: The header's description.
+        cutoff_hz: Marker cut-off of the moments, Hz.
+        extra: Further columns after the joints' (e.g. the quiet-phase flags).
+    """
+    columns = {"percent_gait_cycle": samples.percent}
+    for joint in joints:
+        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
+        columns |= {f"{joint}_moment_{suffix}": values[joint] for suffix, values in parts.items()}
+    write_storage(path, samples.time, columns | (extra or {}),
+                  header={"units": "N m (clinical sign: positive toward knee flexion / "
+                                   "ankle dorsiflexion), % gait cycle",
+                          "what": what, "marker_cutoff_hz": f"{cutoff_hz:.3g}"})
+
+
 def parse_decomposition(table: Table) -> DecompositionSpec:
     """DecompositionSpec from a problem file (errors name the file, key and line)."""
     table.check_keys(("kind", "joints", "quiet_phases", "smoothness_weight", "trial", "filter",
@@ -322,19 +346,12 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
-    columns = {"percent_gait_cycle": samples.percent}
-    for joint in spec.model.joints:
-        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
-        columns[f"{joint}_moment_passive"] = fit.passive[joint]
-        columns[f"{joint}_moment_active"] = fit.active[joint]
-    columns["quiet_phase"] = quiet.astype(float)
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
         solution = write_summary(stage / "solution.json", solution)
-        write_storage(stage / "passive_moments.sto", samples.time, columns,
-                      header={"units": "N m (clinical sign: positive toward knee flexion / "
-                                       "ankle dorsiflexion), % gait cycle",
-                              "what": "inverse-dynamics moment split into passive + active",
-                              "marker_cutoff_hz": f"{chosen:.3g}"})
+        write_passive_moments(stage / "passive_moments.sto", samples, spec.model.joints,
+                              {"passive": fit.passive, "active": fit.active},
+                              what="inverse-dynamics moment split into passive + active",
+                              cutoff_hz=chosen, extra={"quiet_phase": quiet.astype(float)})
         if plots_wanted():
             from predgait.report.decomposition_plots import plot_active_passive
 

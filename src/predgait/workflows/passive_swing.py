@@ -36,6 +36,7 @@ from predgait.workflows.decomposition import (
     parse_phases,
     parse_uncertainty,
     residual_cutoff,
+    write_passive_moments,
 )
 from predgait.workflows.output import staged_output
 from predgait.workflows.trials import LegTrial, leg_trial
@@ -167,13 +168,9 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
     """Solve (:func:`solve_swing`) and write the result folder; returns solution.json."""
     result = solve_swing(spec)
     samples, windows, fit = result["samples"], result["windows"], result["fit"]
-    columns = {"percent_gait_cycle": samples.percent}
-    for joint in spec.model.joints:
-        passive = np.asarray(spec.model.passive_joint(joint, fit.values).moment(
-            samples.angles[joint], samples.rates[joint]))
-        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
-        columns[f"{joint}_moment_passive"] = passive
-        columns[f"{joint}_moment_active"] = samples.moments[joint] - passive
+    passive = {joint: np.asarray(spec.model.passive_joint(joint, fit.values).moment(
+        samples.angles[joint], samples.rates[joint])) for joint in spec.model.joints}
+    active = {joint: samples.moments[joint] - passive[joint] for joint in spec.model.joints}
     index = (windows.first[:, None] + np.arange(windows.mask.shape[1]))[windows.mask]
     angles = {"window": np.repeat(np.arange(len(windows)), windows.length).astype(float)}
     for i, joint in enumerate(("ankle", "knee")):
@@ -182,12 +179,11 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
     with staged_output(out, force=force, inputs=[spec.source, spec.trial.inverse_problem]) \
             as stage:
         solution = write_summary(stage / "solution.json", result["solution"])
-        write_storage(stage / "passive_moments.sto", samples.time, columns,
-                      header={"units": "N m (clinical sign: positive toward knee flexion / "
-                                       "ankle dorsiflexion), % gait cycle",
-                              "what": "passive moment of the fitted model along the measured "
-                                      "motion; active = inverse dynamics - passive",
-                              "marker_cutoff_hz": f"{solution['marker_cutoff_hz']:.3g}"})
+        write_passive_moments(stage / "passive_moments.sto", samples, spec.model.joints,
+                              {"passive": passive, "active": active},
+                              what="passive moment of the fitted model along the measured "
+                                   "motion; active = inverse dynamics - passive",
+                              cutoff_hz=solution["marker_cutoff_hz"])
         write_storage(stage / "swing_angles.sto", result["time"][index], angles, in_degrees=True,
                       header={"units": "deg, model coordinates (knee: -flexion)",
                               "what": "measured and simulated angles in the quiet-phase "

@@ -18,7 +18,6 @@ from pathlib import Path
 
 import numpy as np
 
-from predgait.data import write_storage
 from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, bootstrap, fit_decomposition
 from predgait.problems.identifiability import assess
@@ -46,6 +45,7 @@ from predgait.workflows.decomposition import (
     parse_phases,
     parse_uncertainty,
     residual_cutoff,
+    write_passive_moments,
 )
 from predgait.workflows.output import staged_output
 from predgait.workflows.trials import LegTrial, leg_trial
@@ -200,22 +200,16 @@ def run_shooting(spec: ShootingSpec, out: Path, *, force: bool = False) -> dict:
     """Solve (:func:`solve_shooting`) and write the result folder; returns solution.json."""
     result = solve_shooting(spec)
     samples, split, stabilising = result["samples"], result["split"], result["stabilising"]
-    columns = {"percent_gait_cycle": samples.percent}
-    for joint in spec.model.joints:
-        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
-        columns[f"{joint}_moment_passive_decomposition"] = split.passive[joint]
-        columns[f"{joint}_moment_active_decomposition"] = split.active[joint]
-        columns[f"{joint}_moment_stabilising_shooting"] = stabilising[joint]
     with staged_output(out, force=force,
                        inputs=[spec.source, spec.trial.inverse_problem]) as stage:
         solution = write_summary(stage / "solution.json", result["solution"])
-        write_storage(stage / "passive_moments.sto", samples.time, columns,
-                      header={"units": "N m (clinical sign: positive toward knee flexion / "
-                                       "ankle dorsiflexion), % gait cycle",
-                              "what": "inverse-dynamics moment split into passive + active "
-                                      "(decomposition) and the stabilising elements' moment "
-                                      "along the measured motion (multiple shooting)",
-                              "marker_cutoff_hz": f"{solution['marker_cutoff_hz']:.3g}"})
+        write_passive_moments(
+            stage / "passive_moments.sto", samples, spec.model.joints,
+            {"passive_decomposition": split.passive, "active_decomposition": split.active,
+             "stabilising_shooting": stabilising},
+            what="inverse-dynamics moment split into passive + active (decomposition) and "
+                 "the stabilising elements' moment along the measured motion (multiple "
+                 "shooting)", cutoff_hz=solution["marker_cutoff_hz"])
         if plots_wanted():
             from predgait.report.decomposition_plots import plot_active_passive
 
