@@ -73,7 +73,8 @@ def test_divergence_writes_partial_and_exits_nonzero(tmp_path, capsys):
     assert "t = " in err and "partial" in err
 
 
-def test_resynthesis_subject01(tmp_path, assert_tidy_result):
+def test_resynthesis_subject01(tmp_path, assert_tidy_result,
+                               assert_leg_knee_starts_on_measured):
     out = tmp_path / "re"
     code = main(["simulate", str(PROBLEMS / "resynthesis.toml"), "--out", str(out),
                  "--set", "simulation.duration=0.5", "--set", "stability.times=[0.05, 0.2, 0.4]",
@@ -89,21 +90,5 @@ def test_resynthesis_subject01(tmp_path, assert_tidy_result):
     assert np.isfinite(s["grf_rms_n"]["z"])
     for name in ("grf.png", "contributions.png", "stick.gif"):
         assert (out / name).is_file()
-    # states.sto's stated unit (rad) is its values': the knee starts on the measured one
-    # (kinematics.sto of the leg inverse, its stated rad; knee flexion = -q_knee).
-    states = read_storage(out / "states.sto")
-    assert states.header["units"].startswith("m, rad") and not states.in_degrees
-    assert main(["inverse", str(PROBLEMS / "inverse_subject01.toml"), "--no-plots", "--out",
-                 str(tmp_path / "inverse")]) == 0
-    measured = read_storage(tmp_path / "inverse" / "kinematics.sto")
-    assert measured.header["units"].startswith("SI (rad")
-    early = states.time <= states.time[0] + 0.03
-    knee = np.degrees(np.interp(states.time[early], measured.time,
-                                measured.column("knee_flexion")))
-    simulated = np.degrees(-states.column("knee")[early])
-    # Its own inverse problem (resynthesis.toml) puts the knee ~5 deg off the default
-    # one; the motion over the first 30 ms (~5 deg) is the same to a tenth of a degree.
-    assert np.max(np.abs(simulated - knee)) < 8.0
-    assert np.max(np.abs(np.diff(simulated) - np.diff(knee))) < 0.1
-    assert np.ptp(knee) > 3.0
-    assert np.degrees(np.ptp(measured.column("knee_flexion"))) > 40.0
+    # states.sto's stated unit (rad) is its values': the knee starts on the measured one.
+    assert_leg_knee_starts_on_measured(out / "states.sto")
