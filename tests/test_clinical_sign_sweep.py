@@ -297,3 +297,35 @@ def test_gait7_knee_plot(tmp_path, monkeypatch):
     assert panel.ylabel == "knee flexion (deg)" and len(panel.lines) == 4
     for line in panel.lines:
         assert np.allclose(line.y, np.degrees(0.6)), line.label
+
+
+def test_predicted_scenario_metrics_compare_clinical_angles():
+    from predgait.models.gait7 import build_gait7_urdf
+    from predgait.models.loading import model_from_urdf
+    from predgait.scenarios.predict import predicted_metrics
+
+    model = model_from_urdf(build_gait7_urdf(72.6, 1.8034))
+    wave = np.sin(np.linspace(0.0, np.pi, N))
+
+    def prediction(clinical):            # clinical angle of every joint, rad
+        q = np.zeros((N, model.nq))
+        for side in "rl":
+            for joint in ("hip", "knee", "ankle"):
+                name = f"{joint}_{side}"
+                q[:, model.coordinate_index(name)] = clinical_joint(model, name).clinical(
+                    clinical)
+        measures = {"step_length_m": 0.7, "cadence_steps_min": 110.0, "speed_m_s": 1.3,
+                    **{side: {"stance_fraction": 0.6, "peak_fz_n": 800.0}
+                       for side in ("right", "left")}}
+        return SimpleNamespace(stride={"t": T, "q": q, "contact": np.zeros((N, 4, 2)),
+                                       "tau": np.zeros((N, 6))},
+                               gait=SimpleNamespace(terms={"effort": 1.0}), measures=measures,
+                               resimulation=None)
+
+    out = predicted_metrics(model, prediction(0.3 * wave), prediction(0.3 * wave + 0.2),
+                            ("r",))
+    for side in "rl":
+        for joint in ("hip", "knee", "ankle"):
+            name = f"{joint}_{side}"
+            assert out[f"{name}_rms_change_deg"] == pytest.approx(np.degrees(0.2)), name
+            assert out[f"{name}_range_deg"] == pytest.approx(np.degrees(0.3)), name
