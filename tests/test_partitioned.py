@@ -98,6 +98,11 @@ def test_standing_on_contact_carries_body_weight():
     tau = system.applied(run.t[-1], run.q[-1], run.v[-1])
     assert np.allclose(contact.forces(system.data), forces, rtol=0, atol=1e-9)
     assert np.isfinite(tau).all()
+    from dataclasses import FrozenInstanceError
+
+    with pytest.raises(FrozenInstanceError):
+        contact.ground_z = 0.0
+    assert not hasattr(contact, "last_forces")
     assert abs(run.v[-1, 1]) < 1e-3
 
 
