@@ -60,6 +60,7 @@ from predgait.kinematics.ik3d import (
     IKResult,
     body_of,
     calibrate_markers,
+    coordinate_columns,
     pelvis_cardan,
     solve_ik,
     with_marker_frames,
@@ -488,11 +489,7 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
         out[hide] = np.nan
         return out
 
-    kin = {"pelvis_tx": result.q[:, 0], "pelvis_ty": result.q[:, 1], "pelvis_tz": result.q[:, 2]}
-    kin |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(result.q).T,
-                                                        strict=True)}
-    kin |= {n: np.degrees(result.q[:, 7 + i]) for i, n in enumerate(model.joint_names)}
-    kin = {k: masked(v) for k, v in kin.items()}
+    kin = {k: masked(v) for k, v in coordinate_columns(result.q, model.joint_names).items()}
     write_storage(folder / "kinematics3d.sto", time, kin, in_degrees=True,
                   header={"units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
                           "provenance": prov})
