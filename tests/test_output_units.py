@@ -72,16 +72,23 @@ def run_cli(*args) -> None:
     assert main(["inverse", str(PROBLEM), "--no-plots", *map(str, args)]) == 0
 
 
-def test_leg_inverse_files_state_their_angle_unit(tmp_path):
-    run_cli("--out", tmp_path / "leg")
-    peaks = [assert_knee_peak(sto_angle_deg(tmp_path / "leg" / "kinematics.sto",
-                                            "knee_flexion"), "kinematics.sto"),
-             assert_knee_peak(csv_angle_deg(tmp_path / "leg" / "kinematics.csv",
-                                            "knee_flexion"), "kinematics.csv")]
+@pytest.fixture(scope="module")
+def leg(tmp_path_factory) -> Path:
+    """The leg inverse's result folder (``predgait inverse``)."""
+    out = tmp_path_factory.mktemp("units") / "leg"
+    run_cli("--out", out)
+    return out
+
+
+def test_leg_inverse_files_state_their_angle_unit(leg):
+    peaks = [assert_knee_peak(sto_angle_deg(leg / "kinematics.sto", "knee_flexion"),
+                              "kinematics.sto"),
+             assert_knee_peak(csv_angle_deg(leg / "kinematics.csv", "knee_flexion"),
+                              "kinematics.csv")]
     assert peaks[0] == pytest.approx(peaks[1], abs=1e-6)
 
 
-def test_whole_body_inverse_files_state_their_angle_unit(tmp_path):
+def test_whole_body_inverse_files_state_their_angle_unit(tmp_path, leg):
     out = tmp_path / "body"
     run_cli("--model", "fullbody", "--marker-map", MAP, "--out", out)
     peaks = [assert_knee_peak(sto_angle_deg(out / "kinematics3d.sto", "knee_r_y"),
@@ -91,7 +98,18 @@ def test_whole_body_inverse_files_state_their_angle_unit(tmp_path):
              assert_knee_peak(csv_angle_deg(out / "clinical.csv", "knee_flexion_r"),
                               "clinical.csv")]
     assert max(peaks) - min(peaks) < 1e-6  # knee_r_y is knee flexion (sign +1)
+    # Clinical signs through the writer (clinical_angles.sto / clinical_moments.sto): the
+    # stance hip adducts (Kadaba 1990: 5-10 deg), the ankle dorsiflexes in late stance
+    # (~10-15 deg), and the internal moments are the abductors' at the hip and the
+    # plantarflexors' at push-off, negative (Winter 2009: ~0.8 and ~1.5 N m/kg).
+    angles = read_storage(out / "clinical_angles.sto")
+    assert 3.0 < np.nanmax(angles.column("hip_adduction_r")) < 15.0
+    assert 5.0 < np.nanmax(angles.column("ankle_dorsiflexion_r")) < 25.0
+    moments = read_storage(out / "clinical_moments.sto")
+    assert moments.header["units"] == "N m"
+    mass = 72.6
+    assert -1.2 < np.nanmin(moments.column("hip_adduction_r_moment")) / mass < -0.4
+    assert -2.0 < np.nanmin(moments.column("ankle_dorsiflexion_r_moment")) / mass < -1.0
     # The leg model's knee on the same trial agrees to within the models' difference.
-    run_cli("--out", tmp_path / "leg")
-    leg = np.nanmax(sto_angle_deg(tmp_path / "leg" / "kinematics.sto", "knee_flexion"))
-    assert abs(leg - peaks[0]) < 10.0
+    assert abs(np.nanmax(sto_angle_deg(leg / "kinematics.sto", "knee_flexion"))
+               - peaks[0]) < 10.0
