@@ -24,7 +24,7 @@ Underactuated Robotics, "time-varying LQR"). Weights follow Bryson's rule
 from __future__ import annotations
 
 import bisect
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -137,9 +137,6 @@ class FloatingLQR(Force):
     gains: np.ndarray
     fastest_rate: float = float("nan")
     name: str = "feedback"
-    #: (t, q_ref, v_ref, K) of the latest time asked: RK4's middle stages share one t,
-    #: and a step's last stage is the next step's first.
-    _latest: list = field(default_factory=list, init=False, repr=False, compare=False)
 
     def gain(self, t: float) -> np.ndarray:
         """K(t) (n, 2 nv), held at the ends."""
@@ -148,20 +145,14 @@ class FloatingLQR(Force):
         w = min(max((t - times[k]) / (times[k + 1] - times[k]), 0.0), 1.0)
         return (1 - w) * self.gains[k] + w * self.gains[k + 1]
 
-    def _at(self, t: float) -> tuple:
-        if not self._latest or self._latest[0] != t:
-            q_ref, v_ref = self.reference(t)[:2]
-            self._latest[:] = (t, q_ref, v_ref, self.gain(t))
-        return self._latest[1:]
-
     def error(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """State error dx (2 nv,) from the reference at t."""
-        q_ref, v_ref, _ = self._at(t)
+        q_ref, v_ref = self.reference(t)[:2]
         return np.concatenate([pin.difference(self.model.pin_model, q_ref, q), v - v_ref])
 
     def torque(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Feedback torques (n,) at t."""
-        return -self._at(t)[2] @ self.error(t, q, v)
+        """Feedback torques (n,) at t (no state: the reference and K are read per call)."""
+        return -self.gain(t) @ self.error(t, q, v)
 
     def add(self, tau, t, q, v, data) -> None:
         """Add the feedback torques at t."""
