@@ -14,9 +14,9 @@ from __future__ import annotations
 from timing import time_call
 
 from predgait.dynamics.contact_fit import fit_impact_to_meglan
+from predgait.dynamics.gait7_motion import bundled_gait7_motion, gait7_model
 from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
-from predgait.simulations.gait7_motion import bundled_gait7_motion, gait7_model
 from predgait.simulations.gait7_sim import GAIT7_FALL, KneeMoment, kinematic_run, knee_run
 
 SPAN = (0.62, 1.62)

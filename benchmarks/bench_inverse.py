@@ -54,7 +54,7 @@ def casadi_inverse(model):
     from predgait.models.symbolic import symbolic_model
 
     sym = symbolic_model(model)
-    q, qd, qdd = (cs.SX.sym(n, model.nq) for n in ("q", "qd", "qdd"))
+    q, v, a = (cs.SX.sym(n, model.nq) for n in ("q", "qd", "qdd"))
     force, cop = cs.SX.sym("force", 3), cs.SX.sym("cop", 3)
     hip = sym.frame_position("hip_center")(q)
     rows = cs.vertcat(hip[0], hip[2], q[2] + q[3] + q[4])
@@ -63,36 +63,36 @@ def casadi_inverse(model):
     # the foot origin (x, z) = (q[0], q[1]).
     moment = (cop[2] - q[1]) * force[0] - (cop[0] - q[0]) * force[2]
     ground = cs.vertcat(force[0], force[2], moment, 0, 0)
-    rhs = sym.mass_matrix(q) @ qdd + sym.bias_force(q, qd) - ground
+    rhs = sym.mass_matrix(q) @ a + sym.bias_force(q, v) - ground
     wrench = cs.solve(jac_hip[:, :3].T, rhs[:3])
     tau = rhs[3:] - jac_hip[:, 3:].T @ wrench
-    return cs.Function("inverse_dynamics", [q, qd, qdd, force, cop], [tau, wrench],
+    return cs.Function("inverse_dynamics", [q, v, a, force, cop], [tau, wrench],
                        ["q", "qd", "qdd", "force", "cop"], ["tau", "hip"])
 
 
 def random_frames(model):
     rng = np.random.default_rng(0)
-    q, qd, qdd = (rng.uniform(-0.5, 0.5, (N, model.nq)) for _ in range(3))
+    q, v, a = (rng.uniform(-0.5, 0.5, (N, model.nq)) for _ in range(3))
     force = np.column_stack([rng.uniform(-50, 50, N), np.zeros(N), rng.uniform(300, 800, N)])
     cop = np.column_stack([q[:, 0] + 0.05, np.zeros(N), np.zeros(N)])
-    return q, qd, qdd, force, cop
+    return q, v, a, force, cop
 
 
 def leg_id_rows(repeat: int) -> list[Row]:
     """Leg ID of 1000 frames: the product path against OpenSim's solver loop."""
     model = load_model("leg")
     pm, data = model.pin_model, model.pin_model.createData()
-    q, qd, qdd, force, cop = random_frames(model)
+    q, v, a, force, cop = random_frames(model)
     loads = [LoadHistory("foot", force, cop)]
-    ours = time_call(lambda: leg_inverse_dynamics(model, q, qd, qdd, loads), repeat,
+    ours = time_call(lambda: leg_inverse_dynamics(model, q, v, a, loads), repeat,
                      warmup=True)
     # OpenSim gets the states without the ground reaction (its solver takes no loads here);
     # the equality check below uses the same states through bare RNEA.
-    peer = run_peer_npz("opensim_leg.py", mode="inverse", q=q, qd=qd, qdd=qdd, repeat=repeat,
+    peer = run_peer_npz("opensim_leg.py", mode="inverse", q=q, qd=v, qdd=a, repeat=repeat,
                         **leg_segments(model))
     what_peer = "InverseDynamicsSolver per frame from Python, same leg and states"
     if "error" not in peer:
-        bare = np.array([pin.rnea(pm, data, q[k], qd[k], qdd[k]) for k in range(N)])
+        bare = np.array([pin.rnea(pm, data, q[k], v[k], a[k]) for k in range(N)])
         what_peer += (f", OpenSim {peer['version']}; max |tau_OpenSim - tau_Pinocchio| = "
                       f"{np.abs(peer['tau'] - bare).max():.1e} N m")
     else:
@@ -100,24 +100,24 @@ def leg_id_rows(repeat: int) -> list[Row]:
     rows = [Row(f"leg ID, {N} frames (5 DOF, ground reaction, hip solve, joint forces)",
                 ours, "leg_inverse_dynamics, batched, the path run_inverse uses",
                 peer.get("timing"), what_peer)]
-    bare = time_call(lambda: [pin.rnea(pm, data, q[k], qd[k], qdd[k]) for k in range(N)],
+    bare = time_call(lambda: [pin.rnea(pm, data, q[k], v[k], a[k]) for k in range(N)],
                      repeat)
     rows.append(Row(f"bare Pinocchio RNEA loop, {N} frames, no loads", bare,
                     "pin.rnea per frame from Python"))
-    rows.extend(casadi_rows(model, q, qd, qdd, force, cop, loads, repeat))
+    rows.extend(casadi_rows(model, q, v, a, force, cop, loads, repeat))
     return rows
 
 
-def casadi_rows(model, q, qd, qdd, force, cop, loads, repeat) -> list[Row]:
+def casadi_rows(model, q, v, a, force, cop, loads, repeat) -> list[Row]:
     """The ID as a mapped CasADi function (serial and JIT-compiled): benchmark only."""
     import casadi as cs
 
     f = casadi_inverse(model)
-    args = (q.T, qd.T, qdd.T, force.T, cop.T)
+    args = (q.T, v.T, a.T, force.T, cop.T)
     serial = f.map(N)
     rows = [Row(f"leg ID, {N} frames, CasADi map of the ADAM expression (benchmark only)",
                 time_call(lambda: serial(*args), repeat), "serial map, SX virtual machine")]
-    tau = leg_inverse_dynamics(model, q, qd, qdd, loads).tau[:, 3:]
+    tau = leg_inverse_dynamics(model, q, v, a, loads).tau[:, 3:]
     check = np.abs(np.array(serial(*args)[0]).T - tau).max()
     try:
         start = time.perf_counter()
@@ -166,7 +166,8 @@ def whole_process_rows(repeat: int) -> list[Row]:
 
 def breakdown_rows(repeat: int) -> list[Row]:
     """Where the whole `predgait inverse` process goes: imports, compute, files (no peer)."""
-    from predgait.dynamics.inverse_trial import bundled_options, run_inverse
+    from predgait.dynamics.inverse_options import bundled_options
+    from predgait.dynamics.inverse_trial import run_inverse
     from predgait.workflows.inverse_io import write_inverse_outputs
 
     imports = time_process([sys.executable, "-c", "import predgait.cli.inverse, "
@@ -189,7 +190,8 @@ def breakdown_rows(repeat: int) -> list[Row]:
 
 def stage_rows() -> None:
     """Print the stages of run_inverse on subject01 (no peer)."""
-    from predgait.dynamics.inverse_trial import bundled_options, run_inverse
+    from predgait.dynamics.inverse_options import bundled_options
+    from predgait.dynamics.inverse_trial import run_inverse
 
     options = bundled_options("right")
     total = time_call(lambda: run_inverse(options), 3)
@@ -197,8 +199,8 @@ def stage_rows() -> None:
     contact = (result.grf[:, 2] > 0)[:, None]
     loads = [LoadHistory("foot", np.where(contact, result.grf, 0.0), result.cop,
                          np.where(contact, result.free_moment, 0.0))]
-    dynamics = time_call(lambda: leg_inverse_dynamics(result.model, result.q, result.qd,
-                                                      result.qdd, loads), 5)
+    dynamics = time_call(lambda: leg_inverse_dynamics(result.model, result.q, result.v,
+                                                      result.a, loads), 5)
     print(f"run_inverse on subject01 ({result.time.size} frames): {total.describe()}; "
           f"of which inverse dynamics {dynamics.describe()}")
 

@@ -6,7 +6,7 @@ default) and 50. Per grid, min / median of the repeats (wall and CPU):
 
 * build: the NLP and its Ipopt solver (exact Hessian), from a fresh model object;
 * tracking, cold: tracking weights from the measured motion;
-* predictive, cold: the whole :func:`predgait.workflows.predict.predict` recipe from the
+* predictive, cold: the whole :func:`predgait.scenarios.predict.predict` recipe from the
   measured motion (tracking stage, then effort only; on grids other than 40 intervals the
   40-interval solution resampled, then the final grid), problems already built, no
   engine re-simulation; Ipopt iterations of every stage;
@@ -38,12 +38,13 @@ from dataclasses import replace
 
 from timing import HERE, NOT_AVAILABLE, Timing, time_call
 
+from predgait.dynamics.gait7_motion import bundled_gait7_motion, gait7_model
 from predgait.models.gait7 import build_gait7_urdf
 from predgait.models.loading import model_from_urdf
 from predgait.problems.predictive import Cycle, Guess, PredictiveProblem, Start, Weights
 from predgait.problems.predictive_data import carrying_depth, measured_cycle
-from predgait.simulations.gait7_motion import bundled_gait7_motion, gait7_model
-from predgait.workflows.predict import TRACKING_STAGE, PredictSpec, default_bounds, predict
+from predgait.problems.predictive_solve import TRACKING_STAGE, PredictSpec, default_bounds
+from predgait.scenarios.predict import predict
 
 SPEC = PredictSpec()
 

@@ -67,14 +67,14 @@ def moco_inputs(inverse, drivers, mode: str, intervals: int, window=(0.0, 1.0), 
     model = inverse.model
     frame = model.pin_model.frames[model.frame_id("hip_center")]   # on the thigh
     lab_to_osim = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
-    qdd = np.array([drivers.reference_qdd(t) for t in nodes.t])
+    a = np.array([drivers.reference_qdd(t) for t in nodes.t])
     return {**leg_segments(model), "mode": mode, "foot": foot, "joints": list(joints),
             "intervals": intervals, "t_dense": dense.t, "qb_dense": dense.qb,
             "tau_dense": dense.tau, "hip_dense": dense.hip,
             "hip_point": lab_to_osim @ frame.placement.translation, "t_nodes": nodes.t,
             "x0": nodes.x_ref[0], "q_nodes": np.column_stack([nodes.qb, nodes.x_ref[:, :2]]),
             "qd_nodes": np.column_stack([nodes.vb, nodes.x_ref[:, 2:]]),
-            "qdd_nodes": qdd, "tau_nodes": nodes.tau, "p0": [10.0, 1.0, 0.0],
+            "qdd_nodes": a, "tau_nodes": nodes.tau, "p0": [10.0, 1.0, 0.0],
             "k_max": 2000.0, "c_max": 200.0, "theta0_max": np.radians(60.0),
             # correct_torques: 1e4 x the mean squared error of 2 angles (rad^2) and 1 x the
             # mean (change / 10 N m)^2 of 2 moments; Moco integrates sums over 1 s and its

@@ -6,7 +6,7 @@ Reads the segments (mass, sagittal inertia, COM and joint offsets in OpenSim axe
 STATES.npz and builds the leg with the OpenSim API (PlanarJoint on the foot, PinJoints at
 ankle and knee, Y-up). Then, by the file's ``mode``:
 
-* ``inverse``: the states (q, qd, qdd, predgait's coordinates, one row per frame) are solved
+* ``inverse``: the states (q, v, a, predgait's coordinates, one row per frame) are solved
   frame by frame from Python with the InverseDynamicsSolver; writes tau (predgait's
   coordinates and signs).
 * ``forward``: the foot is welded to the ground and the Manager (Runge-Kutta-Merson,
@@ -69,7 +69,7 @@ def timed(run, repeat):
 def inverse(data):
     model, state = build_leg(data, float(data["gravity"]))
     solver = osim.InverseDynamicsSolver(model)
-    q, qd, qdd = data["q"], data["qd"], data["qdd"]
+    q, v, a = data["q"], data["qd"], data["qdd"]
 
     def to_osim(x):
         return osim.Vector.createFromMat(SIGN * x[ORDER])
@@ -78,9 +78,9 @@ def inverse(data):
         out = np.empty(q.shape)
         for k in range(len(q)):
             state.setQ(to_osim(q[k]))
-            state.setU(to_osim(qd[k]))
+            state.setU(to_osim(v[k]))
             model.realizeVelocity(state)
-            tau = solver.solve(state, to_osim(qdd[k]))
+            tau = solver.solve(state, to_osim(a[k]))
             out[k, ORDER] = SIGN * np.array([tau.get(i) for i in range(q.shape[1])])
         return out
 

@@ -3,6 +3,8 @@
 import json
 import os
 import re
+import shutil
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -71,6 +73,38 @@ def assert_tidy_result():
         check_report_page(build_report(folder), folder)
         return data
     return check
+
+
+def _immutable(paths, on: bool) -> None:
+    subprocess.run(["chattr", "+i" if on else "-i", *map(str, paths)], check=True,
+                   capture_output=True)
+
+
+@pytest.fixture
+def read_only():
+    """Make paths unwritable, undone after: ``chattr +i`` as root (for whom permission
+    bits do not stop a write; needs chattr and a file system that has it, e.g. ext4),
+    ``chmod a-w`` as another user. Skips, saying why, when it cannot."""
+    made = []
+
+    def make(*paths):
+        if os.geteuid() == 0:
+            if shutil.which("chattr") is None:
+                pytest.skip("root without chattr: cannot make a folder read-only for root")
+            try:
+                _immutable(paths, True)
+            except subprocess.CalledProcessError:
+                pytest.skip("chattr +i not supported on this file system")
+        else:
+            for path in paths:
+                path.chmod(path.stat().st_mode & ~0o222)
+        made.extend(paths)
+
+    yield make
+    if made and os.geteuid() == 0:
+        _immutable(made, False)
+    for path in made:
+        path.chmod(path.stat().st_mode | 0o200)
 
 
 @pytest.fixture

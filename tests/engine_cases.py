@@ -42,7 +42,7 @@ def _rows(n: int, count: int = 9) -> np.ndarray:
 
 def _sim_answers(prefix: str, sim) -> dict[str, np.ndarray]:
     rows = _rows(len(sim.t))
-    out = {f"{prefix}/t": sim.t[rows], f"{prefix}/q": sim.q[rows], f"{prefix}/qd": sim.qd[rows],
+    out = {f"{prefix}/t": sim.t[rows], f"{prefix}/q": sim.q[rows], f"{prefix}/qd": sim.v[rows],
            f"{prefix}/status": np.array([STATUS[_status(sim.status)]]),
            f"{prefix}/fall": np.array([np.nan if sim.time_to_fall is None
                                        else sim.time_to_fall])}
@@ -71,7 +71,7 @@ def rod_answers() -> dict[str, np.ndarray]:
     spec = _spec("rod")
     model = load_model("rod")
     trial = synthetic_rod_trial(model, duration=spec.duration, rate=spec.rate, noise=spec.noise)
-    x0 = np.concatenate([trial.q[0], trial.qd[0]])
+    x0 = np.concatenate([trial.q[0], trial.v[0]])
     out = {}
     for frame in spec.frames:
         sim = simulate_rod(model, trial.forces(frame), (trial.time[0], trial.time[-1]), x0,
@@ -136,7 +136,7 @@ def resynthesis_answers() -> dict[str, np.ndarray]:
 
 def gait7_answers() -> dict[str, np.ndarray]:
     """problems/gait7_contact.toml: the kinematic run and the main knee-driven run."""
-    from predgait.simulations.gait7_motion import bundled_gait7_motion, gait7_model
+    from predgait.dynamics.gait7_motion import bundled_gait7_motion, gait7_model
     from predgait.simulations.gait7_sim import kinematic_run, knee_run
 
     spec = _spec("gait7")

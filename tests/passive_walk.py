@@ -18,7 +18,8 @@ inverse dynamics of the simulated motion equals the applied torques to 1e-11 N m
 import numpy as np
 import pinocchio as pin
 
-from predgait.dynamics.inverse_trial import InverseOptions, bundled_inverse
+from predgait.dynamics.inverse_options import InverseOptions
+from predgait.dynamics.inverse_trial import bundled_inverse
 from test_inverse_synthetic import frame_positions, write_grf_mot, write_markers_csv
 
 TRUTH = {"knee.k": 10.0, "knee.c": 0.5, "knee.theta0": 0.6,

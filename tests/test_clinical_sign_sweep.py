@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from predgait.data import read_storage
+from predgait.dynamics.integrators import Status
 from predgait.kinematics.clinical import (
     clinical_angles,
     clinical_angles_3d,
@@ -40,7 +41,7 @@ def leg_q():
 
 
 def leg_sim():
-    return SimpleNamespace(t=T, q=leg_q(), time_to_fall=None, status="ok",
+    return SimpleNamespace(t=T, q=leg_q(), time_to_fall=None, status=Status.COMPLETED,
                            coordinate_names=("x", "z", "pitch", "ankle", "knee"))
 
 
@@ -184,8 +185,8 @@ def test_scenario_plot_and_metrics(tmp_path, monkeypatch):
     scenario_plots.save_scenario_plot(tmp_path, result)
     [(_, fig)] = saved
     assert_leg_panels(fig, angles_deg={"ankle": ANKLE_DEG, "knee": KNEE_DEG})
-    sim = SimpleNamespace(t=T, q=leg_q(), qd=np.zeros((N, 5)), status="ok", time_to_fall=None,
-                          grf=None)
+    sim = SimpleNamespace(t=T, q=leg_q(), v=np.zeros((N, 5)), status=Status.COMPLETED,
+                          time_to_fall=None, grf=None)
     drivers = SimpleNamespace(joint_torque=lambda t: TAU[0])
     metrics = run._metrics(sim, sim, FEEDBACK, FEEDBACK, drivers)
     assert metrics["ankle_peak_angle_deg"] == pytest.approx(ANKLE_DEG)
@@ -276,7 +277,6 @@ def test_leg_scenario_lock_holds_the_clinical_angle():
 
 
 def test_gait7_knee_plot(tmp_path, monkeypatch):
-    from predgait.dynamics.integrators import Status
     from predgait.models.gait7 import build_gait7_urdf
     from predgait.models.loading import model_from_urdf
     from predgait.report import raster

@@ -264,13 +264,13 @@ def test_the_synthetic_walk_is_what_inverse_dynamics_inverts():
 
     t, q, states, ref, system = passive_walk.simulate(cycles=1, seed=2)
     t, q, states = t[::10], q[::10], states[::10]
-    qdd = np.array([system.rhs(ti, x)[5:] for ti, x in zip(t, states, strict=True)])
+    a = np.array([system.rhs(ti, x)[5:] for ti, x in zip(t, states, strict=True)])
     feet = passive_walk.frame_positions(ref.model, q)
     loads = []
     for ti, heel, toe in zip(t, feet["heel"], feet["toe"], strict=True):
         force, cop, free = ref.ground_reaction(ti, heel, toe)
         loads.append([Load("foot", force, point=cop, moment=free)])
-    exact = leg_inverse_dynamics(ref.model, q, states[:, 5:], qdd, loads)
+    exact = leg_inverse_dynamics(ref.model, q, states[:, 5:], a, loads)
     applied = np.array([sum(system.torques(ti, x[:5], x[5:], system.reference_loads(ti)))
                         for ti, x in zip(t, states, strict=True)])
     np.testing.assert_allclose(exact.tau[:, 3:], applied, atol=1e-8)

@@ -11,6 +11,7 @@ import pytest
 
 from predgait.data.trial import ForcePlate, Markers
 from predgait.dynamics.inverse3d import foot_points
+from predgait.dynamics.inverse3d_trial import inverse_fullbody, read_marker_map, read_trial
 from predgait.errors import InputError
 from predgait.kinematics.foot_flat import (
     FootFlatMode,
@@ -20,7 +21,6 @@ from predgait.kinematics.foot_flat import (
 )
 from predgait.models.loading3d import fullbody_for_subject, model3d_from_urdf
 from predgait.simulations.forward3d import FullbodyDrive, measured_ground
-from predgait.workflows.inverse3d import inverse_fullbody, read_marker_map, read_trial
 
 MASS, HEIGHT = 70.0, 1.75
 TOE_RAISE = 0.02  # m: the toe marker 2 cm higher on the foot than the model's

@@ -31,14 +31,14 @@ def test_double_pendulum_conserves_energy(options):
     """Foot held still, no torques: a double pendulum (shank, thigh); energy constant."""
     x0 = np.radians([5.0, -10.0, 0.0, 0.0])
     sim = simulate_leg(LEG, LegDrivers.still(), (0.0, 0.6), x0, options=options)
-    e = np.array([energy(q, v) for q, v in zip(sim.q, sim.qd, strict=True)])
+    e = np.array([energy(q, v) for q, v in zip(sim.q, sim.v, strict=True)])
     swing = np.ptp(sim.q[:, 4])
     assert swing > 1.0                      # it really falls and swings
     assert np.max(np.abs(e - e[0])) < 1e-5 * (1 + abs(e[0]))
     # and a coarse explicit Euler does not conserve it (the check can fail)
     bad = simulate_leg(LEG, LegDrivers.still(), (0.0, 0.6), x0,
                        options=IntegratorOptions(method=Method.EULER, step=1e-2))
-    e_bad = np.array([energy(q, v) for q, v in zip(bad.q, bad.qd, strict=True)])
+    e_bad = np.array([energy(q, v) for q, v in zip(bad.q, bad.v, strict=True)])
     assert np.max(np.abs(e_bad - e_bad[0])) > 1e-2
 
 
@@ -57,7 +57,7 @@ def test_prescribed_still_base_equals_fixed_base_model():
 
 
 def smooth_motion(t):
-    """Smooth synthetic q, qd, qdd (5,) of a stepping leg, t in s."""
+    """Smooth synthetic q, v, a (5,) of a stepping leg, t in s."""
     w = 2 * np.pi * 0.9
     amp = np.array([0.05, 0.02, 0.15, 0.2, -0.5])
     off = np.array([0.1, 0.08, 0.0, 0.05, -0.6])

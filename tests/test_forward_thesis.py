@@ -127,12 +127,12 @@ def test_appendix_a_equals_pinocchio(seed):
                          hip_force=constant(hip_f), hip_moment=constant(hip_m))
     system = LegSystem(model, drivers)
     x = np.concatenate([q[3:], v[3:]])
-    qdd = system(0.0, x)[2:]
+    a = system(0.0, x)[2:]
     grf, _, m_heel = system.ground_reaction(0.0, x)
     A, B = thesis_leg_system(model, q, v, a_base, tau[0], tau[1], hip_f, hip_m)
     sol = np.linalg.solve(A, B)
     alpha_f, alpha_l, alpha_t = sol[2], sol[5], sol[8]
-    np.testing.assert_allclose([alpha_l - alpha_f, alpha_t - alpha_l], qdd, rtol=1e-9,
+    np.testing.assert_allclose([alpha_l - alpha_f, alpha_t - alpha_l], a, rtol=1e-9,
                                atol=1e-8)
     np.testing.assert_allclose(sol[9:11], grf[[0, 2]], rtol=1e-9, atol=1e-7)
     np.testing.assert_allclose(sol[11], m_heel, rtol=1e-9, atol=1e-7)

@@ -6,8 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from predgait.dynamics.inverse3d_trial import read_marker_map
 from predgait.errors import InputError
-from predgait.workflows.inverse3d import read_marker_map, run_inverse_fullbody
+from predgait.workflows.inverse3d import run_inverse_fullbody
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"

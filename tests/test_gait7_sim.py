@@ -21,19 +21,20 @@ from predgait.data.frames import rotate_markers
 from predgait.dynamics.contact import MeglanContact
 from predgait.dynamics.contact_fit import fit_impact_to_meglan
 from predgait.dynamics.forces import GroundContact
-from predgait.dynamics.integrators import IntegratorOptions, Method
-from predgait.dynamics.inverse_trial import bundled_options, read_trial
-from predgait.dynamics.partitioned import PartitionedSystem
-from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
-from predgait.errors import InputError
-from predgait.kinematics.joint_centres import harrington_hip
-from predgait.models.gait7 import CONTACT_FRAMES
-from predgait.simulations.gait7_motion import (
+from predgait.dynamics.gait7_motion import (
     SIDES,
     bundled_gait7_motion,
     frame_positions,
     gait7_model,
 )
+from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.inverse_options import bundled_options
+from predgait.dynamics.leg_measurements import read_trial
+from predgait.dynamics.partitioned import PartitionedSystem
+from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
+from predgait.errors import InputError
+from predgait.kinematics.joint_centres import harrington_hip
+from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.simulations.gait7_sim import (
     GAIT7_FALL,
     KneeMoment,

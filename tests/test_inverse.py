@@ -6,12 +6,8 @@ import pytest
 
 from predgait.dynamics.external import Load, joint_forces
 from predgait.dynamics.inverse import leg_inverse_dynamics
-from predgait.dynamics.inverse_trial import (
-    bundled_inverse,
-    bundled_options,
-    run_inverse,
-    with_options,
-)
+from predgait.dynamics.inverse_options import bundled_options, with_options
+from predgait.dynamics.inverse_trial import bundled_inverse, run_inverse
 from predgait.kinematics import clinical
 from predgait.kinematics.joint_centres import (
     calibrate_centre,
@@ -35,9 +31,9 @@ def smooth_motion(model, n=200, seed=0):
     freq = 2 * np.pi * (0.5 + 1.5 * freq)
     base = np.array([0.1, 0.08, 0.0, 0.1, -0.5])
     q = base + np.sum(amp * np.sin(freq * t[:, None, None] + phase * 6), axis=2)
-    qd = np.sum(amp * freq * np.cos(freq * t[:, None, None] + phase * 6), axis=2)
-    qdd = -np.sum(amp * freq**2 * np.sin(freq * t[:, None, None] + phase * 6), axis=2)
-    return t, q, qd, qdd
+    v = np.sum(amp * freq * np.cos(freq * t[:, None, None] + phase * 6), axis=2)
+    a = -np.sum(amp * freq**2 * np.sin(freq * t[:, None, None] + phase * 6), axis=2)
+    return t, q, v, a
 
 
 def cross2(r, f):
@@ -49,7 +45,7 @@ def test_bottom_up_newton_euler_of_the_thesis():
     model = load_model("leg")
     pm = model.pin_model
     data = pm.createData()
-    t, q, qd, qdd = smooth_motion(model, n=6, seed=1)
+    t, q, v, a = smooth_motion(model, n=6, seed=1)
     g = np.array([0.0, -model.gravity])
     rng = np.random.default_rng(2)
     for k in range(len(t)):
@@ -57,8 +53,8 @@ def test_bottom_up_newton_euler_of_the_thesis():
         cop = np.array([q[k, 0] + rng.uniform(-0.05, 0.15), 0.0])
         loads = [Load("foot", np.array([f_ground[0], 0, f_ground[1]]),
                       point=np.array([cop[0], 0.0, cop[1]]))]
-        inv = leg_inverse_dynamics(model, q[k:k + 1], qd[k:k + 1], qdd[k:k + 1], [loads])
-        pin.forwardKinematics(pm, data, q[k], qd[k], qdd[k])
+        inv = leg_inverse_dynamics(model, q[k:k + 1], v[k:k + 1], a[k:k + 1], [loads])
+        pin.forwardKinematics(pm, data, q[k], v[k], a[k])
         pin.updateFramePlacements(pm, data)
         seg = {}
         for name in ("foot", "shank", "thigh"):
@@ -104,12 +100,12 @@ def test_forward_then_inverse_recovers_torques_and_hip_load():
     model = load_model("leg")
     pm = model.pin_model
     data = pm.createData()
-    t, q, qd, _ = smooth_motion(model, n=40, seed=3)
+    t, q, v, _ = smooth_motion(model, n=40, seed=3)
     rng = np.random.default_rng(4)
     tau_true = rng.uniform(-60, 60, (len(t), 2))
     hip_true = np.column_stack([rng.uniform(-100, 100, len(t)), rng.uniform(-700, -300, len(t)),
                                 rng.uniform(-40, 40, len(t))])
-    qdd = np.zeros_like(q)
+    a = np.zeros_like(q)
     loads = []
     for k in range(len(t)):
         pin.framesForwardKinematics(pm, data, q[k])
@@ -118,9 +114,9 @@ def test_forward_then_inverse_recovers_torques_and_hip_load():
         hip = Load("hip_center", np.array([hip_true[k, 0], 0, hip_true[k, 1]]),
                    moment=np.array([0, hip_true[k, 2], 0]))
         tau = np.concatenate([np.zeros(3), tau_true[k]])
-        qdd[k] = pin.aba(pm, data, q[k], qd[k], tau, joint_forces(model, data, [ground, hip]))
+        a[k] = pin.aba(pm, data, q[k], v[k], tau, joint_forces(model, data, [ground, hip]))
         loads.append([ground])
-    inv = leg_inverse_dynamics(model, q, qd, qdd, loads)
+    inv = leg_inverse_dynamics(model, q, v, a, loads)
     np.testing.assert_allclose(inv.tau[:, 3:], tau_true, atol=1e-7)
     np.testing.assert_allclose(inv.hip_force[:, [0, 2]], hip_true[:, :2], atol=1e-7)
     np.testing.assert_allclose(inv.hip_moment[:, 1], hip_true[:, 2], atol=1e-7)
@@ -266,7 +262,7 @@ def test_same_trial_through_csv_gives_the_same_moments(tmp_path):
 
 
 def test_walking5_c3d_both_plates(shared_data):
-    from predgait.dynamics.inverse_trial import InverseOptions
+    from predgait.dynamics.inverse_options import InverseOptions
 
     results = {}
     for side, s in (("right", "R"), ("left", "L")):

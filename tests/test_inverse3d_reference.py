@@ -29,7 +29,12 @@ import numpy as np
 import pytest
 
 from predgait.data import read_storage, read_trc
-from predgait.workflows.inverse3d import clinical, inverse_fullbody, read_marker_map, read_trial
+from predgait.dynamics.inverse3d_trial import (
+    clinical,
+    inverse_fullbody,
+    read_marker_map,
+    read_trial,
+)
 
 REPO = Path(__file__).resolve().parents[1]
 REFERENCE = Path(__file__).resolve().parent / "data" / "opensim_gait2354_reference"

@@ -15,12 +15,8 @@ from predgait.cli.inverse import options_from_args
 from predgait.data.cutoffs import CutoffRule, parse_cutoff
 from predgait.data.resample import contact_frames, threshold_plate
 from predgait.data.trial import ForcePlate
-from predgait.dynamics.inverse_trial import (
-    THRESHOLD,
-    bundled_options,
-    run_inverse,
-    with_options,
-)
+from predgait.dynamics.inverse_options import THRESHOLD, bundled_options, with_options
+from predgait.dynamics.inverse_trial import run_inverse
 from predgait.errors import InputError
 from predgait.kinematics.bounded_ik import bounded_step
 from predgait.kinematics.planar_ik import solve_ik
@@ -239,14 +235,13 @@ def test_fullbody_tables_are_nan_at_flagged_frames(tmp_path):
     import dataclasses
 
     from predgait.data import read_storage, read_trc
-    from predgait.workflows.inverse3d import (
+    from predgait.dynamics.inverse3d_trial import (
         clinical,
         inverse_fullbody,
         read_marker_map,
         read_trial,
-        summary,
-        write_outputs,
     )
+    from predgait.workflows.inverse3d import summary, write_outputs
 
     data = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"
     markers, plates = read_trial([data / "subject01_walk1.trc",

@@ -53,7 +53,7 @@ def test_tables_hold_the_result_in_si_units(written):
 
 
 def test_powers_in_the_file_are_moment_times_angular_velocity(written):
-    """Independent of the pipeline's qd: differentiate the written angles."""
+    """Independent of the pipeline's v: differentiate the written angles."""
     _, out = written
     angles = read_storage(out / "kinematics.sto")
     kinetics = read_storage(out / "inverse_dynamics.sto")

@@ -18,14 +18,13 @@ from predgait.data import read_grf_mot, read_trc, write_csv, write_storage
 from predgait.data.frames import OPENSIM_TO_LAB
 from predgait.dynamics.external import Load
 from predgait.dynamics.inverse import leg_inverse_dynamics
-from predgait.dynamics.inverse_trial import (
+from predgait.dynamics.inverse_options import (
     InverseOptions,
-    bundled_inverse,
     bundled_options,
-    run_inverse,
     subject01_points,
     with_options,
 )
+from predgait.dynamics.inverse_trial import bundled_inverse, run_inverse
 from predgait.errors import InputError
 from predgait.kinematics import clinical
 from predgait.models.loading import load_model
@@ -46,11 +45,11 @@ def leg_motion(t):
     phase = np.array([0.0, 1.0, 0.5, 2.0, 1.0])
     arg = w * t[:, None] + phase
     q = mean + amp * np.sin(arg)
-    qd = amp * w * np.cos(arg)
-    qdd = -amp * w**2 * np.sin(arg)
+    v = amp * w * np.cos(arg)
+    a = -amp * w**2 * np.sin(arg)
     q[:, 0] += SPEED * t
-    qd[:, 0] += SPEED
-    return q, qd, qdd
+    v[:, 0] += SPEED
+    return q, v, a
 
 
 def frame_positions(model, q):
@@ -102,18 +101,18 @@ def synthetic_trial(tmp_path, *, rotation=None):
     model = load_model("leg")
     (tmp_path / "leg.urdf").write_text(model.urdf)
     t = np.arange(0.0, 2.4 + 1e-9, 1 / MARKER_RATE)
-    q, qd, qdd = leg_motion(t)
+    q, v, a = leg_motion(t)
     write_markers_csv(tmp_path / "markers.csv", t, frame_positions(model, q), rotation=rotation)
     t_plate = np.arange(0.0, 2.4 + 1e-9, 1 / PLATE_RATE)
     feet = frame_positions(model, leg_motion(t_plate)[0])
     ours = ground_reaction(t_plate, feet["heel"], feet["toe"])
     # The other foot: loaded 0.55 m behind, over an overlapping window (must be ignored).
-    other = tuple(np.array(a) for a in ground_reaction(t_plate - 0.7, feet["heel"] - [0.55, 0, 0],
+    other = tuple(np.array(x) for x in ground_reaction(t_plate - 0.7, feet["heel"] - [0.55, 0, 0],
                                                        feet["toe"] - [0.55, 0, 0]))
     write_grf_mot(tmp_path / "grf.mot", t_plate, [other, ours], rotation=rotation)
     exact_grf = ground_reaction(t, *(frame_positions(model, q)[n] for n in ("heel", "toe")))
     loads = [[Load("foot", f, point=c, moment=m)] for f, c, m in zip(*exact_grf, strict=True)]
-    exact = leg_inverse_dynamics(model, q, qd, qdd, loads)
+    exact = leg_inverse_dynamics(model, q, v, a, loads)
     options = InverseOptions(markers=tmp_path / "markers.csv", grf=tmp_path / "grf.mot",
                              mass=72.6, model=tmp_path / "leg.urdf", points=MARKER_NAMES)
     return options, dict(t=t, q=q, force=exact_grf[0], cop=exact_grf[1],

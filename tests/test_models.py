@@ -105,18 +105,18 @@ def test_segment_table_csv(tmp_path):
 def test_pinocchio_and_adam_agree(model):
     sym = symbolic_model(model)
     data = model.pin_model.createData()
-    for q, qd, qdd in random_states(model):
+    for q, v, a in random_states(model):
         mass = dense_mass(model, data, q)
         np.testing.assert_allclose(np.array(sym.mass_matrix(q)), mass, atol=1e-9)
-        bias = pin.nonLinearEffects(model.pin_model, data, q, qd)
-        np.testing.assert_allclose(np.array(sym.bias_force(q, qd)).ravel(), bias, atol=1e-9)
-        tau = pin.rnea(model.pin_model, data, q, qd, qdd)
-        adam_tau = np.array(sym.mass_matrix(q)) @ qdd + np.array(sym.bias_force(q, qd)).ravel()
+        bias = pin.nonLinearEffects(model.pin_model, data, q, v)
+        np.testing.assert_allclose(np.array(sym.bias_force(q, v)).ravel(), bias, atol=1e-9)
+        tau = pin.rnea(model.pin_model, data, q, v, a)
+        adam_tau = np.array(sym.mass_matrix(q)) @ a + np.array(sym.bias_force(q, v)).ravel()
         np.testing.assert_allclose(adam_tau, tau, atol=1e-9)
-        adam_qdd = np.array(sym.forward_dynamics(q, qd, tau)).ravel()
-        np.testing.assert_allclose(adam_qdd, pin.aba(model.pin_model, data, q, qd, tau),
-                                   rtol=1e-9, atol=1e-9 * np.abs(qdd).max() * np.linalg.cond(mass))
-        np.testing.assert_allclose(adam_qdd, qdd, rtol=1e-7, atol=1e-7)
+        adam_qdd = np.array(sym.forward_dynamics(q, v, tau)).ravel()
+        np.testing.assert_allclose(adam_qdd, pin.aba(model.pin_model, data, q, v, tau),
+                                   rtol=1e-9, atol=1e-9 * np.abs(a).max() * np.linalg.cond(mass))
+        np.testing.assert_allclose(adam_qdd, a, rtol=1e-7, atol=1e-7)
         pin.framesForwardKinematics(model.pin_model, data, q)
         for frame in ("top", "hip_center", "toe"):
             if model.pin_model.existFrame(frame):
@@ -138,9 +138,9 @@ def test_gravity_is_shared_by_both_engines():
 @pytest.mark.parametrize("model", shipped_models(), ids=[p.stem for p in SHIPPED])
 def test_rnea_then_aba_returns_the_accelerations(model):
     data = model.pin_model.createData()
-    for q, qd, qdd in random_states(model, seed=1):
-        tau = pin.rnea(model.pin_model, data, q, qd, qdd)
-        np.testing.assert_allclose(pin.aba(model.pin_model, data, q, qd, tau), qdd, atol=1e-8)
+    for q, v, a in random_states(model, seed=1):
+        tau = pin.rnea(model.pin_model, data, q, v, a)
+        np.testing.assert_allclose(pin.aba(model.pin_model, data, q, v, tau), a, atol=1e-8)
 
 
 def test_rod_matches_thesis_equations():
@@ -158,14 +158,14 @@ def test_rod_matches_thesis_equations():
     half = 0.5 * anthropometry.ROD_LENGTH_M
     rng = np.random.default_rng(3)
     for _ in range(5):
-        q, qd = rng.uniform(-1, 1, 3), rng.uniform(-2, 2, 3)
+        q, v = rng.uniform(-1, 1, 3), rng.uniform(-2, 2, 3)
         theta = q[2]
         f_a, f_b = rng.uniform(-20, 20, 2), rng.uniform(-20, 20, 2)  # (I, K) lab components
         m_a = rng.uniform(-5, 5)
         pin.framesForwardKinematics(pm, data, q)
         loads = [Load("top", np.array([f_a[0], 0, f_a[1]]), moment=np.array([0, m_a, 0])),
                  Load("bottom", np.array([f_b[0], 0, f_b[1]]))]
-        qdd = pin.aba(pm, data, q, qd, np.zeros(3), joint_forces(model, data, loads))
+        a = pin.aba(pm, data, q, v, np.zeros(3), joint_forces(model, data, loads))
         g = model.gravity
         expected = np.array([
             (f_a[0] + f_b[0]) / m,                                             # 3.2.29
@@ -173,16 +173,16 @@ def test_rod_matches_thesis_equations():
             (m_a + f_a[0] * half * np.cos(theta) - f_b[0] * half * np.cos(theta)
              - f_a[1] * half * np.sin(theta) + f_b[1] * half * np.sin(theta)) / inertia,
         ])
-        np.testing.assert_allclose(qdd, expected, atol=1e-10)
+        np.testing.assert_allclose(a, expected, atol=1e-10)
         # Body-based: the same forces in rod axes (x across, z along the rod), 3.2.26-28.
         c, s = np.cos(theta), np.sin(theta)
-        body = {k: (v[0] * c - v[1] * s, v[0] * s + v[1] * c) for k, v in
+        body = {k: (f[0] * c - f[1] * s, f[0] * s + f[1] * c) for k, f in
                 (("A", f_a), ("B", f_b))}
         x_dd = ((body["A"][0] + body["B"][0]) * c + (body["A"][1] + body["B"][1]) * s) / m
         z_dd = (-(body["A"][0] + body["B"][0]) * s + (body["A"][1] + body["B"][1]) * c
                 - m * g) / m
         th_dd = (m_a + body["A"][0] * half - body["B"][0] * half) / inertia
-        np.testing.assert_allclose(qdd, [x_dd, z_dd, th_dd], atol=1e-10)
+        np.testing.assert_allclose(a, [x_dd, z_dd, th_dd], atol=1e-10)
 
 
 def planar(vector):
@@ -206,9 +206,9 @@ def test_leg_matches_thesis_newton_euler():
     pm = model.pin_model
     data = pm.createData()
     g = np.array([0.0, -model.gravity])
-    for q, qd, qdd in random_states(model, seed=4):
-        tau = pin.rnea(pm, data, q, qd, qdd)
-        pin.forwardKinematics(pm, data, q, qd, qdd)
+    for q, v, a in random_states(model, seed=4):
+        tau = pin.rnea(pm, data, q, v, a)
+        pin.forwardKinematics(pm, data, q, v, a)
         pin.updateFramePlacements(pm, data)
         seg = {}
         for name in ("foot", "shank", "thigh"):
@@ -250,13 +250,13 @@ def test_generalized_load_equals_rnea_difference():
     model = load_model("leg")
     pm = model.pin_model
     data = pm.createData()
-    q, qd, qdd = next(random_states(model, seed=7))
+    q, v, a = next(random_states(model, seed=7))
     pin.computeJointJacobians(pm, data, q)
     pin.updateFramePlacements(pm, data)
     loads = [Load("hip_center", np.array([10.0, 0, -30.0]), moment=np.array([0, 4.0, 0])),
              Load("foot", np.array([5.0, 0, 700.0]), point=np.array([0.3, 0, 0.0]))]
     fext = joint_forces(model, data, loads)
-    expected = pin.rnea(pm, data, q, qd, qdd) - pin.rnea(pm, data, q, qd, qdd, fext)
+    expected = pin.rnea(pm, data, q, v, a) - pin.rnea(pm, data, q, v, a, fext)
     np.testing.assert_allclose(generalized_load(model, data, loads), expected, atol=1e-9)
 
 

@@ -272,7 +272,8 @@ def test_mot_with_side_infix_columns_and_external_loads(tmp_path):
 def test_grf_cop_in_mm_is_named_in_the_error(tmp_path):
     # A lab's MOT with the COP in mm (OpenSim expects m): the plates then lie hundreds of
     # metres from the foot, and the error says so instead of only "no contact".
-    from predgait.dynamics.inverse_trial import bundled_options, run_inverse, with_options
+    from predgait.dynamics.inverse_options import bundled_options, with_options
+    from predgait.dynamics.inverse_trial import run_inverse
 
     options = bundled_options()
     lines = options.grf.read_text().splitlines()
@@ -318,7 +319,8 @@ def test_walking5_written_y_up_with_the_other_origin_sign_reads_the_same(tmp_pat
 
 
 def test_a_trial_too_short_says_so(tmp_path):
-    from predgait.dynamics.inverse_trial import InverseOptions, run_inverse
+    from predgait.dynamics.inverse_options import InverseOptions
+    from predgait.dynamics.inverse_trial import run_inverse
 
     path = write_c3d(tmp_path / "two.c3d", C3DSpec(xyz=body()[:2], names=NAMES))
     points = {"hip": "HIP", "knee": "HIP", "ankle": "HEEL", "heel": "HEEL", "toe": "TOE"}

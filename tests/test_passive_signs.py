@@ -199,8 +199,8 @@ def _synthetic_inverse(model, duration=0.2, rate=1000.0):
     off = np.array([0.0, 0.0, 0.05, 0.1, -0.3])
     w = 2 * np.pi * freq
     q = off + amp * np.sin(np.outer(t, w))
-    qd = amp * w * np.cos(np.outer(t, w))
-    qdd = -amp * w ** 2 * np.sin(np.outer(t, w))
+    v = amp * w * np.cos(np.outer(t, w))
+    a = -amp * w ** 2 * np.sin(np.outer(t, w))
     hip_force = np.column_stack([20 * np.sin(3 * t), 0 * t, -300 + 30 * np.cos(2 * t)])
     hip_moment = np.column_stack([0 * t, 10 * np.sin(5 * t), 0 * t])
     pm, data = model.pin_model, model.pin_model.createData()
@@ -208,11 +208,11 @@ def _synthetic_inverse(model, duration=0.2, rate=1000.0):
     fid = model.frame_id("hip_center")
     for k in range(t.size):
         jac = pin.computeFrameJacobian(pm, data, q[k], fid, pin.LOCAL_WORLD_ALIGNED)
-        tau[k] = pin.rnea(pm, data, q[k], qd[k], qdd[k]) - jac[:3].T @ hip_force[k] \
+        tau[k] = pin.rnea(pm, data, q[k], v[k], a[k]) - jac[:3].T @ hip_force[k] \
             - jac[3:].T @ hip_moment[k]
     from types import SimpleNamespace
 
-    return SimpleNamespace(time=t, q=q, qd=qd, qdd=qdd, tau=tau, hip_force=hip_force,
+    return SimpleNamespace(time=t, q=q, v=v, a=a, tau=tau, hip_force=hip_force,
                            hip_moment=hip_moment, model=model)
 
 

@@ -68,11 +68,11 @@ def test_thigh_driven_dynamics_is_the_free_leg_under_its_thigh(walk):
         if ref.phase(t[i])[1] < 0.62:
             continue
         x = states[i]
-        qdd = system.rhs(t[i], x)[5:]
-        s9 = thigh_kinematics(ref.model, x[None, :5], x[None, 5:], qdd[None])[0]
+        a = system.rhs(t[i], x)[5:]
+        s9 = thigh_kinematics(ref.model, x[None, :5], x[None, 5:], a[None])[0]
         tau = sum(system.torques(t[i], x[:5], x[5:], system.reference_loads(t[i])))
         out = np.array(f(np.r_[x[3:5], x[8:10]], s9, tau)).ravel()
-        np.testing.assert_allclose(out[2:], qdd[3:], atol=1e-8 * (1 + np.abs(qdd).max()))
+        np.testing.assert_allclose(out[2:], a[3:], atol=1e-8 * (1 + np.abs(a).max()))
         np.testing.assert_allclose(out[:2], x[8:10])
         checked += 1
     assert checked > 20
@@ -106,9 +106,9 @@ def exact(walk):
     """The windows of the exact simulated states and accelerations at 100 Hz."""
     t, q, states, ref, system = walk
     index = np.arange(0, len(t), 5)
-    qdd = np.array([system.rhs(t[i], states[i])[5:] for i in index])
+    a = np.array([system.rhs(t[i], states[i])[5:] for i in index])
     n = index.size
-    inverse = SimpleNamespace(time=t[index], q=q[index], qd=states[index, 5:], qdd=qdd,
+    inverse = SimpleNamespace(time=t[index], q=q[index], v=states[index, 5:], a=a,
                               tau=np.zeros((n, 5)), hip_force=np.zeros((n, 3)),
                               hip_moment=np.zeros((n, 3)), has_grf=False, knee_static=0.0,
                               model=ref.model)

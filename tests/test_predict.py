@@ -18,9 +18,10 @@ import pytest
 
 from predgait.cli import main
 from predgait.data.storage import read_storage
+from predgait.dynamics.gait7_motion import gait7_model
 from predgait.problems.predictive import Cycle, Guess, Weights, mirror_matrix
-from predgait.simulations.gait7_motion import gait7_model
-from predgait.workflows.predict import TRACKING_STAGE, PredictSpec, predict
+from predgait.problems.predictive_solve import TRACKING_STAGE, PredictSpec
+from predgait.scenarios.predict import predict
 
 NODES = 40
 SPEC = PredictSpec(nodes=NODES, resimulate=False)

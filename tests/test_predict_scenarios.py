@@ -17,15 +17,16 @@ import pytest
 
 from predgait.cli import main
 from predgait.problemfile import load_problem
+from predgait.problems.predictive_solve import PredictSpec
 from predgait.scenarios.edits import AddMass, LockJoint
 from predgait.scenarios.predict import (
     edited_gait7,
     edited_prediction,
     joint_constraints,
+    predict,
     predicted_metrics,
 )
 from predgait.scenarios.run import parse_scenario
-from predgait.workflows.predict import PredictSpec, predict
 
 REPO = Path(__file__).resolve().parents[1]
 SPEC = PredictSpec(nodes=20, resimulate=False)
@@ -126,9 +127,9 @@ def test_sweep_over_a_predicted_orthosis(tmp_path):
 
 def test_other_grids_start_from_the_coarse_solution_resampled(monkeypatch, baseline):
     """Grid continuation: tracking and predictive on START_INTERVALS, then the final grid."""
-    from predgait.workflows import predict as workflow
+    from predgait.problems import predictive_solve
 
-    monkeypatch.setattr(workflow, "START_INTERVALS", SPEC.nodes)
+    monkeypatch.setattr(predictive_solve, "START_INTERVALS", SPEC.nodes)
     fine = predict(replace(SPEC, nodes=SPEC.nodes + 4))
     # (a start that failed on this machine's floating-point path is a stage of its own)
     solved = [(what, s) for what, s in fine.stages if s.success]

@@ -38,7 +38,7 @@ def synthetic_nodes(trial, n, t1, **simulate):
                        **simulate)
     assert sim.status == "completed"
     nodes = NodeData.from_drivers(drivers, 0.0, t1, n)
-    return replace(nodes, x_ref=np.column_stack([sim.q[:, 3:], sim.qd[:, 3:]]))
+    return replace(nodes, x_ref=np.column_stack([sim.q[:, 3:], sim.v[:, 3:]]))
 
 
 def test_adam_dynamics_and_gradients_equal_pinocchio(trial):
@@ -49,7 +49,7 @@ def test_adam_dynamics_and_gradients_equal_pinocchio(trial):
     jac = cs.Function("j", inputs, [cs.jacobian(f(*inputs), inputs[0])])
     rng = np.random.default_rng(0)
     for t in rng.uniform(0.0, 1.0, 4):
-        x = np.concatenate([inverse.q[30, 3:], inverse.qd[30, 3:]]) + rng.normal(0, 0.1, 4)
+        x = np.concatenate([inverse.q[30, 3:], inverse.v[30, 3:]]) + rng.normal(0, 0.1, 4)
         args = (x, drivers.prescribed_q(t), drivers.prescribed_qd(t), drivers.prescribed_qdd(t),
                 drivers.joint_torque(t),
                 np.array([drivers.hip_force(t)[0], drivers.hip_force(t)[2],

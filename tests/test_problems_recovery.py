@@ -40,7 +40,7 @@ def noisy_nodes(trial, intervals, t1, *, noise_deg, seed, **simulate):
     sim = simulate_leg(inverse.model, driving, (0.0, t1), options=FINE, t_eval=t,
                        **simulate)
     assert sim.status == "completed"
-    x_ref = np.column_stack([sim.q[:, 3:], sim.qd[:, 3:]])
+    x_ref = np.column_stack([sim.q[:, 3:], sim.v[:, 3:]])
     x_ref[1:, :2] += np.radians(noise_deg) * np.random.default_rng(seed).normal(
         size=(n, 2))
     return replace(NodeData.from_drivers(drivers, 0.0, t1, n), x_ref=x_ref)
@@ -72,7 +72,7 @@ def test_hermite_simpson_is_more_accurate_than_trapezoidal_on_a_coarse_grid(tria
         sim = simulate_leg(inverse.model, drivers.with_passive(passive), (0.0, 0.3),
                            options=FINE, t_eval=t)
         nodes = replace(NodeData.from_drivers(drivers, 0.0, 0.3, n),
-                        x_ref=np.column_stack([sim.q[:, 3:], sim.qd[:, 3:]]))
+                        x_ref=np.column_stack([sim.q[:, 3:], sim.v[:, 3:]]))
         fit = fit_knee(inverse.model, nodes, transcription=transcription)
         errors[transcription] = abs(fit.parameters["k"] - 40.0)
     assert errors[HS] < 0.5, errors

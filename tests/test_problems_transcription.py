@@ -32,18 +32,18 @@ def leg():
 def test_adam_forward_dynamics_and_jacobians_equal_pinocchio_aba_derivatives(leg):
     sym = symbolic_model(leg)
     q, v, tau = (cs.SX.sym(n, leg.nq) for n in ("q", "v", "tau"))
-    qdd = sym.forward_dynamics(q, v, tau)
+    a = sym.forward_dynamics(q, v, tau)
     jacobians = cs.Function("aba_jacobians", [q, v, tau],
-                            [qdd, cs.jacobian(qdd, q), cs.jacobian(qdd, v),
-                             cs.jacobian(qdd, tau)])
+                            [a, cs.jacobian(a, q), cs.jacobian(a, v),
+                             cs.jacobian(a, tau)])
     data = leg.pin_model.createData()
     rng = np.random.default_rng(6)
     for _ in range(5):
         qn, vn, taun = rng.normal(0, 0.5, leg.nq), rng.normal(0, 1, leg.nq), \
             rng.normal(0, 20, leg.nq)
-        a, da_dq, da_dv, da_dtau = (np.array(m) for m in jacobians(qn, vn, taun))
+        acc, da_dq, da_dv, da_dtau = (np.array(m) for m in jacobians(qn, vn, taun))
         pin.computeABADerivatives(leg.pin_model, data, qn, vn, taun)
-        np.testing.assert_allclose(a.ravel(), data.ddq, rtol=1e-8, atol=1e-8)
+        np.testing.assert_allclose(acc.ravel(), data.ddq, rtol=1e-8, atol=1e-8)
         # Joint columns (ankle, knee) against Pinocchio's analytical derivatives. For the
         # composite root (PX-PZ-RY) pin 4.1 differentiates in the joint's local frame
         # (translation rates rotating with the pitch), not the plain partial derivative,
@@ -119,7 +119,7 @@ def _smooth_nodes(leg, n, t1=0.2):
     return NodeData(t=t, qb=zeros, vb=zeros, ab=zeros,
                     tau=np.array([drivers.joint_torque(tk) for tk in t]),
                     hip=np.column_stack([hip[:, 0], hip[:, 2], np.zeros(n + 1)]),
-                    x_ref=np.column_stack([sim.q[:, 3:], sim.qd[:, 3:]]))
+                    x_ref=np.column_stack([sim.q[:, 3:], sim.v[:, 3:]]))
 
 
 def _largest_defect(leg, nodes, transcription):

@@ -74,9 +74,9 @@ def test_report_runs_in_headless_chromium(inverse_report):
 
 
 def test_contact_grf_is_the_total_force_at_the_loaded_centre():
+    from predgait.dynamics.gait7_motion import gait7_model
     from predgait.models.gait7 import CONTACT_FRAMES
     from predgait.report.viewer import contact_grf
-    from predgait.simulations.gait7_motion import gait7_model
 
     model = gait7_model(72.6, 1.8034)
     q = np.zeros((2, model.nq))  # standing upright

@@ -12,6 +12,7 @@ import pytest
 
 from predgait.data import read_trc
 from predgait.data.trial import Markers
+from predgait.dynamics.inverse3d_trial import inverse_fullbody, read_marker_map, read_trial
 from predgait.errors import InputError
 from predgait.kinematics.joint_centres import harrington_hip
 from predgait.kinematics.scaling import TrialPoint, frame_distances, read_scaling, scale_fullbody
@@ -19,12 +20,7 @@ from predgait.models.anthropometry_3d import DE_LEVA_TABLE4, Sex
 from predgait.models.fullbody import LENGTHS, build_fullbody_urdf, segment_lengths
 from predgait.models.loading3d import fullbody_for_subject, load_fullbody
 from predgait.problemfile import load_problem
-from predgait.workflows.inverse3d import (
-    inverse_fullbody,
-    read_marker_map,
-    read_trial,
-    run_inverse_fullbody,
-)
+from predgait.workflows.inverse3d import run_inverse_fullbody
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"

@@ -62,7 +62,7 @@ def _without_truth(inverse):
                           b_lower=KNEE_B_LOWER, k_upper=0.0))),
         "ankle": PassiveJoint((LinearSpringDamper(TRUTH["ankle.k"], TRUTH["ankle.c"],
                                                   TRUTH["ankle.theta0"]),))}
-    passive = passive_generalized(inverse.model, joints, inverse.q, inverse.qd)
+    passive = passive_generalized(inverse.model, joints, inverse.q, inverse.v)
     return replace(inverse, tau=inverse.tau - passive)
 
 
@@ -106,7 +106,7 @@ def test_engine_elements_act_as_in_the_fit(measured):
     model = _model()
     values = model.values() | TRUTH
     joints = engine_elements(model, values, inverse.knee_static)
-    engine = passive_generalized(inverse.model, joints, inverse.q, inverse.qd)
+    engine = passive_generalized(inverse.model, joints, inverse.q, inverse.v)
     for joint, column, sign in (("knee", 4, -1.0), ("ankle", 3, 1.0)):
         fitted = model.passive_joint(joint, values).moment(samples.angles[joint],
                                                            samples.rates[joint])

@@ -7,6 +7,7 @@ from dask import distributed
 
 from predgait.errors import InputError
 from predgait.scenarios.sweep import (
+    PointStatus,
     SweepPoint,
     grid_points,
     outcomes_table,
@@ -95,7 +96,7 @@ def diverges_for_long_pendulums(point: SweepPoint) -> dict:
 def test_diverged_point_has_status_and_no_metrics():
     points = grid_points({"length": [1.0, 3.0], "g": [9.81]})
     outcomes = run_sweep(diverges_for_long_pendulums, points, workers=1, progress=False)
-    assert outcomes[1].status == "diverged" and not outcomes[1].metrics
+    assert outcomes[1].status is PointStatus.DIVERGED and not outcomes[1].metrics
     header, rows = outcomes_table(outcomes)
     assert rows[1][header.index("status")] == "diverged"
     assert math.isnan(rows[1][header.index("period")])

@@ -37,7 +37,7 @@ def test_linearisation_equals_finite_differences_of_aba(trial):
     # the leg's joints on a fixed base, nothing prescribed: the free dynamics are pin.aba
     chain = pin.buildReducedModel(model.pin_model, [1], inverse.q[k])
     data = chain.createData()
-    q, v = inverse.q[k, 3:].copy(), inverse.qd[k, 3:].copy()
+    q, v = inverse.q[k, 3:].copy(), inverse.v[k, 3:].copy()
     tau = inverse.tau[k, 3:] + np.array([3.0, -2.0])
     system = PartitionedSystem(SimpleNamespace(pin_model=chain), range(chain.nv),
                                lambda t: (q.copy(), v.copy(), 0 * v),
@@ -69,8 +69,8 @@ def test_linearisation_equals_finite_differences_of_aba(trial):
     assert np.linalg.eigvals(a_leg).real.max() > 10.0   # the leg's unstable mode
     with pytest.raises(InputError, match="1-DOF"):       # the planar root as a free joint
         linearize(PartitionedSystem(model, range(5), lambda t: (inverse.q[k].copy(),
-                                    inverse.qd[k].copy(), np.zeros(5))), 0.0,
-                  np.concatenate([inverse.q[k], inverse.qd[k]]))
+                                    inverse.v[k].copy(), np.zeros(5))), 0.0,
+                  np.concatenate([inverse.q[k], inverse.v[k]]))
 
 
 def test_riccati_gains_tend_to_the_algebraic_solution():
@@ -109,7 +109,7 @@ def test_known_torque_perturbation_is_rejected(trial):
     assert dev.time_to_threshold is None
     error = np.degrees(np.abs(dev.error)).max(axis=1)
     feedback = np.array([controller.torque(t, q, v)
-                         for t, q, v in zip(sim.t, sim.q, sim.qd, strict=True)])
+                         for t, q, v in zip(sim.t, sim.q, sim.v, strict=True)])
     held = (sim.t > start + 0.05) & (sim.t < end)
     # the feedback takes the push over (knee: about -5 N m, a little more as the small
     # deviation it leaves changes the gravity moment of the unstable leg), lets go after it

@@ -17,14 +17,22 @@ Folder: ``$PREDGAIT_CACHE_DIR``, else ``$XDG_CACHE_HOME/predgait/solvers``, else
 ``~/.cache/predgait/solvers``. Off with ``PREDGAIT_SOLVER_CACHE=off``: nothing is read or
 written there (functions are built in memory in every process). ``PREDGAIT_COMPILE=now``
 compiles in the foreground instead (tests, benchmarks of the first run). CasADi is
-imported only when a function is used. Files are written under temporary names and
-renamed, so a reader finds a whole file or none. The folder is pruned when a compilation
-starts: files unused for :data:`MAX_AGE_DAYS` days go, then the least recently used ones
-until it holds at most :data:`MAX_BYTES`.
+imported only when a function is used. Files are written under unique temporary names
+and renamed, so a reader finds a whole file or none. The folder is pruned when a
+compilation starts: files unused for :data:`MAX_AGE_DAYS` days go, then the least
+recently used ones until it holds at most :data:`MAX_BYTES`.
+
+Nothing read from the folder is trusted unchecked (:mod:`predgait.cache_library`): a
+library is named by the hash of its bytes and checked before it is loaded, tested in a
+child process before it is published, and quarantined when it fails (the run then
+solves in memory); a serialised function starts with the hash of the rest and is
+rebuilt when they differ. A folder of another user, writable by others, or read-only
+means "build and solve in memory", said once.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
@@ -37,6 +45,8 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from predgait import cache_library
 
 if TYPE_CHECKING:
     import casadi as cs
@@ -54,6 +64,10 @@ FLAGS = ("-O1", "-fPIC", "-shared")
 #: Pruning bounds of the cache folder.
 MAX_BYTES = 500 * 2**20
 MAX_AGE_DAYS = 60
+#: Quarantined libraries are kept this long for inspection, days.
+QUARANTINE_DAYS = 7
+#: First line of a serialised function file: this tag and the SHA-256 of the rest.
+_STORED_TAG = "predgait-sha256 "
 #: A background compilation marker older than this is stale (its process died), s.
 STALE_AFTER = 1800.0
 #: Background compilations started by this process (reaped when the next one starts).
@@ -98,51 +112,103 @@ def stored(name: str, key: str, build: Callable[[], cs.Function]) -> cs.Function
     ``key`` must change whenever what ``build`` makes changes (:func:`key_of`). With the
     cache off the function is built in memory.
     """
-    import casadi as cs
-
-    if not enabled():
+    if not (enabled() and cache_library.usable(cache_folder(), SWITCH)):
         return build()
     path = cache_folder() / f"{name}-{key}.casadi"
-    if path.is_file():
-        try:
-            function = cs.Function.load(str(path))
-            path.touch()
-            return function
-        except RuntimeError as exc:  # damaged file: rebuild it
-            log.warning("cached function %s unreadable (%s): rebuilding", path, exc)
+    function = _load_stored(path)
+    if function is not None:
+        _touch(path)
+        return function
     function = build()
+    text = function.serialize()
+    digest = hashlib.sha256(text.encode()).hexdigest()
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=path.parent, prefix=".build-") as tmp:
-            function.save(f"{tmp}/f.casadi")
-            os.replace(f"{tmp}/f.casadi", path)
+        with tempfile.NamedTemporaryFile("w", dir=path.parent, prefix=f".{path.name}.",
+                                         suffix=".tmp", delete=False) as handle:
+            handle.write(f"{_STORED_TAG}{digest}\n{text}")
+        os.replace(handle.name, path)
     except OSError as exc:
         log.warning("function %s not stored: %s", name, exc)
     return function
 
 
-def library_path(name: str, key: str) -> Path:
-    """Where the compiled library of ``name-key`` lives."""
-    return cache_folder() / f"{name}-{key}.so"
+def _load_stored(path: Path) -> cs.Function | None:
+    """The function serialised in ``path`` if its hash line matches the rest, else None."""
+    import casadi as cs
+
+    try:
+        if not path.is_file():
+            return None
+        head, _, text = path.read_text().partition("\n")
+    except (OSError, UnicodeDecodeError):
+        head, text = "", ""
+    if head == _STORED_TAG + hashlib.sha256(text.encode()).hexdigest():
+        try:
+            return cs.Function.deserialize(text)
+        except RuntimeError as exc:
+            reason = str(exc).splitlines()[0][:200]
+    else:
+        reason = "does not match its hash (damaged, modified or of an older predgait)"
+    log.warning("cached function %s %s: rebuilding it", path.name, reason)
+    return None
+
+
+def _touch(path: Path) -> None:
+    """Mark ``path`` recently used (kept by :func:`prune`); nothing on a read-only folder."""
+    with contextlib.suppress(OSError):
+        path.touch()
+
+
+def library_stem(name: str, key: str) -> str:
+    """``<name>-<key>`` of the compiled library of ``name-key`` with this compiler."""
+    return cache_library.stem(name, key, cache_library.build_id(compiler() or "cc", FLAGS))
+
+
+def checked_library(name: str, key: str, function: Callable[[], cs.Function], job: dict
+                    ) -> Path | None:
+    """The checked library of ``name-key``; None when there is none (compilation started).
+
+    None also (in memory) when the folder cannot hold libraries, and when a damaged
+    library was just quarantined: the next run compiles it again.
+    """
+    folder = cache_folder()
+    if not cache_library.usable(folder, SWITCH):
+        return None
+    stem = library_stem(name, key)
+    library, quarantined = cache_library.find(folder, stem)
+    if library is None and not quarantined:
+        start_compiling(function(), folder / f"{stem}.so", job)
+        library, _ = cache_library.find(folder, stem)
+    if library is not None:
+        _touch(library)  # recently used: kept by prune()
+    return library
+
+
+def load_failed(library: Path, exc: Exception) -> None:
+    """Quarantine ``library``, which CasADi could not load (``exc``)."""
+    cache_library.quarantine(library, "fails to load (" + str(exc).strip().splitlines()[0][:200]
+                             + ")")
 
 
 def compiled(function: cs.Function, key: str) -> cs.Function | None:
     """The compiled library of ``function`` if cached, else None (compilation started).
 
     The compilation runs in a background process (or now, with ``PREDGAIT_COMPILE=now``);
-    None also when the cache is off or there is no compiler.
+    None also when the cache is off, there is no compiler, the folder cannot hold
+    libraries, or the library failed its check or to load (quarantined).
     """
     import casadi as cs
 
     if not (enabled() and compiler()):
         return None
-    library = library_path(function.name(), key)
-    if not library.is_file():
-        start_compiling(function, library, {"kind": "function"})
-        if not library.is_file():
-            return None
-    library.touch()  # recently used: kept by prune()
-    return cs.external(function.name(), str(library))
+    library = checked_library(function.name(), key, lambda: function, {"kind": "function"})
+    if library is None:
+        return None
+    try:
+        return cs.external(function.name(), str(library))
+    except RuntimeError as exc:
+        load_failed(library, exc)
+        return None
 
 
 def start_compiling(function: cs.Function, library: Path, job: dict) -> bool:
@@ -168,8 +234,8 @@ def start_compiling(function: cs.Function, library: Path, job: dict) -> bool:
             staged = job_file.with_name(f".staged-{job_file.name}")
             staged.write_text(json.dumps({**job, "library": str(library)}))
             os.replace(staged, job_file)  # the job file last: a queued job is whole
-    except OSError as exc:
-        log.warning("%s not compiled: %s", library.name, exc)
+    except (OSError, RuntimeError) as exc:  # RuntimeError: CasADi could not save
+        log.warning("%s not compiled: %s", library.name, str(exc).splitlines()[0])
         return False
     if now:
         return True if queued else _run_job(job_file)
@@ -244,11 +310,17 @@ def _run_job(job_file: Path) -> bool:
             path.unlink(missing_ok=True)
 
 
-def compile_into(function: cs.Function, library: Path) -> None:
-    """Generate ``function`` (a solver: its oracle and functions) as C, compile, rename.
+def compile_into(function: cs.Function, library: Path) -> Path:
+    """Generate ``function`` (a solver: its oracle and functions) as C, compile, publish.
+
+    ``library`` is ``<folder>/<stem>.so``; the library is tested in a child process and
+    published as ``<stem>-<sha of its bytes>.so`` (:func:`cache_library.publish`).
+
+    Returns:
+        The published library.
 
     Raises:
-        RuntimeError: the compiler failed (its last message).
+        RuntimeError: the compiler failed (its last message), or the test call did.
     """
     import casadi as cs
 
@@ -256,18 +328,20 @@ def compile_into(function: cs.Function, library: Path) -> None:
     with tempfile.TemporaryDirectory(dir=library.parent, prefix=".build-") as tmp:
         generator = cs.CodeGenerator("generated.c", {"with_header": False})
         if function.is_a("Nlpsol", True):  # an nlpsol: its parts, loaded by name
-            generator.add(function.oracle())
-            for name in function.get_function():
-                generator.add(function.get_function(name))
+            parts = [function.oracle()] + [function.get_function(name)
+                                           for name in function.get_function()]
         else:
-            generator.add(function)
+            parts = [function]
+        for part in parts:
+            generator.add(part)
         source = generator.generate(f"{tmp}/")
         built = Path(tmp) / library.name
         done = subprocess.run([compiler() or "cc", *FLAGS, source, "-o", str(built)],
                               capture_output=True, text=True)
         if done.returncode != 0:
             raise RuntimeError(f"compiling failed: {done.stderr.strip()[-300:]}")
-        os.replace(built, library)
+        return cache_library.publish(built, library.parent, library.stem,
+                                     [part.name() for part in parts])
 
 
 def prune(folder: Path, *, max_bytes: int = MAX_BYTES,
@@ -279,6 +353,10 @@ def prune(folder: Path, *, max_bytes: int = MAX_BYTES,
     for job in [*folder.glob(".pending-*"), folder / ".worker"]:  # left by killed runs
         if job.exists() and not _fresh(job):
             job.unlink(missing_ok=True)
+    for path in folder.glob(".quarantine-*"):
+        with contextlib.suppress(OSError):
+            if time.time() - path.lstat().st_mtime > QUARANTINE_DAYS * 86400.0:
+                path.unlink()
     files = [p for p in folder.glob("*") if p.is_file() and p.suffix in (".so", ".casadi")
              and not p.name.startswith(".")]
     now = time.time()

@@ -86,7 +86,8 @@ class Table:
         if value is None:
             return value
         if not math.isfinite(value) or not low <= value <= high:
-            raise self.error(key, f"{value!r} {unit} is outside {low:g}..{high:g} {unit}.")
+            raise self.error(key, f"{_quantity(value, unit)} is outside "
+                                  f"{_quantity(low, '')}..{_quantity(high, unit)}.")
         return value
 
     def numbers(self, key: str, default: Any = _MISSING, *, low: float = -math.inf,
@@ -104,8 +105,8 @@ class Table:
                 raise self.error(key, f"entry {index + 1} is {value!r}; expected a number "
                                       f"{unit}".rstrip() + ".")
             if not math.isfinite(value) or not low <= value <= high:
-                raise self.error(key, f"entry {index + 1} = {value!r} {unit} is outside "
-                                      f"{low:g}..{high:g} {unit}.")
+                raise self.error(key, f"entry {index + 1} = {_quantity(value, unit)} is outside "
+                                      f"{_quantity(low, '')}..{_quantity(high, unit)}.")
             out.append(float(value))
         if increasing and any(b <= a for a, b in zip(out, out[1:], strict=False)):
             raise self.error(key, "the values must increase.")
@@ -151,6 +152,12 @@ class Table:
         return path if path.is_absolute() else (self.path.parent / path)
 
 
+def _quantity(value: float, unit: str) -> str:
+    """``value`` as the user would write it (``1e+06``, ``0.05``, ``10``), then its unit."""
+    text = f"{value:.12g}" if math.isfinite(value) else str(value)
+    return f"{text} {unit}" if unit else text
+
+
 def _find_line(text: str, key: str, prefix: str) -> int | None:
     """Line number of ``key`` inside its ``[section]`` (the n-th ``[[array]]`` for an index)."""
     lines = text.splitlines()
@@ -173,6 +180,35 @@ def _find_line(text: str, key: str, prefix: str) -> int | None:
     for number in range(start, len(lines)):
         if key_pattern.match(lines[number]):
             return number + 1
+    return _find_nested_line(lines, names, key, start)
+
+
+def _find_nested_line(lines: list[str], names: list[str], key: str, start: int) -> int | None:
+    """Line of a dotted key (``knee.k = 1``) or a key in an inline table (``knee = {k = 1}``).
+
+    Searched below the deepest ``[section]`` of ``names`` that the file has, up to the next
+    section header.
+    """
+    def quoted(part: str) -> str:
+        return rf"\"?{re.escape(part)}\"?"
+
+    for depth in range(len(names), -1, -1):
+        section, rest = ".".join(names[:depth]), [*names[depth:], key]
+        first = start
+        if section:
+            header = re.compile(rf"^\s*\[+\s*{re.escape(section)}\s*\]+")
+            first = next((n + 1 for n in range(start, len(lines)) if header.match(lines[n])),
+                         None)
+            if first is None:
+                continue
+        dotted = re.compile(r"^\s*" + r"\s*\.\s*".join(map(quoted, rest)) + r"\s*=")
+        inline = re.compile(r"^\s*" + r"\s*\.\s*".join(map(quoted, rest[:1])) + r"\s*=.*[{,]\s*"
+                            + quoted(key) + r"\s*=")
+        for number in range(first, len(lines)):
+            if number > first and re.match(r"^\s*\[", lines[number]):
+                break
+            if dotted.match(lines[number]) or (len(rest) > 1 and inline.match(lines[number])):
+                return number + 1
     return None
 
 

@@ -1,7 +1,7 @@
 """Split each free joint acceleration into its causes (thesis Fig. 4.2.12).
 
 With the foot prescribed (:class:`predgait.dynamics.forward.LegSystem`),
-a_f = M_ff^-1 (tau_f - h_f - M_fp a_p). Writing h = g(q) + c(q, qd) (gravity and the
+a_f = M_ff^-1 (tau_f - h_f - M_fp a_p). Writing h = g(q) + c(q, v) (gravity and the
 velocity-product terms) and tau = active + feedback + passive + hip load, each part
 times M_ff^-1 is the acceleration it causes; M_ff^-1 is linear, so the parts add up to
 the total exactly:
@@ -49,7 +49,7 @@ def contribution_history(system, sim) -> dict[str, np.ndarray]:
     """Contributions along a simulation: name -> (n, n_free) rad/s^2."""
     nf = len(system.free)
     rows = [contributions(system, t, np.concatenate([q[system.free], v[system.free]]))
-            for t, q, v in zip(sim.t, sim.q, sim.qd, strict=True)
+            for t, q, v in zip(sim.t, sim.q, sim.v, strict=True)
             if np.all(np.isfinite(q))]
     return {name: np.array([r[name] for r in rows]).reshape(-1, nf)
             for name in (*PARTS, "total")}

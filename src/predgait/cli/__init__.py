@@ -103,6 +103,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        output = sys.modules.get("predgait.workflows.output")
+        if output is not None:  # the --out claims of this run (a failed run included)
+            output.release_claims()
 
 
 class Terminated(BaseException):

@@ -119,7 +119,7 @@ def options_from_args(args: argparse.Namespace):
     """InverseOptions from a problem file (flags override its keys) or the options alone."""
     from dataclasses import replace
 
-    from predgait.dynamics.inverse_trial import InverseOptions
+    from predgait.dynamics.inverse_options import InverseOptions
     from predgait.problemfile import load_problem
     from predgait.workflows.inverse_io import options_from_problem
 
@@ -192,7 +192,7 @@ def run_fullbody(args: argparse.Namespace) -> int:
                                    sex=args.sex, out_dir=args.out, static=args.static,
                                    cutoff=cutoff, grf_cutoff=grf_cutoff,
                                    limit_margin=args.limit_margin or 0.0, force=args.force)
-    from predgait.dynamics.inverse_trial import MOST_FRAMES
+    from predgait.dynamics.inverse_options import MOST_FRAMES
     from predgait.report.console import inverse3d_text
 
     print(inverse3d_text(summary, args.out))
@@ -208,7 +208,8 @@ def run_fullbody(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and write the result folder."""
-    from predgait.dynamics.inverse_trial import MOST_FRAMES, run_inverse
+    from predgait.dynamics.inverse_options import MOST_FRAMES
+    from predgait.dynamics.inverse_trial import run_inverse
     from predgait.workflows.inverse_io import summary, write_inverse_outputs
     from predgait.workflows.output import check_out
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from predgait.models.describe import format_model
 from predgait.models.loading import DEFAULT_SUBJECT, generate_urdf, load_model
-from predgait.models.urdf import write_text_atomic
+from predgait.models.urdf import check_output_file, write_text_atomic
 
 BUILD_HELP = """\
 Generate a URDF from anthropometry (SI units).
@@ -61,6 +61,8 @@ def run_build(args: argparse.Namespace) -> int:
     from predgait.errors import InputError
     from predgait.models.loading import model_from_urdf
 
+    check_output_file(args.output, force=args.force,
+                      inputs=[args.segments] if args.segments else ())  # before any work
     if args.kind == "rod" and (args.height is not None or args.segments is not None):
         raise InputError("the rod takes --mass and --length, not --height or --segments.")
     if args.kind == "leg" and args.length is not None:
@@ -88,7 +90,8 @@ def run_build(args: argparse.Namespace) -> int:
     text = generate_urdf(args.kind, mass=args.mass, height=args.height, length=args.length,
                          segments=args.segments)
     model_from_urdf(text, source=str(args.output))
-    write_text_atomic(text, args.output, force=args.force)
+    write_text_atomic(text, args.output, force=args.force,
+                      inputs=[args.segments] if args.segments else ())
     print(f"wrote {args.output}")
     return 0
 

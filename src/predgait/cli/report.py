@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from predgait.models.urdf import write_text_atomic
+from predgait.models.urdf import check_output_file, write_text_atomic
 
 
 def register(commands: argparse._SubParsersAction) -> None:
@@ -17,6 +17,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     report.add_argument("folder", type=Path, help="result folder (the --out of a command)")
     report.add_argument("-o", "--output", type=Path, required=True, metavar="FILE.html")
     report.add_argument("--force", action="store_true", help="overwrite an existing report")
+    report.add_argument("--anonymise", action="store_true",
+                        help="also leave out the trial and input file names and the result "
+                             "folder's name (files are always named without their folders)")
     report.set_defaults(run=run)
 
 
@@ -24,7 +27,8 @@ def run(args: argparse.Namespace) -> int:
     """Build and write the report."""
     from predgait.report.html import build_report  # not on every command's start-up path
 
-    write_text_atomic(build_report(args.folder), args.output, force=args.force,
-                      inputs=[args.folder])
+    check_output_file(args.output, force=args.force, inputs=[args.folder])  # before work
+    write_text_atomic(build_report(args.folder, anonymise=args.anonymise), args.output,
+                      force=args.force, inputs=[args.folder])
     print(f"wrote {args.output}")
     return 0

@@ -51,7 +51,7 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
         write_summary(stage / "summary.json", summary)
         for name, sim in (("baseline", result.baseline), ("edited", result.edited)):
             columns = {n: sim.q[:, i] for i, n in enumerate(sim.coordinate_names)}
-            columns |= {f"{n}_speed": sim.qd[:, i] for i, n in enumerate(sim.coordinate_names)}
+            columns |= {f"{n}_speed": sim.v[:, i] for i, n in enumerate(sim.coordinate_names)}
             write_storage(stage / f"states_{name}.sto", sim.t, columns,
                           header={"units": "m, rad, m/s, rad/s", "scenario": result.spec.name})
         (stage / "edited_leg.urdf").write_text(result.edited_urdf)

@@ -51,6 +51,24 @@ def duplicate_labels(labels, *, source: str, what: str = "column") -> None:
         seen.add(label)
 
 
+def check_marker_labels(labels, *, source: str, where: str) -> None:
+    """Refuse a marker label with white space (results use labels as column names).
+
+    Args:
+        labels: The marker labels as read.
+        source: The file, for the message.
+        where: Where the labels are in the file (e.g. "line 4", "POINT:LABELS").
+    """
+    import re
+
+    for label in labels:
+        if re.search(r"\s", label):
+            fixed = re.sub(r"\s+", "_", label.strip())
+            raise InputError(f"{source}: {where}: marker label {label!r} contains white space; "
+                             f"rename it (e.g. {fixed!r}) in the file: result tables name "
+                             "their columns after the markers.")
+
+
 def zeros_as_missing(xyz, *, source: str):
     """Markers (n, m, 3) with exact (0, 0, 0) positions made NaN (missing), in place.
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from predgait.data._io import (
     check_magnitude,
+    check_marker_labels,
     duplicate_labels,
     length_factor,
     open_input,
@@ -136,6 +137,7 @@ def read_c3d(path, *, forward: Forward | str = Forward.AUTO, axes: FileAxes | st
     if n_read < 2:
         raise InputError(f"{path}: {n_read} frame(s); a trial needs at least two.")
     duplicate_labels(labels[:n_markers], source=str(path), what="marker label")
+    check_marker_labels(labels[:n_markers], source=str(path), where="POINT:LABELS")
     header_rate = c3d["header"]["points"]["frame_rate"]
     rate = float(np.ravel(param(params, "POINT", "RATE", [header_rate]))[0])
     if not rate > 0:

@@ -119,6 +119,29 @@ def filter_plate(plate: ForcePlate, cutoff: float, *, threshold: float = CONTACT
     return threshold_plate(out, threshold=threshold, release=release)
 
 
+def check_plates_cover(start: float, end: float, plates, *, source: str,
+                       markers: str) -> None:
+    """Refuse marker times ``start..end`` (s) that a force plate does not cover.
+
+    The same rule as :func:`resample_plate`, checked from a marker file's header before
+    the file is read whole (a long trial would take minutes and gigabytes to refuse).
+
+    Args:
+        start: First marker time, s.
+        end: Last marker time, s.
+        plates: The force plates.
+        source: The force file (the message starts with it).
+        markers: The marker file.
+    """
+    for plate in plates:
+        tol = 0.5 / plate.rate + 1e-9
+        if start < plate.time[0] - tol or end > plate.time[-1] + tol:
+            raise InputError(
+                f"{source}: force plate {plate.name!r} covers t = {plate.time[0]:.4f}.."
+                f"{plate.time[-1]:.4f} s but the markers of {markers} run {start:.4f}.."
+                f"{end:.4f} s (its header); trim the markers to the plates' span.")
+
+
 def resample_plate(plate: ForcePlate, time, *, method: Resampling | str = Resampling.AVERAGE,
                    threshold: float = CONTACT_THRESHOLD, release: float = 1.0) -> ForcePlate:
     """Bring plate data to marker times with anti-aliasing, then apply the contact threshold.

@@ -8,6 +8,7 @@ import numpy as np
 
 from predgait.data._io import (
     check_magnitude,
+    check_marker_labels,
     duplicate_labels,
     length_factor,
     read_input,
@@ -37,6 +38,29 @@ def _split(line: str) -> list[str]:
     if "\t" in line:
         return [f.strip() for f in line.split("\t")]
     return line.split()
+
+
+def trc_span(path) -> tuple[float, float, int] | None:
+    """The time span a TRC's header announces, from its first lines only (no full read).
+
+    Returns:
+        ``(first time s, last time s, NumFrames)``: the first data row's time and
+        ``(NumFrames - 1) / DataRate`` after it; None when the first lines cannot tell
+        (:func:`read_trc` then gives the message).
+    """
+    try:
+        with open(path, "rb") as handle:
+            lines = [handle.readline().decode("utf-8-sig") for _ in range(_N_HEADER + 20)]
+        keys = [k for k in _split(lines[1]) if k]
+        header = dict(zip(keys, [v for v in _split(lines[2]) if v], strict=False))
+        rate, n_frames = float(header["DataRate"]), int(header["NumFrames"])
+        row = next(line for line in lines[_N_HEADER:] if line.strip())  # blank lines skipped
+        first = float(_split(row)[1])
+    except (OSError, UnicodeDecodeError, KeyError, ValueError, IndexError, StopIteration):
+        return None
+    if not (rate > 0 and n_frames > 1 and np.isfinite(first)):
+        return None
+    return first, first + (n_frames - 1) / rate, n_frames
 
 
 def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
@@ -82,6 +106,7 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
             f"{path}: line 4 names {len(names)} markers but NumMarkers is {n_markers}."
         )
     duplicate_labels(names, source=str(path), what="marker")
+    check_marker_labels(names, source=str(path), where="line 4")
     if n_markers < 1 or n_frames < 0:
         raise InputError(f"{path}: header line 3 gives NumMarkers={n_markers}, "
                          f"NumFrames={n_frames}; a TRC needs at least one marker.")

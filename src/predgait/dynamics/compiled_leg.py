@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from collections.abc import Callable
+from typing import ClassVar
 
 import casadi as cs
 import numpy as np
@@ -50,10 +51,24 @@ VERSION = "1"
 FREE, PRESCRIBED = [3, 4], [0, 1, 2]
 #: Step and output functions of this process, by structure key (compiled or in the VM).
 _STEPS: dict[str, cs.Function] = {}
-#: Layout of the inputs u: qb, vb, ab (3 each), tau (5), hip (6), then the feedback
-#: reference and the forces' parameters (see FastLeg).
-_QB, _VB, _AB, _TAU, _HIP = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 14),
-                             slice(14, 20))
+
+
+@dataclasses.dataclass(frozen=True)
+class InputLayout:
+    """Rows of the leg's input vector u (:meth:`FastLeg.inputs`, :attr:`FastLeg.rhs`).
+
+    qb, vb, ab (3 each): the prescribed foot coordinates, rates, accelerations; tau (5):
+    applied generalised forces; hip (6): the hip force (N) and moment (N m); reference
+    (2 per feedback row): the PD reference angles then rates; the forces' parameters
+    (:attr:`FastLeg.parameter_values`) from ``reference.stop`` on.
+    """
+
+    reference: slice
+    qb: ClassVar[slice] = slice(0, 3)
+    vb: ClassVar[slice] = slice(3, 6)
+    ab: ClassVar[slice] = slice(6, 9)
+    tau: ClassVar[slice] = slice(9, 14)
+    hip: ClassVar[slice] = slice(14, 20)
 
 
 @functools.lru_cache(maxsize=4)
@@ -105,9 +120,10 @@ class FastLeg:
         self.system, self.feedback, self.passive, self.hip = system, feedback, passive, hip
         self.torques = torques
         n_ref = 0 if feedback is None else len(feedback.rows)
-        self._ref = slice(20, 20 + 2 * n_ref)
+        #: Rows of the inputs u (public: :mod:`predgait.dynamics.cvodes_leg` writes them).
+        self.layout = InputLayout(reference=slice(20, 20 + 2 * n_ref))
         self._symbols: list = []      # the forces' parameters (scalars) and their values
-        self._values: list[float] = []
+        self.parameter_values: list[float] = []  # in the layout's last rows
         self.rhs = self._rhs_function(leg_dynamics(system.model))
         self._key = function_cache.key_of([self.rhs.serialize()])
         self._inputs = None  # (times, inputs) of the latest call
@@ -123,7 +139,7 @@ class FastLeg:
         if not isinstance(value, int | float | np.number) or value == 0:
             return value
         self._symbols.append(cs.SX.sym(f"p{len(self._symbols)}"))
-        self._values.append(float(value))
+        self.parameter_values.append(float(value))
         return self._symbols[-1]
 
     def _symbolic_joint(self, joint):
@@ -140,9 +156,10 @@ class FastLeg:
         The forces' numbers (passive parameters, gains) are inputs at the end of u, so
         one function (and library) serves every value of them.
         """
-        x, u_time = cs.SX.sym("x", 4), cs.SX.sym("u", self._ref.stop)
-        q, v = cs.vertcat(u_time[_QB], x[:2]), cs.vertcat(u_time[_VB], x[2:])
-        tau = [u_time[_TAU][i] for i in range(5)]
+        lay = self.layout
+        x, u_time = cs.SX.sym("x", 4), cs.SX.sym("u", lay.reference.stop)
+        q, v = cs.vertcat(u_time[lay.qb], x[:2]), cs.vertcat(u_time[lay.vb], x[2:])
+        tau = [u_time[lay.tau][i] for i in range(5)]
         if self.passive is not None:  # PassiveTorques.add on symbols (same table)
             for name, (rows, clinical) in self.passive.rows.items():
                 joint = self._symbolic_joint(self.passive.joints[name])
@@ -151,7 +168,7 @@ class FastLeg:
                 for row in rows:
                     tau[row] = tau[row] + moment
         if self.feedback is not None:  # JointFeedback.torque on symbols
-            fb, ref = self.feedback, u_time[self._ref]
+            fb, ref = self.feedback, u_time[lay.reference]
             n = len(fb.rows)
             kp, kd = np.broadcast_to(fb.kp, n), np.broadcast_to(fb.kd, n)
             for i, row in enumerate(fb.rows):
@@ -160,10 +177,10 @@ class FastLeg:
                     + self._parameter(float(kd[i])) * (ref[n + i] - v[row]))
         zero = cs.SX.zeros(6)
         body = self.hip is not None and self.hip.body_fixed
-        hip_lab, hip_body = (zero, u_time[_HIP]) if body else (u_time[_HIP], zero)
-        xdot, reaction = base(x, u_time[_QB], u_time[_VB], u_time[_AB], cs.vertcat(*tau),
-                              hip_lab, hip_body)
-        self.nu = self._ref.stop + len(self._symbols)
+        hip_lab, hip_body = (zero, u_time[lay.hip]) if body else (u_time[lay.hip], zero)
+        xdot, reaction = base(x, u_time[lay.qb], u_time[lay.vb], u_time[lay.ab],
+                              cs.vertcat(*tau), hip_lab, hip_body)
+        self.nu = lay.reference.stop + len(self._symbols)
         u = cs.vertcat(u_time, *self._symbols)
         return cs.Function("leg_rhs", [x, u], [xdot, reaction], ["x", "u"],
                            ["xdot", "reaction"])
@@ -213,24 +230,25 @@ class FastLeg:
         if self._inputs is not None and np.array_equal(self._inputs[0], times):
             return self._inputs[1]
         times = np.asarray(times, dtype=float)
+        lay = self.layout
         drivers, out = self.system.drivers, np.zeros((len(times), self.nu))
-        out[:, _QB] = sample(drivers.prescribed_q, times)
-        out[:, _VB] = sample(drivers.prescribed_qd, times)
-        out[:, _AB] = sample(drivers.prescribed_qdd, times)
+        out[:, lay.qb] = sample(drivers.prescribed_q, times)
+        out[:, lay.vb] = sample(drivers.prescribed_qd, times)
+        out[:, lay.ab] = sample(drivers.prescribed_qdd, times)
         for force in self.torques:
-            out[:, _TAU][:, force.rows] += sample(force.history, times)
+            out[:, lay.tau][:, force.rows] += sample(force.history, times)
         if self.passive is not None and self.passive.offset is not None:
-            out[:, _TAU] -= sample(self.passive.offset, times)
+            out[:, lay.tau] -= sample(self.passive.offset, times)
         if self.hip is not None:
-            out[:, 14:17] = sample(self.hip.force, times)
-            out[:, 17:20] = sample(self.hip.moment, times)
+            out[:, lay.hip.start:lay.hip.start + 3] = sample(self.hip.force, times)
+            out[:, lay.hip.start + 3:lay.hip.stop] = sample(self.hip.moment, times)
         if self.feedback is not None:
             fb = self.feedback
             for k, t in enumerate(times):
                 ref = fb.reference(t)
-                out[k, self._ref] = np.concatenate([ref[0][fb.rows + fb.q_offset],
+                out[k, lay.reference] = np.concatenate([ref[0][fb.rows + fb.q_offset],
                                                     ref[1][fb.rows]])
-        out[:, self._ref.stop:] = self._values
+        out[:, lay.reference.stop:] = self.parameter_values
         self._inputs = (times, out)
         return out
 
@@ -293,9 +311,9 @@ class FastLeg:
             parts = _STEPS[key](x_in[:, start: start + CHUNK], u_in[:, start: start + CHUNK])
             xdot[start:stop] = np.asarray(parts[0]).T[: stop - start]
             reaction[start:stop] = np.asarray(parts[1]).T[: stop - start]
-        q = np.column_stack([u[:, _QB], x[:, :2]])
-        v = np.column_stack([u[:, _VB], x[:, 2:]])
-        a = np.column_stack([u[:, _AB], xdot[:, 2:]])
+        q = np.column_stack([u[:, self.layout.qb], x[:, :2]])
+        v = np.column_stack([u[:, self.layout.vb], x[:, 2:]])
+        a = np.column_stack([u[:, self.layout.ab], xdot[:, 2:]])
         bad = ~np.all(np.isfinite(x), axis=1)
         a[bad, 3:], reaction[bad] = 0.0, 0.0
         return q, v, a, reaction

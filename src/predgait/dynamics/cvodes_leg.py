@@ -27,12 +27,16 @@ Pinocchio engine.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import casadi as cs
 import numpy as np
 
-from predgait.dynamics.compiled_leg import _AB, _HIP, _QB, _TAU, _VB, FastLeg
-from predgait.dynamics.drivers import Constant, LegDrivers, SampledHistory, _Columns
+from predgait.dynamics.drivers import Columns, Constant, LegDrivers, SampledHistory
 from predgait.dynamics.integrators import GridSolverFailed, IntegratorOptions
+
+if TYPE_CHECKING:  # FastLeg calls this module (grid_solver): its type only
+    from predgait.dynamics.compiled_leg import FastLeg
 
 
 class _TimeInputs:
@@ -45,7 +49,7 @@ class _TimeInputs:
         """``function(t)`` in CasADi, or None (not a sampled history or a constant)."""
         if isinstance(function, Constant):
             return cs.DM(function.value)
-        if isinstance(function, _Columns):
+        if isinstance(function, Columns):
             row = self._history(function.history)
             return None if row is None else row[function.columns]
         if isinstance(function, SampledHistory):
@@ -54,7 +58,7 @@ class _TimeInputs:
 
     def _history(self, history: SampledHistory) -> cs.SX | None:
         if id(history) not in self._rows:
-            time, values = history._time, history._values
+            time, values = history.time, history.values
             if time.size < 3:  # linear interpolation: not written here
                 return None
             spline = cs.interpolant(history.name.replace(" ", "_") or "history", "bspline",
@@ -78,12 +82,13 @@ def time_inputs(fast: FastLeg, t: cs.SX) -> cs.SX | None:
         varying.append((np.arange(fast.nu)[rows].tolist(), sign, value))
         return value is not None
 
-    tau, hip = np.arange(fast.nu)[_TAU], np.arange(fast.nu)[_HIP]
-    written = [put(_QB, drivers.prescribed_q), put(_VB, drivers.prescribed_qd),
-               put(_AB, drivers.prescribed_qdd),
+    layout = fast.layout
+    tau, hip = np.arange(fast.nu)[layout.tau], np.arange(fast.nu)[layout.hip]
+    written = [put(layout.qb, drivers.prescribed_q), put(layout.vb, drivers.prescribed_qd),
+               put(layout.ab, drivers.prescribed_qdd),
                *(put(tau[force.rows], force.history) for force in fast.torques)]
     if fast.passive is not None and fast.passive.offset is not None:
-        written.append(put(_TAU, fast.passive.offset, -1.0))
+        written.append(put(layout.tau, fast.passive.offset, -1.0))
     if fast.hip is not None:
         written += [put(hip[:3], fast.hip.force), put(hip[3:], fast.hip.moment)]
     if fast.feedback is not None:
@@ -93,12 +98,12 @@ def time_inputs(fast: FastLeg, t: cs.SX) -> cs.SX | None:
         q_ref, v_ref = parts.of(owner.reference_q), parts.of(owner.reference_qd)
         if q_ref is None or v_ref is None:
             return None
-        rows, ref = np.asarray(fb.rows, dtype=int), np.arange(fast.nu)[fast._ref]
+        rows, ref = np.asarray(fb.rows, dtype=int), np.arange(fast.nu)[layout.reference]
         varying += [(ref[: rows.size].tolist(), 1.0, q_ref[(rows + fb.q_offset).tolist()]),
                     (ref[rows.size:].tolist(), 1.0, v_ref[rows.tolist()])]
     if not all(written):
         return None
-    constant[fast._ref.stop:] = fast._values
+    constant[layout.reference.stop:] = fast.parameter_values
     u = cs.SX(constant)
     for rows, sign, value in varying:
         u[rows] = u[rows] + sign * value

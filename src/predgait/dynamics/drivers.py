@@ -55,6 +55,16 @@ class SampledHistory:
         self._last = None
         self._sampled = None  # (times, rows) of the latest sample()
 
+    @property
+    def time(self) -> np.ndarray:
+        """(n,) sample times, s (not to be modified)."""
+        return self._time
+
+    @property
+    def values(self) -> np.ndarray:
+        """(n, k) samples (not to be modified)."""
+        return self._values
+
     def __call__(self, t: float) -> np.ndarray:
         """Interpolated (k,) row at t (s), held at the end values outside the range."""
         if t == self._last_t:
@@ -94,21 +104,23 @@ class SampledHistory:
         return evaluate
 
 
-class _Columns:
-    """Some columns of a history: t -> (k,); ``sample(times)`` -> (m, k)."""
+class Columns:
+    """Some columns of a history: t -> (k,); ``sample(times)`` -> (m, k).
+
+    Attributes:
+        history: the :class:`SampledHistory`. columns: the slice of its columns.
+    """
 
     def __init__(self, history: SampledHistory, columns: slice):
         self.history, self.columns = history, columns
 
     def __call__(self, t: float) -> np.ndarray:
+        """The (k,) columns at t (s)."""
         return self.history(t)[self.columns]
 
     def sample(self, times: np.ndarray) -> np.ndarray:
+        """The (m, k) columns at the (m,) ``times``."""
         return self.history.sample(times)[:, self.columns]
-
-
-def _columns(history: SampledHistory, columns: slice) -> TimeFunction:
-    return _Columns(history, columns)
 
 
 def sample(function: TimeFunction, times: np.ndarray) -> np.ndarray:
@@ -214,39 +226,39 @@ class LegDrivers:
         return self.reference_q(t), self.reference_qd(t)
 
     @classmethod
-    def from_samples(cls, time, q, qd, qdd, tau, hip_force, hip_moment) -> LegDrivers:
+    def from_samples(cls, time, q, v, a, tau, hip_force, hip_moment) -> LegDrivers:
         """Drivers interpolating sampled histories (all arrays with n rows).
 
         Args:
             time: (n,) s.
             q: (n, 5) leg coordinates (m, rad); the base columns are prescribed, the
                 joint columns are the reference motion.
-            qd: (n, 5) velocities.
-            qdd: (n, 5) accelerations.
+            v: (n, 5) velocities.
+            a: (n, 5) accelerations.
             tau: (n, 5) generalised forces; columns 3:5 are the ankle, knee torques.
             hip_force: (n, 3) N.
             hip_moment: (n, 3) N m.
         """
-        q, qd, qdd, tau = (np.asarray(a, dtype=float) for a in (q, qd, qdd, tau))
-        stacked = np.column_stack([q, qd, qdd, tau[:, 3:5], hip_force, hip_moment])
+        q, v, a, tau = (np.asarray(x, dtype=float) for x in (q, v, a, tau))
+        stacked = np.column_stack([q, v, a, tau[:, 3:5], hip_force, hip_moment])
         history = SampledHistory(time, stacked, name="leg drivers")
-        return cls(prescribed_q=_columns(history, slice(0, 3)),
-                   prescribed_qd=_columns(history, slice(5, 8)),
-                   prescribed_qdd=_columns(history, slice(10, 13)),
-                   joint_torque=_columns(history, slice(15, 17)),
-                   hip_force=_columns(history, slice(17, 20)),
-                   hip_moment=_columns(history, slice(20, 23)),
-                   reference_q=_columns(history, slice(0, 5)),
-                   reference_qd=_columns(history, slice(5, 10)),
-                   reference_qdd=_columns(history, slice(10, 15)),
+        return cls(prescribed_q=Columns(history, slice(0, 3)),
+                   prescribed_qd=Columns(history, slice(5, 8)),
+                   prescribed_qdd=Columns(history, slice(10, 13)),
+                   joint_torque=Columns(history, slice(15, 17)),
+                   hip_force=Columns(history, slice(17, 20)),
+                   hip_moment=Columns(history, slice(20, 23)),
+                   reference_q=Columns(history, slice(0, 5)),
+                   reference_qd=Columns(history, slice(5, 10)),
+                   reference_qdd=Columns(history, slice(10, 15)),
                    time_range=(history.t0, history.t1))
 
     @classmethod
     def from_inverse(cls, result, *, torque_offsets=None, passive=None) -> LegDrivers:
         """Drivers from a :class:`predgait.dynamics.inverse_trial.InverseResult`.
 
-        Prescribed foot motion = IK base coordinates (q, qd and the inverse-dynamics
-        qdd, so forward and inverse use the same accelerations); torques = RNEA ankle
+        Prescribed foot motion = IK base coordinates (q, v and the inverse-dynamics
+        a, so forward and inverse use the same accelerations); torques = RNEA ankle
         and knee torques (+ ``torque_offsets`` (n, 2) or (2,) N m, model sign); hip
         load = the solved hip force and moment; reference = IK coordinates.
 
@@ -264,12 +276,12 @@ class LegDrivers:
         if torque_offsets is not None:
             tau[:, 3:5] += np.broadcast_to(np.asarray(torque_offsets, dtype=float),
                                            tau[:, 3:5].shape)
-        drivers = cls.from_samples(result.time, result.q, result.qd, result.qdd, tau,
+        drivers = cls.from_samples(result.time, result.q, result.v, result.a, tau,
                                    result.hip_force, result.hip_moment)
         if not passive:
             return drivers
         offset = SampledHistory(result.time, passive_generalized(
-            result.model, passive, np.asarray(result.q), np.asarray(result.qd)),
+            result.model, passive, np.asarray(result.q), np.asarray(result.v)),
             name="passive moments at the measured motion")
         return replace(drivers, passive=dict(passive), passive_offset=offset)
 

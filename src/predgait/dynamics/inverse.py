@@ -2,7 +2,7 @@
 
 With the foot as the base, the leg's equations of motion read
 
-    M(q) qdd + h(q, qd) = S^T tau + J_G^T w_G + J_H^T w_H,
+    M(q) a + h(q, v) = S^T tau + J_G^T w_G + J_H^T w_H,
 
 with the measured ground reaction w_G on the foot (at the COP) and the unknown hip load
 w_H = (F_x, F_z, M_y) that the pelvis applies to the thigh at ``hip_center``. RNEA without
@@ -106,7 +106,7 @@ def _wrenches_by_joint(model: Model, n: int, loads) -> dict[int, np.ndarray]:
     return by_joint
 
 
-def leg_inverse_dynamics(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+def leg_inverse_dynamics(model: Model, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                          loads: Sequence[LoadHistory] | Sequence[Sequence[Load]]
                          ) -> LegInverse:
     """Ankle and knee torques, hip load and joint forces for each frame.
@@ -114,15 +114,15 @@ def leg_inverse_dynamics(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.nd
     Args:
         model: The leg (foot as base; joints ``ankle`` and ``knee``).
         q: (n, nq) coordinates, m and rad.
-        qd: (n, nq) velocities.
-        qdd: (n, nq) accelerations.
+        v: (n, nq) velocities.
+        a: (n, nq) accelerations.
         loads: The external loads on the leg other than the hip (the ground reaction(s) on
             the foot): :class:`LoadHistory` objects (fast), or per frame a list of
             :class:`Load` with points given.
     """
     pm = model.pin_model
     data = pm.createData()
-    q, qd, qdd = (np.asarray(a, dtype=float) for a in (q, qd, qdd))
+    q, v, a = (np.asarray(x, dtype=float) for x in (q, v, a))
     n = len(q)
     ankle, knee = pm.getJointId("ankle"), pm.getJointId("knee")
     hip_frame = pm.frames[model.frame_id("hip_center")]
@@ -135,7 +135,7 @@ def leg_inverse_dynamics(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.nd
     placements, local_forces = data.oMi, data.f   # views into `data`, updated by the calls
     for k in range(n):
         jacobian[k] = pin.computeJointJacobians(pm, data, q[k])   # and placements oMi
-        rnea[k] = pin.rnea(pm, data, q[k], qd[k], qdd[k])        # and local forces f
+        rnea[k] = pin.rnea(pm, data, q[k], v[k], a[k])        # and local forces f
         rotation[k, 0] = placements[ankle].rotation
         rotation[k, 1] = placements[knee].rotation
         thigh_pose[k] = placements[thigh].homogeneous

@@ -420,8 +420,8 @@ class SimulationResult:
     Attributes:
         t: (n,) s.
         q: (n, nq) all coordinates (prescribed ones included), m and rad.
-        qd: (n, nv) velocities.
-        qdd: (n, nv) accelerations.
+        v: (n, nv) velocities.
+        a: (n, nv) accelerations.
         reaction: (n, n_prescribed) lambda_p, what the prescription supplied.
         coordinate_names: names of the velocity rows (the coordinates of planar models).
         free: Names of the integrated velocity rows.
@@ -439,8 +439,8 @@ class SimulationResult:
 
     t: np.ndarray
     q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
     reaction: np.ndarray
     coordinate_names: tuple[str, ...]
     free: tuple[str, ...]
@@ -454,16 +454,6 @@ class SimulationResult:
     grf: np.ndarray | None = None
     cop: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
-
-    @property
-    def v(self) -> np.ndarray:
-        """Velocities (alias of ``qd``, Pinocchio's name)."""
-        return self.qd
-
-    @property
-    def a(self) -> np.ndarray:
-        """Accelerations (alias of ``qdd``)."""
-        return self.qdd
 
 
 def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
@@ -497,7 +487,7 @@ def simulate_partitioned(system: PartitionedSystem, t_span: tuple[float, float],
     fall = (run.event_time - float(t_span[0])
             if (run.event_name or "").startswith("fall") else None)
     result = SimulationResult(
-        t=run.t, q=q, qd=v, qdd=a, reaction=reaction, coordinate_names=names,
+        t=run.t, q=q, v=v, a=a, reaction=reaction, coordinate_names=names,
         free=tuple(names[i] for i in system.free), status=run.status,
         event=run.event_name, time_to_fall=fall, partial=error is not None,
         message=run.message, options=replace(options, method=run.method),  # cvodes -> rk45

@@ -3,7 +3,7 @@
 Every element maps a clinical joint angle (rad; hip flexion, knee flexion, ankle
 dorsiflexion positive) and its rate (rad/s) to the clinical passive moment (N m,
 positive toward the positive angle). Mapping to model joint torques (knee:
-tau = -M(-q, -qd)) is done once, in the forward-dynamics module. Elements are frozen
+tau = -M(-q, -v)) is done once, in the forward-dynamics module. Elements are frozen
 dataclasses whose parameters may be floats or CasADi symbols (fitting problems), and
 whose ``moment`` accepts numpy arrays or CasADi SX/MX/DM expressions.
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from predgait.data.events import Side
 from predgait.data.trial import Markers
 from predgait.errors import InputError
 
@@ -33,7 +34,7 @@ def cluster_frame(p1: np.ndarray, p2: np.ndarray, p3: np.ndarray) -> tuple[np.nd
 
 
 def harrington_hip(rasis: np.ndarray, lasis: np.ndarray, sacrum: np.ndarray, *,
-                   side: str) -> np.ndarray:
+                   side: Side) -> np.ndarray:
     """Hip joint centre (..., 3), m, lab frame, by Harrington et al. (2007)."""
     mid_asis = 0.5 * (rasis + lasis)
     lateral = _unit(rasis - lasis)  # toward the right
@@ -42,7 +43,7 @@ def harrington_hip(rasis: np.ndarray, lasis: np.ndarray, sacrum: np.ndarray, *,
     superior = np.cross(lateral, anterior)
     width = np.linalg.norm(rasis - lasis, axis=-1, keepdims=True) * 1000.0
     depth = np.linalg.norm(mid_asis - sacrum, axis=-1, keepdims=True) * 1000.0
-    sign = 1.0 if side == "right" else -1.0
+    sign = 1.0 if side == Side.RIGHT else -1.0
     local_mm = (-0.24 * depth - 9.9, -0.30 * width - 10.9, sign * (0.33 * width + 7.3))
     return mid_asis + (local_mm[0] * anterior + local_mm[1] * superior
                        + local_mm[2] * lateral) / 1000.0

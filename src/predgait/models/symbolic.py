@@ -8,8 +8,8 @@ origin, angular velocity), both in the world frame, so with the planar coordinat
 accelerations are the plain second derivatives, as with Pinocchio's PX-PZ-RY root.
 
 All functions are named CasADi functions with named inputs and outputs (STYLE.md 4):
-``mass_matrix(q) -> M``, ``bias_force(q, qd) -> h`` (Coriolis, centrifugal, gravity),
-``forward_dynamics(q, qd, tau) -> qdd`` and ``frame_position(q) -> p`` per frame.
+``mass_matrix(q) -> M``, ``bias_force(q, v) -> h`` (Coriolis, centrifugal, gravity),
+``forward_dynamics(q, v, tau) -> a`` and ``frame_position(q) -> p`` per frame.
 """
 
 from __future__ import annotations
@@ -85,21 +85,21 @@ def symbolic_model(model: Model) -> SymbolicModel:
     n_joints = len(joints)
     sel = _selection(n_joints)
     q = cs.SX.sym("q", 3 + n_joints)
-    qd = cs.SX.sym("qd", 3 + n_joints)
+    v = cs.SX.sym("qd", 3 + n_joints)
     tau = cs.SX.sym("tau", 3 + n_joints)
     transform = base_transform(q[:3])
-    velocity6 = sel @ qd
+    velocity6 = sel @ v
     mass6 = kindyn.mass_matrix(transform, _joint_part(q))[: 6 + n_joints, : 6 + n_joints]
     bias6 = kindyn.bias_force(transform, _joint_part(q), velocity6[:6],
-                              _joint_part(cs.vertcat(qd[:3], velocity6[6:])))[: 6 + n_joints]
+                              _joint_part(cs.vertcat(v[:3], velocity6[6:])))[: 6 + n_joints]
     mass = sel.T @ mass6 @ sel
     bias = sel.T @ bias6
-    qdd = cs.solve(mass, tau - bias)
+    a = cs.solve(mass, tau - bias)
     return SymbolicModel(
         nq=3 + n_joints,
         mass_matrix=cs.Function("mass_matrix", [q], [mass], ["q"], ["M"]),
-        bias_force=cs.Function("bias_force", [q, qd], [bias], ["q", "qd"], ["h"]),
-        forward_dynamics=cs.Function("forward_dynamics", [q, qd, tau], [qdd],
+        bias_force=cs.Function("bias_force", [q, v], [bias], ["q", "qd"], ["h"]),
+        forward_dynamics=cs.Function("forward_dynamics", [q, v, tau], [a],
                                      ["q", "qd", "tau"], ["qdd"]),
         kindyn=kindyn,
     )

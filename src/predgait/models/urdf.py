@@ -14,8 +14,11 @@ Frames (massless links on fixed joints, seen by both Pinocchio and ADAM):
 
 from __future__ import annotations
 
+import contextlib
 import html
+import os
 import re
+import secrets
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -164,25 +167,69 @@ def read_urdf_info(text: str, *, source: str = "URDF") -> UrdfInfo:
     return UrdfInfo(kind=match.group(1), base=match.group(2))
 
 
+def check_output_file(path: str | Path, *, force: bool = False,
+                      inputs: Iterable[str | Path] = ()) -> Path:
+    """Check an output file (``-o``) before any work: new (or ``force``), not an input.
+
+    Refused: the path is, or resolves to, an input (a file read in this process, one of
+    ``inputs``, or inside an input folder); it exists (a dangling link included) without
+    ``force``; it is a folder; its folder is missing or not writable.
+
+    Raises:
+        InputError: Naming the path and what to do.
+    """
+    path = Path(path)
+    check_not_input(path, inputs, option="-o")
+    if os.path.lexists(path) and not force:
+        raise InputError(f"{path} exists; choose another output path or add --force.")
+    if path.is_dir():
+        raise InputError(f"{path} is a folder; -o takes a file name.")
+    parent = path.parent
+    if not parent.is_dir():
+        raise InputError(f"{path}: folder {parent} does not exist; create it first.")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"{path}: cannot write in {parent} (read-only); choose a writable "
+                         "path.")
+    return path
+
+
 def write_text_atomic(text: str, path: str | Path, *, force: bool = False,
                       inputs: Iterable[str | Path] = ()) -> Path:
     """Write ``text`` to ``path`` whole or not at all; refuse to overwrite unless ``force``.
 
-    Never over an input: a file read in this process or one of ``inputs`` (or inside
-    an input folder).
+    The text goes to a new, uniquely named file in the target folder, created with
+    ``O_EXCL | O_NOFOLLOW`` (a link planted there is never followed, concurrent writers
+    never share a file), then renamed onto ``path`` (atomic; a link at ``path`` is
+    replaced, not followed). Never over an input (:func:`check_output_file`, checked
+    again just before the rename). Honours the umask.
+
+    Raises:
+        InputError: See :func:`check_output_file`; or the write failed (the temporary
+            file is removed, nothing else is touched).
     """
-    path = Path(path)
-    check_not_input(path, inputs, option="-o")
-    if path.exists() and not force:
-        raise InputError(f"{path} exists; choose another output path or add --force.")
-    if not path.parent.is_dir():
-        raise InputError(f"{path}: folder {path.parent} does not exist; create it first.")
-    tmp = path.with_name(f".{path.name}.tmp")
+    path = check_output_file(path, force=force, inputs=inputs)
+    flags = (os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
+             | getattr(os, "O_CLOEXEC", 0))
+    while True:
+        tmp = path.with_name(f".{path.name}.{secrets.token_hex(8)}.tmp")
+        try:
+            fd = os.open(tmp, flags, 0o666)
+            break
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise InputError(f"{path}: cannot write ({exc.strerror}); choose a writable "
+                             "path.") from None
     try:
-        tmp.write_text(text)
-        tmp.replace(path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError(f"{path}: cannot write ({exc.strerror}); choose a writable "
-                         "path.") from None
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
+            handle.write(text)
+        check_not_input(path, inputs, option="-o")
+        os.replace(tmp, path)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise InputError(f"{path}: cannot write ({exc.strerror}); choose a writable "
+                             "path.") from None
+        raise
     return path

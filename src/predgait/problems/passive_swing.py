@@ -126,9 +126,9 @@ class Windows:
         # Rounded: the step is a constant of the compiled function (and of its cache key).
         dt = float(np.round(np.median(np.diff(inverse.time)), 12))
         substeps = max(1, int(np.ceil(dt / settings.step_s - 1e-9)))
-        q, qd = np.asarray(inverse.q), np.asarray(inverse.qd)
+        q, v = np.asarray(inverse.q), np.asarray(inverse.v)
         ok = samples.in_phases(settings.quiet_phases) & np.isfinite(q).all(axis=1) \
-            & np.isfinite(qd).all(axis=1) & np.isfinite(np.asarray(inverse.qdd)).all(axis=1)
+            & np.isfinite(v).all(axis=1) & np.isfinite(np.asarray(inverse.a)).all(axis=1)
         if getattr(inverse, "has_grf", False):
             ok &= ~(np.asarray(inverse.grf)[:, 2] > CONTACT_N)
         runs = []
@@ -163,7 +163,7 @@ class Windows:
         first = np.array([run[0] for _, run in runs])
         return cls(first=first, length=np.array([run.size for _, run in runs]),
                    cycle=np.array([c for c, _ in runs]), substeps=substeps,
-                   x0=np.column_stack([q[first, 3:5], qd[first, 3:5]]), angles=angles,
+                   x0=np.column_stack([q[first, 3:5], v[first, 3:5]]), angles=angles,
                    mask=mask, inputs=inputs,
                    knee_offset=float(getattr(inverse, "knee_static", 0.0)),
                    correlation_samples=max(1.0, samples.correlation_time / dt), dt=dt)

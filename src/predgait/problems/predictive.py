@@ -106,7 +106,7 @@ class Start(enum.Enum):
     where the adaptive barrier ran out of 1000 iterations and the monotone one from
     mu = 0.1 found another gait (30 deg away). Which barrier converges also depends on
     the machine's floating-point kernels: a solve that fails is restarted with the others
-    (``workflows.predict.RESTARTS``).
+    (``problems.predictive_solve.RESTARTS``).
     """
 
     MEASURED = "measured"

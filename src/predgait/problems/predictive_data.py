@@ -1,6 +1,6 @@
 """Measured data for the predictive gait7 problem: reference, initial guess, speed, duration.
 
-The measured walk mapped onto gait7 (:mod:`predgait.simulations.gait7_motion`) is cut
+The measured walk mapped onto gait7 (:mod:`predgait.dynamics.gait7_motion`) is cut
 from a right heel strike to the next left one (half cycle) or the next right one (full
 cycle) and sampled at the collocation nodes by cubic splines. The bundled trial is
 treadmill-like (the stance foot moves backward in the lab): the belt velocity is the
@@ -19,11 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from predgait.dynamics.drivers import SampledHistory
+from predgait.dynamics.gait7_motion import Gait7Motion, frame_positions
 from predgait.errors import InputError
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model
 from predgait.problems.predictive import Cycle, Guess, PredictedGait, Reference
-from predgait.simulations.gait7_motion import Gait7Motion, frame_positions
 
 
 @dataclass(frozen=True)

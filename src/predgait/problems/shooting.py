@@ -124,8 +124,8 @@ class Intervals:
         length = stride * dt
         substeps = max(1, int(np.ceil(length / settings.step_s - 1e-9)))
         drivers = LegDrivers.from_inverse(inverse)
-        q, qd = np.asarray(inverse.q), np.asarray(inverse.qd)
-        finite = np.isfinite(q).all(axis=1) & np.isfinite(qd).all(axis=1)
+        q, v = np.asarray(inverse.q), np.asarray(inverse.v)
+        finite = np.isfinite(q).all(axis=1) & np.isfinite(v).all(axis=1)
         valid = (samples.cycle >= 0) & finite
         starts = np.array([i for i in range(0, len(inverse.time) - stride, stride)
                            if valid[i:i + stride + 1].all()], dtype=int)
@@ -140,7 +140,7 @@ class Intervals:
                     drivers.prescribed_qdd(t), drivers.joint_torque(t),
                     [hip_f[0], hip_f[2], hip_m[1]]])
         return cls(start=starts, stride=stride, length_s=length, substeps=substeps,
-                   x0=np.column_stack([q[starts, 3:5], qd[starts, 3:5]]),
+                   x0=np.column_stack([q[starts, 3:5], v[starts, 3:5]]),
                    end=q[starts + stride, 3:5], inputs=inputs,
                    knee_offset=float(getattr(inverse, "knee_static", 0.0)),
                    correlation_intervals=max(1.0, samples.correlation_time / length))

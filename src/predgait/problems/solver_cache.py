@@ -16,6 +16,10 @@ the library. ``PREDGAIT_COMPILE=now`` compiles in the foreground instead.
 
 - Key: SHA-256 of the CasADi version, the solver name, the serialised NLP function
   ``(x, p) -> (f, g)`` (every constant of the problem is in it) and the Ipopt options.
+- Checked before loading (:mod:`predgait.cache_library`): a library whose bytes do not
+  match the hash in its name, or that fails to load, is quarantined and the run solves in
+  memory with a one-line warning; so does a run whose cache folder is read-only or not
+  the user's own (said once).
 - Off with ``PREDGAIT_SOLVER_CACHE=off`` (or when there is no C compiler): the problem is
   then built in SX and solved in memory.
 """
@@ -61,8 +65,8 @@ def ipopt_solver(name: str, nlp: dict, options: dict) -> cs.Function:
     """``cs.nlpsol(name, "ipopt", nlp, options)``, from the compiled cache when possible.
 
     An MX problem with the cache on is loaded from the cache folder when its library is
-    there; else its compilation starts (in the background) and this run solves it
-    expanded to SX in memory. An SX problem, or the cache off, is built in memory.
+    there and passes its check; else its compilation starts (in the background) and this
+    run solves it expanded to SX in memory. An SX problem, or the cache off, is built in memory.
 
     Args:
         name: Solver name.
@@ -71,13 +75,12 @@ def ipopt_solver(name: str, nlp: dict, options: dict) -> cs.Function:
     """
     if not (enabled() and isinstance(nlp["x"], cs.MX)):
         return cs.nlpsol(name, "ipopt", nlp, options)
-    library = cache_folder() / f"{name}-{solver_key(name, nlp, options)[:32]}.so"
-    function = None
-    if not library.is_file():
-        function = _nlp_function(nlp)
-        function_cache.start_compiling(function, library, {"kind": "ipopt", "name": name,
-                                                           "options": options})
-    if library.is_file():  # cached, or just compiled in the foreground
-        library.touch()
-        return cs.nlpsol(name, "ipopt", str(library), options)
-    return cs.nlpsol(name, "ipopt", function.expand(), options)
+    library = function_cache.checked_library(
+        name, solver_key(name, nlp, options), lambda: _nlp_function(nlp),
+        {"kind": "ipopt", "name": name, "options": options})
+    if library is not None:  # checked: cached, or just compiled in the foreground
+        try:
+            return cs.nlpsol(name, "ipopt", str(library), options)
+        except RuntimeError as exc:
+            function_cache.load_failed(library, exc)
+    return cs.nlpsol(name, "ipopt", _nlp_function(nlp).expand(), options)

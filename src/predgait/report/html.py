@@ -6,12 +6,16 @@ numbers that matter with units, one sentence written from those numbers; see
 :mod:`predgait.report.headline`), then the plots, then the details folded away (every
 setting and provenance entry, per-column statistics of the STO/CSV tables). Images are
 embedded as data URIs, so the page can be mailed or archived as one file; file paths are
-shown by their name only, never a folder outside the result.
+shown by their file name only, never a folder (folder names such as "Patient Jane Doe
+(DOB ...)/visit 2" must not leak into a shareable page; :func:`scrub_paths`), and the
+page says so. ``anonymise=True`` also drops the trial and input file names (headlines,
+provenance, table headers) and the result folder's name.
 """
 
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
 import json
 import re
@@ -73,9 +77,49 @@ def _esc(value) -> str:
     return html.escape(str(value))
 
 
+_SEGMENT = re.compile(r"[^;=\n\t]+")
+_FILE_NAME = re.compile(r"[^\s/\\]+\.[A-Za-z]\w{0,5}\b")
+_NAMED_FILE = re.compile(r"[^/\\\n]*?\.[A-Za-z]\w{0,5}\b")  # spaces allowed
+_ROOTED = re.compile(r"\s*(?:[A-Za-z]:[/\\]|[/\\~]|\.{1,2}[/\\])")
+#: What anonymised values are shown as.
+ANONYMISED = "(anonymised)"
+
+
 def scrub_paths(text: str) -> str:
-    """Every file path in ``text`` replaced by its last part (no folder is shown)."""
-    return _PATH.sub(lambda m: PurePath(m.group(0).replace("\\", "/")).name or "/", text)
+    """Every file path in ``text`` replaced by its last part (no folder is shown).
+
+    ``text`` is cut at ``;``, ``=``, tabs and new lines (provenance lists such as
+    ``trial=<path>; grf=<path>``); in each piece, everything up to the last folder
+    separator goes when a file name follows it or the piece starts as a path (``/``,
+    ``~``, ``./``, a drive letter), so folder names with spaces or brackets go too; other
+    pieces lose the folders of the paths they contain.
+    """
+    def piece(match: re.Match) -> str:
+        part = match.group(0)
+        cut = max(part.rfind("/"), part.rfind("\\"))
+        if cut < 0:
+            return part
+        lead = part[:len(part) - len(part.lstrip())]
+        if not part[cut + 1:].strip():  # a folder path: ".../visit 2/"
+            return f"{lead}(folder){part[len(part.rstrip()):]}"
+        if _NAMED_FILE.match(part, cut + 1) or _ROOTED.match(part):
+            return lead + part[cut + 1:]
+        return _PATH.sub(lambda m: PurePath(m.group(0).replace("\\", "/")).name or "/", part)
+
+    return _SEGMENT.sub(piece, text)
+
+
+def _anonymised(value, key: str = ""):
+    """``value`` (a summary's JSON) with provenance and file names replaced."""
+    if isinstance(value, dict):
+        return {k: _anonymised(v, "provenance" if key == "provenance" else k)
+                for k, v in value.items()}
+    if isinstance(value, list):
+        return [_anonymised(v, key) for v in value]
+    if isinstance(value, str) and (key == "provenance" or key in ("trial", "subject", "source")
+                                   or _FILE_NAME.search(value)):
+        return ANONYMISED
+    return value
 
 
 def _value(key: str, value) -> str:
@@ -136,14 +180,15 @@ def _read_table(path: Path) -> tuple[list[str], np.ndarray, list[str]]:
     return names, data, header
 
 
-def _table_summary(path: Path) -> str:
+def _table_summary(path: Path, anonymise: bool = False) -> str:
     try:
         names, data, header = _read_table(path)
     except (ValueError, IndexError, UnicodeDecodeError):
         return f"<p class='meta'>{_esc(path.name)}: not a numeric table.</p>"
     if data.size == 0:
         return f"<p class='meta'>{_esc(path.name)}: no rows.</p>"
-    meta = "; ".join(h for h in header if "=" in h or "unit" in h.lower())[:600]
+    meta = "; ".join(h for h in header if ("=" in h or "unit" in h.lower())
+                     and not (anonymise and "provenance" in h.lower()))[:600]
     rows = "".join(
         f"<tr><td>{_esc(name)}</td><td class='num'>{np.nanmin(col):.4g}</td>"
         f"<td class='num'>{np.nanmax(col):.4g}</td><td class='num'>{np.nanmean(col):.4g}</td>"
@@ -201,18 +246,19 @@ def _headline_block(head: Headline) -> str:
             + "</div>")
 
 
-def _details(folder: Path) -> str:
+def _details(folder: Path, anonymise: bool = False) -> str:
     parts = []
     path = summary_file(folder)
     if path is not None:
         try:
             data = json.loads(path.read_text())
+            data = _anonymised(data) if anonymise else data
             parts.append(f"<h4>{_esc(path.name)}</h4>" + (_fields(data) if isinstance(
                 data, dict) else _value("", data)))
         except (json.JSONDecodeError, UnicodeDecodeError):
             parts.append(f"<p class='bad'>{_esc(path.name)}: invalid JSON.</p>")
     tables = sorted([*folder.glob("*.sto"), *folder.glob("*.mot")])
-    parts.extend(_table_summary(p) for p in tables)
+    parts.extend(_table_summary(p, anonymise) for p in tables)
     if not parts:
         return ""
     return ("<details><summary>Details: all settings, provenance and the data files"
@@ -230,8 +276,11 @@ def _result_folders(folder: Path) -> list[Path]:
     return found
 
 
-def _section(folder: Path, root: Path, number: int | None) -> tuple[str, Headline]:
+def _section(folder: Path, root: Path, number: int | None, anonymise: bool = False
+             ) -> tuple[str, Headline]:
     head = headline(folder) or Headline(folder.name.replace("_", " "), "-", "-")
+    if anonymise:
+        head = dataclasses.replace(head, trial=ANONYMISED)
     title = f"{number}. {head.title}" if number is not None else head.title
     anchor = f"r{number or 0}"
     where = folder.relative_to(root).as_posix() if folder != root else "."
@@ -240,11 +289,12 @@ def _section(folder: Path, root: Path, number: int | None) -> tuple[str, Headlin
         viewer = viewer_markup((folder / "viewer.json").read_text(), _esc(head.title))
     return (f"<section id='{anchor}'><h2>{_esc(title)}</h2>"
             f"<p class='meta'>folder {_esc(where)}</p>{_headline_block(head)}"
-            f"{_figures(folder)}{viewer}{_details(folder)}</section>"), head
+            f"{_figures(folder)}{viewer}{_details(folder, anonymise)}</section>"), head
 
 
 def build_report(result_dir: str | Path, *, title: str | None = None,
-                 source: str | None = None, intro: str | None = None) -> str:
+                 source: str | None = None, intro: str | None = None,
+                 anonymise: bool = False) -> str:
     """The HTML text of the report of a result folder.
 
     Args:
@@ -253,6 +303,7 @@ def build_report(result_dir: str | Path, *, title: str | None = None,
         title: Page title (default: "predgait report: <folder name>").
         source: Name to show for the folder (default: its name; never a full path).
         intro: A paragraph shown under the title.
+        anonymise: Drop the trial and input file names and the result folder's name.
 
     Raises:
         InputError: The folder does not exist or holds no result file.
@@ -267,11 +318,12 @@ def build_report(result_dir: str | Path, *, title: str | None = None,
                          "this folder.")
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     name = PurePath(source).name if source else folder.resolve().name
+    name = ANONYMISED if anonymise else name
     title = title or f"predgait report: {name}"
     numbered = len(results) > 1
     sections, heads = [], []
     for number, result in enumerate(results, start=1):
-        text, head = _section(result, folder, number if numbered else None)
+        text, head = _section(result, folder, number if numbered else None, anonymise)
         sections.append(text)
         heads.append(head)
     overview = ""
@@ -282,7 +334,10 @@ def build_report(result_dir: str | Path, *, title: str | None = None,
     return ("<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
             f"<title>{_esc(title)}</title><style>{_STYLE}</style></head><body>"
             f"<h1>{_esc(title)}</h1><p class='meta'>predgait {__version__}, {stamp}, "
-            f"result folder {_esc(name)}</p>"
+            f"result folder {_esc(name)}. "
+            + ("Anonymised: trial, input file and folder names are left out."
+               if anonymise else "Files are named by their file name only, without folders.")
+            + "</p>"
             + (f"<p>{_esc(intro)}</p>" if intro else "")
             + overview + "".join(sections)
             + (f"<script>{viewer_script()}</script>" if "pg-viewer" in "".join(sections)

@@ -20,7 +20,7 @@ def save_prediction_plots(stage: Path, model, predictions: dict, *,
     Args:
         stage: Output folder.
         model: gait7 (stick figures of every prediction unless ``models`` names its own).
-        predictions: label -> :class:`predgait.workflows.predict.Prediction`.
+        predictions: label -> :class:`predgait.scenarios.predict.Prediction`.
         models: Optional label -> the (edited) model of that prediction.
     """
     models = models or {}

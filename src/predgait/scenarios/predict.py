@@ -13,6 +13,11 @@ Edits on gait7 (the scenario's ``side``, or both legs with ``side = "both"``):
 * ``range_of_motion``: bounds on the joint angle (hard limits, not stiff stops);
 * ``passive``: a linear spring-damper on the joint (an orthosis) in the dynamics.
 
+:func:`predict` is the checked prediction (the staged solve of
+:mod:`predgait.problems.predictive_solve`, Pinocchio residuals at every node, gait measures
+and the engine re-simulation with TVLQR of :mod:`predgait.simulations.gait7_predicted`);
+the unedited one is the baseline.
+
 One edited leg breaks the left/right symmetry, so both predictions are then full cycles
 (twice the nodes), the unedited one started from its mirrored half cycle; with
 ``side = "both"`` they are half cycles.
@@ -28,18 +33,98 @@ from predgait.kinematics.clinical import clinical_joint
 from predgait.models.anthropometry import leg_from_subject
 from predgait.models.gait7 import build_gait7_urdf
 from predgait.models.loading import Model, model_from_urdf
-from predgait.problems.predictive import Cycle, Guess, PassiveSpring, Start
+from predgait.problems.predictive import (
+    Cycle,
+    Guess,
+    PassiveSpring,
+    PredictedGait,
+    Start,
+    problem_for,
+)
 from predgait.problems.predictive_check import STANCE_THRESHOLD_N
+from predgait.problems.predictive_solve import (
+    PredictSpec,
+    check_solved,
+    default_bounds,
+    measured_for,
+    solve_with_restarts,
+    staged_guess,
+)
 from predgait.scenarios.edits import (
     LockJoint,
     PassiveEdit,
     RangeOfMotion,
     apply_segment_edits,
 )
-from predgait.workflows.predict import Prediction, PredictSpec, default_bounds, predict
 
 SIDE_SUFFIX = {"right": ("r",), "left": ("l",), "both": ("r", "l")}
 ANGLES = ("hip", "knee", "ankle")
+
+
+@dataclass(frozen=True, eq=False)
+class Prediction:
+    """A solved cycle with its measured counterpart and its checks (:func:`predict`)."""
+
+    gait: PredictedGait
+    measured: object          # MeasuredCycle
+    residuals: dict
+    stride: dict
+    measures: dict
+    resimulation: object | None
+    springs: tuple
+    stages: tuple = ()        # (what, Solved) of the stages before the final solve
+
+
+def predict(spec: PredictSpec, model: Model | None = None, *, bounds=None, springs=(),
+            guess: Guess | None = None, start: Start | None = None,
+            resimulate: bool | None = None) -> Prediction:
+    """Solve ``spec`` on ``model`` (default: the unedited gait7) and check the result.
+
+    ``guess`` defaults to the staged start (measured motion, tracking, grid continuation);
+    ``start`` (Ipopt's barrier, :class:`Start`) to SOLUTION when a guess is given,
+    RESAMPLED when it is the grid continuation's.
+
+    Raises:
+        SolveFailed: Ipopt did not converge (message: status, iterations, violation).
+    """
+    from predgait.dynamics.gait7_motion import gait7_model
+    from predgait.problems.predictive_check import (
+        full_stride,
+        gait_measures,
+        node_residuals,
+        passive_joints,
+    )
+
+    model = model or gait7_model(spec.mass, spec.height)
+    measured = measured_for(spec, model)
+    duration = measured.duration if spec.stride_time is None else (
+        spec.stride_time / (2 if spec.cycle is Cycle.HALF else 1))
+    speed = measured.speed if spec.speed is None else spec.speed
+    problem = problem_for(model, spec.nodes, spec.cycle, spec.contact, spec.ground_z,
+                          spec.max_penetration, spec.max_iter)
+    kw = {"speed": speed, "duration": duration, "springs": springs,
+          "bounds": default_bounds() if bounds is None else bounds}
+    stages = []
+    if guess is None and spec.weights.tracking == 0:
+        guess, stages, resampled = staged_guess(spec, model, kw)
+        if start is None and resampled:
+            start = Start.RESAMPLED
+    if start is None:
+        start = Start.MEASURED if guess is None else Start.SOLUTION
+    gait = solve_with_restarts(problem, guess or measured.guess, measured.reference,
+                               spec.weights, kw, start=start,
+                               what=f"predictive on {spec.nodes} intervals", failed=stages)
+    check_solved(gait, "solve")
+    residuals = node_residuals(model, gait, spec.contact, spec.ground_z, springs)
+    stride = full_stride(model, gait)
+    rerun = None
+    if spec.resimulate if resimulate is None else resimulate:
+        from predgait.simulations.gait7_predicted import resimulate as run_engine
+
+        rerun = run_engine(model, stride, spec.contact, spec.ground_z, passive_joints(springs))
+    measures = gait_measures(stride, speed, model.total_mass() * model.gravity)
+    return Prediction(gait, measured, residuals, stride, measures, rerun, tuple(springs),
+                      tuple(stages))
 
 
 @dataclass(frozen=True, eq=False)

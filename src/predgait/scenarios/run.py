@@ -25,8 +25,9 @@ import numpy as np
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, SimulationResult, simulate_leg
-from predgait.dynamics.integrators import IntegratorOptions, Method
-from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse, bundled_source
+from predgait.dynamics.integrators import IntegratorOptions, Method, Status
+from predgait.dynamics.inverse_options import bundled_source
+from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
 from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError, SimulationDiverged
 from predgait.kinematics.clinical import leg_clinical
@@ -109,7 +110,7 @@ def parse_scenario(table: Table) -> ScenarioSpec:
         raise table.error("side", f"'{side}' is not one of: {', '.join(sides)}.")
     predict = None
     if predicts:
-        from predgait.workflows.predict import parse_predict
+        from predgait.problems.predictive_solve import parse_predict
 
         predict = parse_predict(table.table("predict"))
     elif table.has("predict"):
@@ -200,7 +201,7 @@ def _feedback_torque(result: SimulationResult, drivers: LegDrivers, gains) -> np
     ref_q = np.array([drivers.reference_q(t) for t in result.t])
     ref_qd = np.array([drivers.reference_qd(t) for t in result.t])
     return gains[0] * (ref_q[:, 3:] - result.q[:, 3:]) + gains[1] * (ref_qd[:, 3:]
-                                                                    - result.qd[:, 3:])
+                                                                    - result.v[:, 3:])
 
 
 def _drive_and_gains(spec: ScenarioSpec, inverse: InverseResult, drivers: LegDrivers):
@@ -224,7 +225,7 @@ def _drive_and_gains(spec: ScenarioSpec, inverse: InverseResult, drivers: LegDri
 def _diverged(base: SimulationResult, edit: SimulationResult) -> dict | None:
     """Metrics of a scenario whose baseline or edited run diverged: status and time only."""
     for run, which in ((edit, "edited leg"), (base, "baseline")):
-        if run.status == "diverged":
+        if run.status is Status.DIVERGED:
             return {"status": f"diverged at t = {run.t[-1]:.3f} s ({which})",
                     "simulated_s": float(run.t[-1] - run.t[0]),
                     "time_to_fall_s": None, "baseline_time_to_fall_s": None,
@@ -249,7 +250,7 @@ def _metrics(base: SimulationResult, edit: SimulationResult, fb_base, fb_edit, d
         metrics[f"{joint}_feedback_rms_n_m"] = float(np.sqrt(np.mean(fb_edit[:, i] ** 2)))
         metrics[f"{joint}_extra_feedback_rms_n_m"] = float(
             np.sqrt(np.mean((fb_edit[:n, i] - fb_base[:n, i]) ** 2)))
-        power = (tau[:, i] + fb_edit[:, i]) * edit.qd[:, 3 + i]
+        power = (tau[:, i] + fb_edit[:, i]) * edit.v[:, 3 + i]
         metrics[f"{joint}_active_work_j"] = float(np.trapezoid(power, edit.t))
     if edit.grf is not None:
         metrics["peak_vertical_grf_n"] = float(edit.grf[:, 2].max())

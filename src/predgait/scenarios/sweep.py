@@ -3,12 +3,18 @@
 Points run in local processes by default (``concurrent.futures``) or on a Dask cluster
 (``dask.distributed``, imported only then) when a scheduler address is given. A point
 that fails is recorded with its reason and the sweep goes on. Results come back in the
-order of the points, whatever order they finished in.
+order of the points, whatever order they finished in. A Dask scheduler lost mid-sweep
+raises :class:`SweepInterrupted` holding the points that had finished (the CLI writes
+them and ``--resume`` runs the rest).
 """
 
 from __future__ import annotations
 
+import concurrent.futures
+import contextlib
+import enum
 import itertools
+import logging
 import math
 import os
 import time
@@ -37,6 +43,15 @@ class SweepPoint:
         return tuple(f"{key}={value!r}" for key, value in self.values.items())
 
 
+class PointStatus(enum.StrEnum):
+    """How a sweep point ended (results.csv's ``status`` column)."""
+
+    OK = "ok"
+    FAILED = "failed"
+    DIVERGED = "diverged"
+    NOT_RUN = "not run"   # an interrupted sweep did not reach it
+
+
 @dataclass(frozen=True)
 class SweepOutcome:
     """What one point gave: metrics, or the reason it failed."""
@@ -46,11 +61,20 @@ class SweepOutcome:
     metrics: Mapping[str, float] = field(default_factory=dict)
     reason: str = ""
     seconds: float = 0.0
-    status: str = ""
+    status: PointStatus | None = None   # None: OK or FAILED from ``ok``
 
     def __post_init__(self):
-        if not self.status:
-            object.__setattr__(self, "status", "ok" if self.ok else "failed")
+        if self.status is None:
+            object.__setattr__(self, "status",
+                               PointStatus.OK if self.ok else PointStatus.FAILED)
+
+
+class SweepInterrupted(PredgaitError):
+    """The Dask scheduler was lost mid-sweep; ``finished`` maps point index -> outcome."""
+
+    def __init__(self, message: str, finished: Mapping[int, SweepOutcome]):
+        super().__init__(message)
+        self.finished = dict(finished)
 
 
 def grid_points(axes: Mapping[str, Sequence[float]]) -> list[SweepPoint]:
@@ -77,7 +101,7 @@ def run_point(task: Callable[[SweepPoint], Mapping[str, float]], point: SweepPoi
     try:
         metrics = dict(task(point))
     except SimulationDiverged as exc:
-        return SweepOutcome(point, False, reason=str(exc), status="diverged",
+        return SweepOutcome(point, False, reason=str(exc), status=PointStatus.DIVERGED,
                             seconds=time.perf_counter() - start)
     except PredgaitError as exc:
         return SweepOutcome(point, False, reason=str(exc), seconds=time.perf_counter() - start)
@@ -128,13 +152,8 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
     bar = tqdm(total=len(points), desc="sweep", unit="run", disable=not progress)
     try:
         if scheduler is not None:
-            futures = client.map(run_point, [task] * len(points), points, pure=False)
-            from dask.distributed import as_completed as dask_completed
-
-            for future in dask_completed(futures):
-                outcome = future.result()
-                outcomes[outcome.point.index] = outcome
-                bar.update()
+            _run_dask(client, task, points, outcomes, bar,
+                      owned=isinstance(scheduler, str))
         elif workers == 1 or len(points) <= 1:
             for point in points:
                 outcomes[point.index] = run_point(task, point)
@@ -144,6 +163,65 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
     finally:
         bar.close()
     return [outcomes[point.index] for point in points]
+
+
+@contextlib.contextmanager
+def _quiet_dask():
+    """Dask's own log records off (a lost scheduler logs tracebacks while reconnecting)."""
+    names = [name for name in logging.root.manager.loggerDict
+             if name.split(".")[0] in ("distributed", "tornado", "asyncio")]
+    loggers = [logging.getLogger(name) for name in {"distributed", *names}]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
+
+
+def _run_dask(client, task, points, outcomes: dict, bar, *, owned: bool) -> None:
+    """Run the points on a Dask cluster; a lost scheduler raises :class:`SweepInterrupted`.
+
+    A point whose workers kept dying (``KilledWorker``) or that Dask could not run (e.g. a
+    worker without the task's modules) is recorded as failed with the reason. ``owned``:
+    the client was made here, so it is closed here.
+    """
+    from dask.distributed import KilledWorker
+    from dask.distributed import as_completed as dask_completed
+
+    address = getattr(getattr(client, "scheduler", None), "address", None) or "of the sweep"
+    futures = client.map(run_point, [task] * len(points), points, pure=False)
+    by_key = {future.key: point for future, point in zip(futures, points, strict=True)}
+    lost = None
+    with _quiet_dask():
+        try:
+            for future in dask_completed(futures):
+                try:
+                    outcome = future.result()
+                except (concurrent.futures.CancelledError, OSError, TimeoutError):
+                    raise
+                except KilledWorker as exc:
+                    outcome = SweepOutcome(by_key[future.key], False,
+                                           reason=f"its Dask workers died ({exc})")
+                except Exception as exc:  # noqa: BLE001 - e.g. a worker's other environment
+                    first = (str(exc).strip().splitlines() or [""])[0][:200]
+                    outcome = SweepOutcome(by_key[future.key], False,
+                                           reason=f"Dask: {type(exc).__name__}: {first}")
+                outcomes[outcome.point.index] = outcome
+                bar.update()
+        except concurrent.futures.CancelledError:
+            lost = "connection lost"
+        except (OSError, TimeoutError) as exc:
+            lost = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        finally:
+            if lost is not None or owned:
+                with contextlib.suppress(Exception):
+                    client.close(timeout=5)
+    if lost is not None:
+        raise SweepInterrupted(f"lost the Dask scheduler {address} after {len(outcomes)} of "
+                               f"{len(points)} points ({lost[:200]})", outcomes)
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:

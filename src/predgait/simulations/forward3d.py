@@ -4,7 +4,7 @@ Thesis 2.3.2 and 2.4 (Figs. 2.4.2-2.4.3): the ADAMS/Android body was driven by t
 joint moments or the joint motions found in the inverse problem; with the pelvis
 orientation and all joints kinematic it walked, with the pelvis orientation free it
 fell at t = 0.55 s. Here the same experiments run on the Pinocchio body of
-:mod:`predgait.workflows.inverse3d` through :mod:`predgait.dynamics.partitioned`:
+:mod:`predgait.dynamics.inverse3d_trial` through :mod:`predgait.dynamics.partitioned`:
 
 * pelvis ``prescribed`` (follows the measured motion), ``translation`` (orientation
   prescribed, position free: the thesis' stable case) or ``free`` (6 DOF);
@@ -161,7 +161,7 @@ class FullbodyDrive:
 
     @classmethod
     def from_inverse(cls, result) -> FullbodyDrive:
-        """From a :class:`~predgait.workflows.inverse3d.Inverse3DResult`."""
+        """From a :class:`~predgait.dynamics.inverse3d_trial.Inverse3DResult`."""
         if result.sides is None:
             raise InputError("the inverse result has no plate-to-foot assignment (sides).")
         starts = sorted({s.start for s in result.stances if s.start > result.ik.time[0]})

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from predgait.data.events import runs_of
+from predgait.data.events import Side, runs_of
 from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.falls import FallLimit, worst_joint
 from predgait.dynamics.forces import (
@@ -38,6 +38,7 @@ from predgait.dynamics.forces import (
     PassiveTorques,
     passive_generalized,
 )
+from predgait.dynamics.gait7_motion import SIDES, Gait7Motion
 from predgait.dynamics.integrators import IntegratorOptions
 from predgait.dynamics.motion import MotionHistory
 from predgait.dynamics.partitioned import (
@@ -51,7 +52,6 @@ from predgait.dynamics.roots import brentq
 from predgait.errors import InputError, SimulationDiverged
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model
-from predgait.simulations.gait7_motion import SIDES, Gait7Motion
 
 FEET = {"right": ("heel_r", "toe_r"), "left": ("heel_l", "toe_l")}
 
@@ -88,7 +88,7 @@ class Gait7Result:
     time_to_fall: float | None
     fall_cause: str | None
 
-    def foot_fz(self, side: str) -> np.ndarray:
+    def foot_fz(self, side: Side) -> np.ndarray:
         """(n,) N, vertical force of one foot (heel + toe)."""
         idx = [CONTACT_FRAMES.index(f) for f in FEET[side]]
         return self.forces[:, idx, 2].sum(axis=1)

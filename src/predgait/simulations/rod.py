@@ -3,7 +3,7 @@
 A "measured" rod motion is made up (the bottom end B slides on the force plate, the
 rod swings about the vertical), with a made-up plate force on B carrying most of the
 weight. The top force and moment (end A) follow from inverse dynamics by Pinocchio
-(RNEA; J_A^T w_A = M qdd + h - J_B^T F_B, the thesis' eqs. 3.2.23-3.2.25), sampled at
+(RNEA; J_A^T w_A = M a + h - J_B^T F_B, the thesis' eqs. 3.2.23-3.2.25), sampled at
 the camera rate (60 Hz) as in the thesis. The forces are then given either in the lab
 frame ("inertial-based") or the rod frame ("body-based", rotated by the measured angle)
 and drive :func:`predgait.dynamics.forward.simulate_rod` from the measured initial
@@ -29,7 +29,7 @@ class RodTrial:
 
     Attributes:
         time: (n,) s.
-        q: (n, 3) COM x, z (m) and pitch (rad); qd, qdd likewise.
+        q: (n, 3) COM x, z (m) and pitch (rad); v, a likewise.
         top_force: (n, 2) lab X, Z force at the top, N.
         top_moment: (n,) N m about +Y.
         bottom_force: (n, 2) lab X, Z plate force on the bottom, N.
@@ -37,8 +37,8 @@ class RodTrial:
 
     time: np.ndarray
     q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
     top_force: np.ndarray
     top_moment: np.ndarray
     bottom_force: np.ndarray
@@ -58,7 +58,7 @@ class RodTrial:
 
 
 def _motion(t, d_b):
-    """COM q, qd, qdd (n, 3): bottom sliding x_b(t) on z = 0, angle theta(t)."""
+    """COM q, v, a (n, 3): bottom sliding x_b(t) on z = 0, angle theta(t)."""
     w1, w2 = 2 * np.pi * 0.8, 2 * np.pi * 0.5
     th, thd, thdd = (0.25 * np.sin(w1 * t), 0.25 * w1 * np.cos(w1 * t),
                      -0.25 * w1 ** 2 * np.sin(w1 * t))
@@ -90,14 +90,14 @@ def synthetic_rod_trial(model: Model, *, duration: float = 1.0, rate: float = 60
     data = pm.createData()
     d_b = -pm.frames[model.frame_id("bottom")].placement.translation[2]
     time = np.arange(0.0, duration + 0.5 / rate, 1.0 / rate)
-    q, qd, qdd = _motion(time, d_b)
+    q, v, a = _motion(time, d_b)
     weight = pm.inertias[1].mass * model.gravity
     bottom = np.column_stack([0.1 * weight * np.sin(2 * np.pi * 0.5 * time),
                               weight * (0.7 + 0.1 * np.cos(2 * np.pi * 0.8 * time))])
     top, moment = np.zeros((time.size, 2)), np.zeros(time.size)
     top_id, bottom_id = model.frame_id("top"), model.frame_id("bottom")
     for k in range(time.size):
-        tau = pin.rnea(pm, data, q[k], qd[k], qdd[k]).copy()
+        tau = pin.rnea(pm, data, q[k], v[k], a[k]).copy()
         pin.computeJointJacobians(pm, data, q[k])
         pin.updateFramePlacements(pm, data)
         jb = pin.getFrameJacobian(pm, data, bottom_id, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
@@ -109,5 +109,5 @@ def synthetic_rod_trial(model: Model, *, duration: float = 1.0, rate: float = 60
         rng = np.random.default_rng(seed)
         top = top + rng.normal(0.0, noise, top.shape)
         moment = moment + rng.normal(0.0, noise, moment.shape)
-    return RodTrial(time=time, q=q, qd=qd, qdd=qdd, top_force=top, top_moment=moment,
+    return RodTrial(time=time, q=q, v=v, a=a, top_force=top, top_moment=moment,
                     bottom_force=bottom)

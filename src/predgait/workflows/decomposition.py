@@ -17,7 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from predgait.data import write_storage
-from predgait.dynamics.inverse_trial import InverseOptions, run_inverse
+from predgait.data.events import Side
+from predgait.dynamics.inverse_options import InverseOptions
+from predgait.dynamics.inverse_trial import run_inverse
 from predgait.errors import InputError, SolveFailed
 from predgait.problemfile import Table
 from predgait.problems.decomposition import (
@@ -97,7 +99,7 @@ class DecompositionSpec:
 
     source: Path
     inverse_problem: Path | None
-    side: str
+    side: Side
     model: PassiveModel
     settings: Settings
     cutoff: float | None            # Hz; None: residual analysis
@@ -228,10 +230,10 @@ def _options(spec: DecompositionSpec) -> InverseOptions:
 def residual_cutoff(options: InverseOptions) -> float:
     """Marker cut-off (Hz) by Winter's residual analysis of the markers the trial uses."""
     from predgait.data import fill_gaps, residual_analysis
-    from predgait.dynamics.inverse_trial import _needed_markers, read_trial
+    from predgait.dynamics.leg_measurements import needed_markers, read_trial
 
     trial, _ = read_trial(options)
-    names = _needed_markers(options.points)
+    names = needed_markers(options.points)
     markers = fill_gaps(trial.markers, names=names, max_gap_frames=options.max_gap_frames,
                         edges="trim")
     columns = [markers.names.index(n) for n in names]
@@ -271,7 +273,7 @@ def noise_sensitivity(spec: DecompositionSpec, options: InverseOptions, cutoff: 
     """
     if spec.noise_repeats < 2:
         return None
-    from predgait.dynamics.inverse_trial import read_trial
+    from predgait.dynamics.leg_measurements import read_trial
 
     trial, turn = read_trial(options)
     rng = np.random.default_rng(spec.resampling.seed + 1)

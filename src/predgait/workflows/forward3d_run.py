@@ -16,6 +16,7 @@ from pathlib import Path
 
 from predgait import __version__
 from predgait.data import read_trc, write_storage
+from predgait.dynamics.integrators import Status
 from predgait.errors import InputError
 from predgait.kinematics.ik3d import coordinate_columns
 from predgait.report.tidy import write_summary
@@ -26,7 +27,7 @@ from predgait.workflows.trials import bundled_fullbody_files
 
 def inverse_for(trial: TrialSpec):
     """Whole-body IK + ID of the spec's trial (an Inverse3DResult)."""
-    from predgait.workflows.inverse3d import inverse_fullbody, read_marker_map, read_trial
+    from predgait.dynamics.inverse3d_trial import inverse_fullbody, read_marker_map, read_trial
 
     if trial.files is None:
         files, static, mass, height = bundled_fullbody_files(trial.static)
@@ -46,7 +47,7 @@ def _slug(name: str) -> str:
 def write_states(folder: Path, run: Forward3DRun, joint_names, header: dict) -> Path:
     """``states_<variant>.sto`` (``_partial`` if it diverged): m and deg."""
     cols = coordinate_columns(run.q, joint_names)
-    tail = "_partial" if run.status == "diverged" else ""
+    tail = "_partial" if run.status is Status.DIVERGED else ""
     path = folder / f"states_{_slug(run.mode.name)}{tail}.sto"
     write_storage(path, run.t, cols, in_degrees=True, header=header | {
         "variant": run.mode.name, "status": run.status,
@@ -126,7 +127,8 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
     options = spec.integrator
     summary = {
         "kind": "fullbody",
-        "status": "diverged" if any(r.status == "diverged" for r in runs) else "completed",
+        "status": str(Status.DIVERGED if any(r.status is Status.DIVERGED for r in runs)
+                      else Status.COMPLETED),
         "message": "; ".join(f"{r.mode.name}: {r.message}" for r in runs),
         "time_to_fall_s": runs[0].time_to_fall, "time_span_s": [t0, t1],
         "integrator": {"method": options.method.value, "step_s": options.step,

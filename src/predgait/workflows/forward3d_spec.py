@@ -17,7 +17,7 @@ from pathlib import Path
 from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.falls import FallLimit
 from predgait.dynamics.integrators import IntegratorOptions
-from predgait.dynamics.inverse_trial import BUNDLED
+from predgait.dynamics.inverse_options import BUNDLED
 from predgait.models.fullbody import CONTACTS
 from predgait.problemfile import Table
 from predgait.simulations.forward3d import (

@@ -19,13 +19,13 @@ import numpy as np
 
 from predgait import __version__
 from predgait.data.storage import write_csv, write_storage
+from predgait.dynamics.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
 from predgait.dynamics.integrators import Status
 from predgait.errors import InputError
 from predgait.kinematics.clinical import clinical_joint
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
-from predgait.simulations.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
 from predgait.simulations.gait7_sim import Gait7Result, grf_comparison, kinematic_run, knee_run
 from predgait.textfile import source_name
 from predgait.workflows.gait7_spec import Gait7Spec, Gait7Variant

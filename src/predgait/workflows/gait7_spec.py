@@ -18,11 +18,11 @@ from dataclasses import dataclass, field
 from predgait.dynamics.contact import ImpactContact, MeglanContact
 from predgait.dynamics.contact_fit import ImpactFit, fit_impact_to_meglan
 from predgait.dynamics.falls import FallLimit
+from predgait.dynamics.gait7_motion import SIDES
 from predgait.dynamics.integrators import IntegratorOptions
-from predgait.dynamics.inverse_trial import BUNDLED, bundled_source
+from predgait.dynamics.inverse_options import BUNDLED, bundled_source
 from predgait.dynamics.passive import PassiveJoint, parse_passive
 from predgait.problemfile import Table
-from predgait.simulations.gait7_motion import SIDES
 from predgait.simulations.gait7_sim import GAIT7_FALL, KneeMoment
 
 

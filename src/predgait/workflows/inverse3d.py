@@ -1,5 +1,6 @@
 """Whole-body 3D inverse kinematics and dynamics of a trial, file to file.
 
+The pipeline is :mod:`predgait.dynamics.inverse3d_trial` (marker map, trial, result).
 Steps: read the markers (TRC or C3D) and plates (GRF .mot or the C3D's), read the marker
 map, build the 35-DOF body for the subject, calibrate the marker frames on a static trial
 (or on the first frames of the walk), fit every frame (:mod:`predgait.kinematics.ik3d`),
@@ -10,390 +11,34 @@ axis, pelvis residual force N and moment N m in the lab), ``ik_residuals.csv`` (
 marker, RMS, flag), ``clinical_angles.sto`` (deg) and ``clinical_moments.sto`` (N m) with
 clinical names and signs (both also in ``clinical.csv``) and ``summary.json``.
 
-Marker map (TOML, read with :func:`predgait.problemfile.load_problem`)::
-
-    [markers]     # model marker frame = trial marker (fitted from the start)
-    asis_r = "R.ASIS"
-    [segments]    # further trial markers riding on a model segment (placed by calibration)
-    "R.Thigh.Upper" = "thigh_r"
-    [weights]     # optional, model frame or trial marker = weight (default 1)
-    [scaling]     # optional, segment lengths from the static trial (needs one), see
-                  # predgait.kinematics.scaling; the scaled URDF is scaled_model.urdf
-    [calibration] # optional
-    foot_flat = "auto"   # level the soles at loaded mid-stance (predgait.kinematics.foot_flat):
-                         # "auto" (when there is no static trial), "on" or "off"
+The marker map is described in :mod:`predgait.dynamics.inverse3d_trial`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 from predgait.data import (
-    filter_plate,
-    lowpass,
-    read_c3d,
-    read_grf_mot,
     read_trc,
-    resample_plate,
     write_csv,
     write_storage,
 )
-from predgait.data.trial import ForcePlate, Markers
-from predgait.dynamics.inverse3d import (
-    InverseDynamics3D,
-    Stance,
-    assign_plates,
-    inverse_dynamics_3d,
-    velocities,
+from predgait.dynamics.inverse3d_trial import (
+    Inverse3DResult,
+    clinical,
+    inverse_fullbody,
+    read_marker_map,
+    read_trial,
 )
-from predgait.errors import InputError
-from predgait.kinematics.bounded_ik import frames_near
-from predgait.kinematics.clinical import PELVIS_3D, clinical_angles_3d
-from predgait.kinematics.foot_flat import FootFlatMode, calibrate_feet
 from predgait.kinematics.ik3d import (
     IKOptions,
-    IKResult,
-    body_of,
-    calibrate_markers,
     coordinate_columns,
-    pelvis_cardan,
-    solve_ik,
-    with_marker_frames,
 )
-from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling, scale_fullbody
-from predgait.models.fullbody import CONTACTS, JOINT_CENTRES, MARKERS
-from predgait.models.loading3d import Model3D, fullbody_for_subject
-from predgait.problemfile import load_problem
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
-from predgait.textfile import source_name
-
-BODIES = ("pelvis", "torso", "thigh_r", "thigh_l", "shank_r", "shank_l", "foot_r", "foot_l",
-          "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l")
-
-
-@dataclass(frozen=True)
-class MarkerMap:
-    """Model frame <-> trial marker pairs, extra segment markers and weights."""
-
-    frames: dict[str, str]                 # model frame -> trial marker
-    segments: dict[str, str]               # trial marker -> body
-    weights: dict[str, float] = field(default_factory=dict)  # frame or marker -> weight
-    source: str = ""
-    scaling: ScalingSpec | None = None     # [scaling]: segment lengths from a static trial
-    foot_flat: FootFlatMode = FootFlatMode.AUTO  # [calibration] foot_flat
-
-    def fitted(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
-        """(model frames, trial markers) fitted after calibration.
-
-        Segment markers become frames named after the trial marker.
-        """
-        frames = tuple(self.frames) + tuple(self.segments)
-        return frames, tuple(self.frames.values()) + tuple(self.segments)
-
-    def check(self, names: Sequence[str], where: str) -> None:
-        """InputError naming every mapped marker the trial lacks."""
-        missing = [m for m in list(self.frames.values()) + list(self.segments) if m not in names]
-        if missing:
-            raise InputError(f"{self.source}: marker(s) {', '.join(missing)} are not in {where} "
-                             f"(it has {', '.join(names)}). Fix the marker map.")
-
-
-def read_marker_map(path: str | Path) -> MarkerMap:
-    """Read a marker map TOML (see module docstring)."""
-    table = load_problem(path)
-    table.check_keys(["markers", "segments", "weights", "scaling", "calibration"])
-    markers, segments, weights = (table.table(k) for k in ("markers", "segments", "weights"))
-    frames = {k: markers.get(k, str) for k in markers.data}
-    unknown = [k for k in frames if k not in MARKERS + JOINT_CENTRES]
-    if unknown:
-        raise markers.error(unknown[0], "not a model marker or joint-centre frame; frames: "
-                                        f"{', '.join(MARKERS + JOINT_CENTRES)}.")
-    segs = {k: segments.get(k, str) for k in segments.data}
-    for name, body in segs.items():
-        if body not in BODIES:
-            raise segments.error(name, f"segment {body!r} unknown; choose from "
-                                       f"{', '.join(BODIES)}.")
-    if not frames:
-        raise table.error("markers", "the map needs at least one model marker frame.")
-    w = {k: weights.number(k, low=0.0, high=1e3) for k in weights.data}
-    scaling = read_scaling(table.table("scaling"), frames) if table.has("scaling") else None
-    calibration = table.table("calibration")
-    calibration.check_keys(["foot_flat"])
-    foot_flat = calibration.choice("foot_flat", FootFlatMode, FootFlatMode.AUTO)
-    return MarkerMap(frames, segs, w, source=str(path), scaling=scaling, foot_flat=foot_flat)
-
-
-def read_trial(files: Sequence[str | Path]) -> tuple[Markers, tuple[ForcePlate, ...]]:
-    """Markers and plates from a .trc (+ .mot) or a .c3d, lab frame, SI."""
-    files = [Path(f) for f in files]
-    by_ext = {f.suffix.lower(): f for f in files}
-    if ".c3d" in by_ext:
-        trial = read_c3d(by_ext[".c3d"])
-        return trial.markers, trial.plates
-    if ".trc" not in by_ext:
-        raise InputError(f"trial files {', '.join(map(str, files))}: give a .trc (with its "
-                         "GRF .mot) or a .c3d.")
-    markers = read_trc(by_ext[".trc"])
-    plates = read_grf_mot(by_ext[".mot"]) if ".mot" in by_ext else ()
-    return markers, plates
-
-
-def _filter_q(model: Model3D, time: np.ndarray, q: np.ndarray, cutoff: float | None):
-    if not cutoff:
-        return q
-    rate = 1.0 / float(np.median(np.diff(time)))
-    out = q.copy()
-    out[:, :3] = lowpass(q[:, :3], rate, cutoff)
-    out[:, 7:] = lowpass(q[:, 7:], rate, cutoff)
-    ref = pin.Quaternion(q[0, 6], *q[0, 3:6]).toRotationMatrix()
-    logs = np.array([pin.log3(ref.T @ pin.Quaternion(r[6], *r[3:6]).toRotationMatrix())
-                     for r in q])
-    for k, w in enumerate(lowpass(logs, rate, cutoff)):
-        out[k, 3:7] = pin.Quaternion(ref @ pin.exp3(w)).coeffs()
-    return out
-
-
-def unobserved_joints(model: Model3D, frames: Sequence[str]) -> tuple[str, ...]:
-    """Joints with no fitted frame on their segment or beyond (e.g. arms without markers).
-
-    IK holds them at 0 instead of leaving them undetermined.
-    """
-    pm = model.pin_model
-    seen = set()
-    for frame in frames:
-        seen.update(pm.supports[pm.frames[model.frame_id(frame)].parentJoint])
-    return tuple(pm.names[j] for j in range(2, pm.njoints) if j not in seen)
-
-
-#: Anatomical landmark frames a ``[scaling.points]`` entry may pose in the static trial
-#: (epicondyle and malleolus markers fix the thigh and shank axial rotations).
-LANDMARKS = ("knee_lat_r", "knee_lat_l", "ankle_lat_r", "ankle_lat_l", *CONTACTS)
-LEG_BODIES = ("thigh", "shank", "foot")
-#: IK weight of the static joint centres (OpenSim's Gait2354 IK weighs its ASIS 10, most
-#: markers 1): they carry the anatomical landmarks the skin markers lack.
-JOINT_CENTRE_WEIGHT = 10.0
-
-
-def _static_joint_centres(marker_map: MarkerMap, static: Markers) -> dict[str, np.ndarray]:
-    """Model joint-centre and landmark frames -> (n, 3) positions per static frame.
-
-    From the map's ``[scaling.points]`` (epicondyle/malleolus midpoints, Harrington hips);
-    empty when the map has no joint centre there.
-    """
-    if marker_map.scaling is None:
-        return {}
-    points = {f: p for f, p in marker_map.scaling.points.items()
-              if f in JOINT_CENTRES + LANDMARKS and f not in marker_map.frames}
-    if not any(f in JOINT_CENTRES for f in points):
-        return {}
-    missing = sorted({m for p in points.values() for m in p.markers} - set(static.names))
-    if missing:
-        raise InputError(f"{marker_map.source}: [scaling.points] marker(s) {', '.join(missing)} "
-                         f"are not in {static.source or 'the static trial'}.")
-    return {f: np.array([p.locate({m: static.xyz[k, static.names.index(m)]
-                                   for m in p.markers}) for k in range(static.n_frames)])
-            for f, p in points.items()}
-
-
-def _first_complete_frames(markers: Markers, names: list[str], count: int) -> Markers:
-    """The first ``count`` frames in which every one of ``names`` is visible."""
-    visible = np.isfinite(markers.select(names).xyz).all(axis=(1, 2))
-    index = np.flatnonzero(visible)[:count]
-    if index.size == 0:
-        raise InputError(f"{markers.source}: no frame shows all mapped markers at once, so "
-                         "the marker frames cannot be calibrated; give a static trial "
-                         "(--static) or map fewer markers.")
-    return Markers(markers.time[index], markers.names, markers.xyz[index], markers.rate,
-                   markers.source)
-
-
-def _trim_unseen(markers: Markers, names: list[str]) -> tuple[Markers, str]:
-    """Drop leading/trailing frames showing fewer than 3/4 of the mapped markers.
-
-    Those frames have the subject outside the capture volume; the note says what went.
-    """
-    visible = np.isfinite(markers.select(names).xyz).all(axis=2).sum(axis=1)
-    good = np.flatnonzero(visible >= max(3, 0.75 * len(names)))
-    if good.size < 3:
-        raise InputError(f"{markers.source}: fewer than 3 frames show 3/4 of the mapped "
-                         "markers; check the marker map or the time window.")
-    first, last = good[0], good[-1]
-    if first == 0 and last == markers.n_frames - 1:
-        return markers, "none"
-    note = (f"kept {markers.time[first]:.3f}..{markers.time[last]:.3f} s; dropped {first} "
-            f"leading and {markers.n_frames - 1 - last} trailing frames showing fewer than "
-            "3/4 of the mapped markers")
-    return markers.window(markers.time[first], markers.time[last]), note
-
-
-@dataclass(frozen=True, eq=False)
-class Inverse3DResult:
-    """Everything the whole-body pipeline computed.
-
-    ``plates`` are resampled at the IK times; ``sides`` (n_plates, n) says which foot
-    ("r", "l" or "") each plate loads at each frame (:func:`assign_plates`).
-    """
-
-    model: Model3D
-    ik: IKResult
-    q: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    dynamics: InverseDynamics3D
-    plates: tuple[ForcePlate, ...]
-    stances: list[Stance]
-    provenance: dict
-    sides: np.ndarray | None = None
-    scaling: Scaling | None = None
-
-    @property
-    def valid(self) -> np.ndarray:
-        """(n,) bool: frames whose results stand.
-
-        Not within 2 frames of a flagged IK frame (accelerations reach 2 frames).
-        """
-        return ~frames_near(self.ik.flagged, 2)
-
-    def status(self) -> str:
-        """``completed`` or ``completed with N flagged frames``."""
-        n = int(self.ik.flagged.sum())
-        return "completed" if n == 0 else f"completed with {n} flagged frames"
-
-
-def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map: MarkerMap, *,
-                     mass: float, height: float, sex: str = "male",
-                     static: Markers | None = None, window: tuple[float, float] | None = None,
-                     cutoff: float | None = 6.0, grf_cutoff: float | None = None,
-                     options: IKOptions | None = None) -> Inverse3DResult:
-    """IK + ID of a trial with the whole body (in memory; see :func:`run_inverse_fullbody`).
-
-    ``cutoff`` (Hz) low-passes the IK coordinates; ``grf_cutoff`` (Hz) the plates (None:
-    unfiltered, as OpenSim's InverseDynamicsTool).
-    """
-    options = options or IKOptions()
-    marker_map.check(markers.names, markers.source or "the trial")
-    model = fullbody_for_subject(mass, height, sex)
-    model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
-    frames, names = marker_map.fitted()
-    unobserved = unobserved_joints(model, frames)
-    centres = {}
-    if static is not None:  # about 20 frames of the static trial, standing upright
-        marker_map.check(static.names, static.source or "the static trial")
-        step = max(1, static.n_frames // 20)
-        calib = Markers(static.time[::step], static.names, static.xyz[::step],
-                        static.rate / step, static.source)
-        centres = _static_joint_centres(marker_map, calib)
-        if centres:  # joint centres from anatomical markers pose the legs
-            locked = unobserved
-            calibration = (f"static trial, posed by the joint centres {', '.join(centres)} "
-                           f"(weight {JOINT_CENTRE_WEIGHT:g})")
-        else:  # legs and lumbar at 0 (the model's neutral is upright standing)
-            locked = tuple(j for j in model.joint_names
-                           if not j.startswith(("shoulder", "elbow")))
-            calibration = "static trial, legs and lumbar assumed at 0"
-    else:  # the first 10 frames of the walk that show every mapped marker, pose fitted
-        calib = _first_complete_frames(markers, list(names), 10)
-        locked = unobserved
-        calibration = f"trial frames {calib.time[0]:.3f}..{calib.time[-1]:.3f} s"
-    # With anatomical points, leg markers are placed by calibration, not fitted at the
-    # model's generic positions (a thigh cluster is not the model's lateral thigh marker).
-    posing = {f: m for f, m in marker_map.frames.items()
-              if not (centres and body_of(model, f).startswith(LEG_BODIES))}
-    static_frames = tuple(posing) + tuple(centres)
-    static_xyz = calib.select(list(posing.values())).xyz
-    if centres:
-        static_xyz = np.concatenate([static_xyz, np.stack(list(centres.values()), axis=1)],
-                                    axis=1)
-    static_weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
-                      for f, m in posing.items()}
-    static_weights |= {f: JOINT_CENTRE_WEIGHT if f in JOINT_CENTRES else 1.0 for f in centres}
-
-    def fit_static(body):
-        return solve_ik(body, calib.time, static_xyz, static_frames, weights=static_weights,
-                        locked=locked, options=options)
-
-    first = fit_static(model)
-    scaling = None
-    if marker_map.scaling is not None:  # lengths measured in the static pose, then refit
-        model, scaling = _scaled_model(marker_map, static, first.q[first.q.shape[0] // 2],
-                                       mass=mass, height=height, sex=sex)
-        first = fit_static(model)
-    model = calibrate_markers(model, first.q, calib.select(list(names)).xyz, frames,
-                              marker_map.segments)
-    if window is not None:
-        markers = markers.window(*window)
-    markers, trimmed = _trim_unseen(markers, list(names))
-    weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
-               for f, m in zip(frames, names, strict=True)}
-
-    def fit_walk(body):
-        ik = solve_ik(body, markers.time, markers.select(list(names)).xyz, frames,
-                      marker_names=names, weights=weights, locked=unobserved, options=options)
-        return ik, _filter_q(body, ik.time, ik.q, cutoff)
-
-    ik, q = fit_walk(model)
-    if grf_cutoff:
-        plates = [filter_plate(p, grf_cutoff) for p in plates]
-    at_markers = tuple(resample_plate(p, ik.time) for p in plates)
-    sides, stances = assign_plates(model, q, at_markers)
-    feet = None
-    if marker_map.foot_flat.applies(static is not None):  # level the soles, then refit
-        model, feet = calibrate_feet(model, ik.time, q, at_markers, sides,
-                                     {f: body_of(model, f) for f in frames})
-        ik, q = fit_walk(model)
-        sides, stances = assign_plates(model, q, at_markers)
-    v, a = velocities(model, ik.time, q)
-    dynamics = inverse_dynamics_3d(model, q, v, a, at_markers, sides)
-    provenance = {
-        "trial": source_name(markers.source), "marker_calibration": calibration,
-        "marker_map": source_name(marker_map.source), "trimmed": trimmed,
-        "unobserved_joints_held_at_zero": list(unobserved),
-        "joint_limit_margin_deg": float(np.degrees(options.limit_margin)),
-        "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}"
-                 + (", segment lengths scaled to the static trial" if scaling else ""),
-        "scaling": None if scaling is None else {
-            "factors": {k: round(v, 5) for k, v in scaling.factors.items()},
-            "lengths_m": {k: round(v, 5) for k, v in scaling.lengths.items()}},
-        "foot_flat_calibration": None if feet is None else {
-            side: f if isinstance(f, str) else f.summary() for side, f in feet.items()},
-        "coordinate_cutoff_hz": cutoff, "grf_cutoff_hz": grf_cutoff,
-        "window_s": [float(ik.time[0]), float(ik.time[-1])],
-    }
-    return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance,
-                           sides, scaling)
-
-
-def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, *,
-                  mass: float, height: float, sex: str) -> tuple[Model3D, Scaling]:
-    """Whole body with the map's ``[scaling]`` lengths, its segment markers added."""
-    if static is None:
-        raise InputError(f"{marker_map.source}: [scaling] measures segments on a static "
-                         "trial; give one (--static) or remove the [scaling] table.")
-    scaling = scale_fullbody(marker_map.scaling, static, mass=mass, height=height, sex=sex, q=q)
-    model = fullbody_for_subject(mass, height, sex, lengths=scaling.lengths)
-    model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
-    return model, scaling
-
-
-def clinical(result: Inverse3DResult) -> tuple[dict, dict]:
-    """Clinical angles (deg; pelvis first) and joint moments (N m); NaN at flagged frames.
-
-    Names and signs: :data:`predgait.kinematics.clinical.CLINICAL_3D`.
-    """
-    names = result.model.joint_names
-    angles = dict(zip(PELVIS_3D, np.degrees(pelvis_cardan(result.q)).T, strict=True))
-    angles |= {k: np.degrees(v) for k, v in clinical_angles_3d(names, result.q[:, 7:]).items()}
-    moments = {f"{k}_moment": v for k, v in
-               clinical_angles_3d(names, result.dynamics.tau[:, 6:]).items()}
-    valid = result.valid
-    return ({k: np.where(valid, v, np.nan) for k, v in angles.items()},
-            {k: np.where(valid, v, np.nan) for k, v in moments.items()})
 
 
 def _finite(reduce, values: np.ndarray) -> float | None:

@@ -11,15 +11,15 @@ from predgait.data import Side, write_csv, write_storage
 from predgait.data.bundled import bundled_path
 from predgait.data.cutoffs import CutoffRule, parse_cutoff
 from predgait.data.events import runs_of
-from predgait.dynamics.inverse_trial import (
+from predgait.data.resample import RELEASE_FRACTION
+from predgait.dynamics.inverse_options import (
     POINT_NAMES,
-    RELEASE_FRACTION,
     THRESHOLD,
     HipRegression,
     InverseOptions,
-    InverseResult,
     StaticCentre,
 )
+from predgait.dynamics.inverse_trial import InverseResult
 from predgait.errors import InputError
 from predgait.problemfile import Table
 from predgait.report.figures import plots_wanted

@@ -24,6 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from predgait.data.events import Side
 from predgait.dynamics.forward import LEG_FALL, FallLimit, ForceFrame
 from predgait.dynamics.integrators import IntegratorOptions
 from predgait.dynamics.passive import PassiveJoint, parse_passive
@@ -78,7 +79,7 @@ class ResynthesisSpec:
     """Re-synthesis of a measured trial (bundled subject01 or an inverse problem file)."""
 
     integrator: IntegratorOptions
-    side: str = "right"
+    side: Side = Side.RIGHT
     inverse_problem: Path | None = None
     start: float = 0.0
     duration: float | None = None

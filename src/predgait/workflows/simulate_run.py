@@ -49,7 +49,7 @@ def write_states(folder: Path, sim: SimulationResult, *, name: str = "states",
                  header: dict | None = None) -> Path:
     """``name.sto`` (or ``name_partial.sto``): time, coordinates, then velocities."""
     columns = {n: sim.q[:, i] for i, n in enumerate(sim.coordinate_names)}
-    columns |= {f"{n}_speed": sim.qd[:, i] for i, n in enumerate(sim.coordinate_names)}
+    columns |= {f"{n}_speed": sim.v[:, i] for i, n in enumerate(sim.coordinate_names)}
     path = folder / (f"{name}_partial.sto" if sim.partial else f"{name}.sto")
     head = {"units": "m, rad, m/s, rad/s", "status": sim.status,
             "integrator": json.dumps(_options_dict(sim.options)).replace(" ", "")}
@@ -99,7 +99,7 @@ def _run_rod(spec: RodSpec, folder: Path, progress: bool) -> dict:
 
     model = load_model("rod")
     trial = synthetic_rod_trial(model, duration=spec.duration, rate=spec.rate, noise=spec.noise)
-    x0 = np.concatenate([trial.q[0], trial.qd[0]])
+    x0 = np.concatenate([trial.q[0], trial.v[0]])
     span = (float(trial.time[0]), float(trial.time[-1]))
 
     def rms(sim):

@@ -19,6 +19,7 @@ import numpy as np
 
 from predgait.analysis.deviation import deviation
 from predgait.data import write_storage
+from predgait.data.events import Side
 from predgait.dynamics.drivers import LegDrivers
 from predgait.dynamics.forces import JointFeedback
 from predgait.dynamics.forward import FallLimit, simulate_leg
@@ -55,7 +56,7 @@ class SolveSpec:
     kind: Kind
     source: Path
     inverse_problem: Path | None
-    side: str
+    side: Side
     window: tuple[float, float]
     nodes: int
     transcription: Transcription

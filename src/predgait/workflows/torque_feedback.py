@@ -174,7 +174,7 @@ def solve_feedback(spec: FeedbackSpec) -> dict:
     t = sim.t
     measured = np.array([drivers.joint_torque(s) for s in t])
     ff = np.array([feedforward.joint_torque(s) for s in t])
-    fb = np.array([controller.torque(s, q, v) for s, q, v in zip(t, sim.q, sim.qd,
+    fb = np.array([controller.torque(s, q, v) for s, q, v in zip(t, sim.q, sim.v,
                                                                  strict=True)])
     band = moment_band(spec, inverse, t)
     half_width = 0.5 * (band.max(axis=0) - band.min(axis=0))

@@ -15,7 +15,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from predgait.dynamics.inverse_trial import InverseOptions, InverseResult, bundled_source
+from predgait.data.events import Side
+from predgait.dynamics.inverse_options import InverseOptions, bundled_source
+from predgait.dynamics.inverse_trial import InverseResult
 from predgait.problemfile import Table
 
 SIDES = ("right", "left")
@@ -26,11 +28,11 @@ class LegTrial:
     """The leg's measured trial: the bundled one or an inverse problem file's.
 
     Attributes:
-        side: "right" or "left".
+        side: the analysed leg.
         inverse_problem: Path of an ``inverse`` problem file, or None (bundled subject01).
     """
 
-    side: str = "right"
+    side: Side = Side.RIGHT
     inverse_problem: Path | None = None
     direct: InverseOptions | None = None
 
@@ -39,7 +41,7 @@ class LegTrial:
         if self.direct is not None:
             return self.direct
         if self.inverse_problem is None:
-            from predgait.dynamics.inverse_trial import bundled_options
+            from predgait.dynamics.inverse_options import bundled_options
 
             return bundled_options(self.side)
         from predgait.problemfile import load_problem
@@ -75,13 +77,13 @@ def leg_trial(table: Table) -> LegTrial:
                 raise table.error(key, f"the trial is given directly ({', '.join(direct)}); "
                                        f"drop {key} or the direct inputs.")
         options = options_from_trial(table)
-        return LegTrial(side=options.side.value, direct=options)
+        return LegTrial(side=options.side, direct=options)
     table.check_keys(("source", "side", "inverse_problem"))
     bundled_source(table)
     side = table.get("side", str, "right")
     if side not in SIDES:
         raise table.error("side", f"'{side}' is not one of: {', '.join(SIDES)}.")
-    return LegTrial(side=side, inverse_problem=table.path_value("inverse_problem", None))
+    return LegTrial(side=Side(side), inverse_problem=table.path_value("inverse_problem", None))
 
 
 def bundled_fullbody_files(static: Path | None = None) -> tuple[tuple[Path, Path], Path, float,

@@ -27,12 +27,9 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.data import differentiate, lowpass
-from predgait.dynamics.inverse_trial import (
-    InverseResult,
-    bundled_inverse,
-    bundled_options,
-    read_trial,
-)
+from predgait.dynamics.inverse_options import bundled_options
+from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
+from predgait.dynamics.leg_measurements import read_trial
 from predgait.errors import InputError
 from predgait.kinematics.clinical import clinical_joint, leg_clinical
 from predgait.models.gait7 import build_gait7_urdf
