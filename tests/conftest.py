@@ -105,3 +105,36 @@ def read_only():
         _immutable(made, False)
     for path in made:
         path.chmod(path.stat().st_mode | 0o200)
+
+
+@pytest.fixture
+def assert_leg_knee_starts_on_measured(tmp_path):
+    """Check a leg run's states.sto in its stated unit (rad) against the measured knee.
+
+    The measured knee: the leg inverse of subject01 through the CLI (kinematics.sto, its
+    stated rad; knee flexion = -q_knee). Over the first 30 ms (~5 deg of knee motion) the
+    run moves with it to a tenth of a degree; its level may sit a few degrees off (a
+    scenario or resynthesis file has its own inverse problem).
+    """
+    import numpy as np
+
+    from predgait.cli import main
+    from predgait.data import read_storage
+
+    def check(path: Path) -> None:
+        states = read_storage(path)
+        assert states.header["units"].startswith("m, rad") and not states.in_degrees
+        out = tmp_path / "measured_inverse"
+        problem = Path(__file__).resolve().parents[1] / "problems" / "inverse_subject01.toml"
+        assert main(["inverse", str(problem), "--no-plots", "--out", str(out)]) == 0
+        measured = read_storage(out / "kinematics.sto")
+        assert measured.header["units"].startswith("SI (rad") and not measured.in_degrees
+        early = states.time <= states.time[0] + 0.03
+        knee = np.degrees(np.interp(states.time[early], measured.time,
+                                    measured.column("knee_flexion")))
+        simulated = np.degrees(-states.column("knee")[early])
+        assert np.max(np.abs(simulated - knee)) < 8.0
+        assert np.max(np.abs(np.diff(simulated) - np.diff(knee))) < 0.1
+        assert np.ptp(knee) > 3.0
+
+    return check

@@ -5,17 +5,19 @@ LQR gains Kp = torque / angle and Kd = sqrt(2 I Kp) (damping ratio 1/sqrt(2)), w
 its inertia: the foot (0.005 kg m^2) and the thigh get the same stiffness.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.linalg import solve_continuous_are
 
-from predgait.dynamics.floating_lqr import FloatingWeights
+from predgait.dynamics.floating_lqr import FLOATING_WEIGHTS, floating_matrices
 
 
 @pytest.mark.parametrize("inertia", [0.005, 1.5])   # kg m^2: a foot, a thigh
 def test_joint_alone_gets_the_double_integrators_gains(inertia):
-    weights = FloatingWeights(angle_deg=5.0, torque_n_m=25.0)
-    q, r = weights.matrices(3)                   # 6 root rows + 3 joints: nv = 9
+    weights = replace(FLOATING_WEIGHTS, angle_deg=5.0, torque_n_m=25.0)
+    q, r = floating_matrices(weights, 3)                   # 6 root rows + 3 joints: nv = 9
     nv, joint = 9, 7                              # the middle joint
     a_mat = np.array([[0.0, 1.0], [0.0, 0.0]])
     b_mat = np.array([[0.0], [1.0 / inertia]])

@@ -256,6 +256,18 @@ def test_cli_writes_states_summary_and_plot(tmp_path, capsys, assert_tidy_result
     assert (out / "stick.gif").read_bytes()[:6] == b"GIF89a"
     sto = read_storage(out / "states_pelvis_free_moments.sto")
     assert {"pelvis_tz", "pelvis_ry", "knee_r_y"} <= set(sto.columns)
+    # In the stated unit (deg): the run starts on the measured right knee (the whole-body
+    # inverse kinematics of the same trial, kinematics3d.sto in its stated deg).
+    assert sto.header["units"].startswith("deg") and sto.in_degrees
+    inverse = tmp_path / "inverse"
+    assert main(["inverse", str(PROBLEM.parent / "inverse_subject01.toml"), "--model",
+                 "fullbody", "--marker-map", str(PROBLEM.parent /
+                                                 "markers_fullbody_subject01.toml"),
+                 "--no-plots", "--out", str(inverse)]) == 0
+    measured = read_storage(inverse / "kinematics3d.sto")
+    start = np.interp(sto.time[0], measured.time, measured.column("knee_r_y"))
+    assert sto.column("knee_r_y")[0] == pytest.approx(start, abs=2.0)
+    assert np.nanmax(measured.column("knee_r_y")) > 50.0   # swing peak: degrees
     assert len(list(out.glob("states_*.sto"))) == 9
     assert re.search(r"\n  pelvis free, moments +event ", capsys.readouterr().out)
 

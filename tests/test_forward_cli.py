@@ -73,7 +73,8 @@ def test_divergence_writes_partial_and_exits_nonzero(tmp_path, capsys):
     assert "t = " in err and "partial" in err
 
 
-def test_resynthesis_subject01(tmp_path, assert_tidy_result):
+def test_resynthesis_subject01(tmp_path, assert_tidy_result,
+                               assert_leg_knee_starts_on_measured):
     out = tmp_path / "re"
     code = main(["simulate", str(PROBLEMS / "resynthesis.toml"), "--out", str(out),
                  "--set", "simulation.duration=0.5", "--set", "stability.times=[0.05, 0.2, 0.4]",
@@ -89,3 +90,5 @@ def test_resynthesis_subject01(tmp_path, assert_tidy_result):
     assert np.isfinite(s["grf_rms_n"]["z"])
     for name in ("grf.png", "contributions.png", "stick.gif"):
         assert (out / name).is_file()
+    # states.sto's stated unit (rad) is its values': the knee starts on the measured one.
+    assert_leg_knee_starts_on_measured(out / "states.sto")

@@ -40,10 +40,7 @@ def _sole_forces(drive, mode, contact, t_span, options):
     system, history, ground = build_system(drive, mode, contact=contact)
     q0, v0, _ = history(t_span[0])
     run = simulate_partitioned(system, t_span, system.state(q0, v0), options=options)
-    forces = []
-    for t, q, v in zip(run.t, run.q, run.v, strict=True):
-        system(t, system.state(q, v))
-        forces.append(ground.last_forces.copy())
+    forces = [ground.forces_at(q, v) for q, v in zip(run.q, run.v, strict=True)]
     return run.t, run.q[:, :3], np.array(forces)
 
 

@@ -31,7 +31,8 @@ from predgait.problems.fullbody_tracking import (
 )
 from predgait.problems.fullbody_tracking_stage import node_function, point_feet
 
-PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "fullbody_tracking.toml"
+REPO = Path(__file__).resolve().parents[1]
+PROBLEM = REPO / "problems" / "fullbody_tracking.toml"
 CONTACT = ImpactContact(stiffness=2e5, exponent=1.0, damping=2e3, damping_depth=1e-3,
                         friction=0.8, slip_transition=1.0)
 
@@ -268,6 +269,20 @@ def test_cli_writes_the_result(tmp_path, capsys, assert_tidy_result):
     moments = read_storage(out / "corrected_moments3d.sto")
     assert "knee_r_y_moment" in moments.columns
     assert "pelvis residual" in capsys.readouterr().out
+    # Angles come out in their stated unit: the tracked right knee (deg, inDegrees=yes)
+    # is the whole-body inverse kinematics' one on the same frames, within a few degrees.
+    inverse = tmp_path / "inverse"
+    assert main(["inverse", str(REPO / "problems" / "inverse_subject01.toml"), "--model",
+                 "fullbody", "--marker-map", str(REPO / "problems" /
+                                                 "markers_fullbody_subject01.toml"),
+                 "--no-plots", "--out", str(inverse)]) == 0
+    measured = read_storage(inverse / "kinematics3d.sto")
+    for name in ("kinematics3d.sto", "resimulated_kinematics3d.sto"):
+        tracked = read_storage(out / name)
+        assert tracked.header["units"].startswith("deg") and tracked.in_degrees, name
+        knee = np.interp(tracked.time, measured.time, measured.column("knee_r_y"))
+        assert np.max(np.abs(tracked.column("knee_r_y") - knee)) < 5.0, name
+        assert np.ptp(knee) > 10.0  # the window moves the knee (radians would not match)
 
 
 def test_cli_bad_window_names_the_key(tmp_path, capsys):

@@ -265,6 +265,13 @@ def test_cli_writes_the_result_folder(tmp_path, capsys, assert_tidy_result):
         assert (out / name).is_file(), name
     summary = assert_tidy_result(out / "summary.json")
     assert summary["kind"] == "gait7" and summary["grf"]["right"]["correlation"] > 0.5
+    # Angles in the stated unit (rad): one gait cycle of the kinematic run reaches the
+    # right knee's swing peak, 55-70 deg flexion in normal gait (Kadaba 1990).
+    from predgait.data.storage import read_storage
+
+    states = read_storage(out / "states.sto")
+    assert states.header["units"].startswith("m, rad") and not states.in_degrees
+    assert 50.0 < np.degrees(np.nanmax(states.column("knee_r"))) < 75.0
     names = [r["name"] for r in summary["runs"]]
     assert names[0] == "main" and "meglan" in names
     assert "GRF r R/L" in capsys.readouterr().out

@@ -21,8 +21,8 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "predgait"
 DEVELOPING = Path(__file__).resolve().parents[1] / "docs" / "DEVELOPING.md"
 
 #: Packages of predgait, lowest first: each imports only from those before it.
-LAYERS = ("models", "data", "kinematics", "dynamics", "analysis", "problems", "simulations",
-          "scenarios", "report", "workflows", "cli")
+LAYERS = ("numerics", "models", "data", "kinematics", "dynamics", "analysis", "problems",
+          "simulations", "scenarios", "report", "workflows", "cli")
 #: Top-level modules every layer may import (``predgait`` itself: ``__version__``).
 SHARED = ("predgait", "errors", "textfile", "problemfile", "function_cache", "cache_library",
           "blas_threads", "datasets")

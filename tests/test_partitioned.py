@@ -91,9 +91,18 @@ def test_standing_on_contact_carries_body_weight():
     system = PartitionedSystem(model, [1], motion, [contact])  # only the height is free
     run = simulate_partitioned(system, (0.0, 1.5), system.state(q, np.zeros(pm.nv)),
                                options=IntegratorOptions(method=Method.RK4, step=2e-4))
-    system.applied(run.t[-1], run.q[-1], run.v[-1])
     weight = sum(pm.inertias[i].mass for i in range(pm.njoints)) * 9.81
-    assert contact.last_forces[:, 2].sum() == pytest.approx(weight, rel=1e-3)
+    forces = contact.forces_at(run.q[-1], run.v[-1])
+    assert forces[:, 2].sum() == pytest.approx(weight, rel=1e-3)
+    # The same forces as the system applies (no state kept between the calls).
+    tau = system.applied(run.t[-1], run.q[-1], run.v[-1])
+    assert np.allclose(contact.forces(system.data), forces, rtol=0, atol=1e-9)
+    assert np.isfinite(tau).all()
+    from dataclasses import FrozenInstanceError
+
+    with pytest.raises(FrozenInstanceError):
+        contact.ground_z = 0.0
+    assert not hasattr(contact, "last_forces")
     assert abs(run.v[-1, 1]) < 1e-3
 
 

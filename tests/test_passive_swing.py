@@ -270,6 +270,14 @@ def test_cli_on_the_bundled_trial(tmp_path, assert_tidy_result):
     error = col["knee_simulated_deg"] - col["knee_measured_deg"]
     assert np.sqrt(np.mean(error ** 2)) == pytest.approx(solution["angle_rms_deg"]["knee"],
                                                          rel=1e-6)
+    # The header's unit is the values' one: the late-swing knee (model coordinate, -flexion)
+    # comes from ~60 deg flexion to near straight (Kadaba 1990), in degrees.
+    from predgait.data import read_storage
+
+    stored = read_storage(out / "swing_angles.sto")
+    assert stored.header["units"].startswith("deg") and stored.in_degrees
+    knee = -stored.column("knee_measured_deg")
+    assert -10.0 < knee.min() < 20.0 and 40.0 < knee.max() < 75.0
 
 
 @pytest.mark.skipif(not (DATA / "opensim_walking5_c3d" / "walking5.c3d").is_file(),

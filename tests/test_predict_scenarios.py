@@ -166,3 +166,20 @@ def test_cli_predicted_scenario_writes_both_gaits(tmp_path, capsys):
                  "edited_gait7.urdf", "predicted_stick.png", "predicted_grf.png"):
         assert (out / name).is_file(), name
     assert "swing hip torque" in capsys.readouterr().out
+    # baseline_states.sto in its stated unit (rad): its right knee's range is the one the
+    # summary gives in degrees, and its swing peak is a knee's (Kadaba 1990: 55-70 deg).
+    from predgait.data.storage import read_storage
+
+    def find(tree, key):
+        if isinstance(tree, dict):
+            if key in tree:
+                return tree[key]
+            return next((v for v in (find(t, key) for t in tree.values()) if v is not None),
+                        None)
+        return None
+
+    states = read_storage(out / "baseline_states.sto")
+    assert states.header["units"].startswith("m, rad") and not states.in_degrees
+    knee = np.degrees(states.column("knee_r"))     # gait7: + knee flexion
+    assert np.ptp(knee) == pytest.approx(find(summary, "knee_r_baseline_range_deg"), abs=0.5)
+    assert 45.0 < knee.max() < 75.0

@@ -125,6 +125,21 @@ def test_cli_solve_with_resimulation_check(tmp_path, assert_tidy_result):
     assert solution["status"] == "solved"
     assert check["with_fit"]["time_to_threshold_s"] > \
         check["baseline_uncorrected"]["time_to_threshold_s"]
+    # states.sto in its stated unit (rad, model coordinates): the optimised knee tracks the
+    # measured one (the leg inverse's kinematics.sto, stated rad; knee flexion = -q_knee)
+    # to within the fit's RMS, over a window where it moves by ~20 degrees.
+    from predgait.cli import main
+    from predgait.data import read_storage
+
+    states = read_storage(out / "states.sto")
+    assert states.header["units"].startswith("rad") and not states.in_degrees
+    assert main(["inverse", str(REPO / "problems" / "inverse_subject01.toml"), "--no-plots",
+                 "--out", str(tmp_path / "inverse")]) == 0
+    measured = read_storage(tmp_path / "inverse" / "kinematics.sto")
+    knee = np.degrees(np.interp(states.time, measured.time, measured.column("knee_flexion")))
+    simulated = np.degrees(-states.column("knee"))
+    assert np.ptp(knee) > 15.0
+    assert np.sqrt(np.mean((simulated - knee - np.mean(simulated - knee)) ** 2)) < 2.0
     failed = subprocess.run([*run, str(REPO / "problems" / "torque_correction.toml"), "--set",
                              "solver.max_iter=1", "--out", str(tmp_path / "f")],
                             capture_output=True, text=True, timeout=300)

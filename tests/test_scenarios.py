@@ -101,7 +101,8 @@ def lambda_free_task(point):
     return scenario_metrics(STIFF_KNEE, point)
 
 
-def test_cli_scenario_and_sweep(tmp_path, assert_tidy_result):
+def test_cli_scenario_and_sweep(tmp_path, assert_tidy_result,
+                                assert_leg_knee_starts_on_measured):
     run = [sys.executable, "-m", "predgait"]
     result = subprocess.run([*run, "scenario", str(STIFF_KNEE), "--set", "window=[0.0, 0.5]",
                              "--out", str(tmp_path / "s")], capture_output=True, text=True,
@@ -110,6 +111,8 @@ def test_cli_scenario_and_sweep(tmp_path, assert_tidy_result):
     assert {"summary.json", "states_baseline.sto", "states_edited.sto", "edited_leg.urdf",
             "angles.png"} <= {p.name for p in (tmp_path / "s").iterdir()}
     edits = assert_tidy_result(tmp_path / "s" / "summary.json")["edits"]
+    # states_baseline.sto in its stated unit (rad): the knee starts on the measured one.
+    assert_leg_knee_starts_on_measured(tmp_path / "s" / "states_baseline.sto")
     assert edits == [{"kind": "passive", "joint": "knee", "k": 100.0, "c": 2.0,
                       "theta0_deg": 10.0}]
     sweep = tmp_path / "sweep.toml"

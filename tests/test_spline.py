@@ -5,7 +5,7 @@ import pytest
 from scipy.interpolate import CubicSpline as ScipySpline
 
 from predgait.dynamics.drivers import SampledHistory
-from predgait.dynamics.spline import CubicSpline
+from predgait.numerics.spline import CubicSpline
 
 
 @pytest.mark.parametrize("n", [3, 4, 5, 12, 400])

@@ -12,6 +12,7 @@ import numpy as np
 from predgait.data.frames import parse_enum
 from predgait.data.trial import Markers
 from predgait.errors import InputError
+from predgait.numerics.spline import CubicSpline
 
 logger = logging.getLogger(__name__)
 
@@ -109,10 +110,8 @@ def fill_gaps(markers: Markers, *, max_gap_frames: int | None = None,
         inside[first:last + 1] = True
         fill = inside & ~present
         if fill.any():
-            from scipy.interpolate import CubicSpline  # heavy: only when there is a gap
-
-            spline = CubicSpline(t[present], xyz[present, j], axis=0)
-            xyz[fill, j] = spline(t[fill])
+            spline = CubicSpline(t[present], xyz[present, j])
+            xyz[fill, j] = spline.values(t[fill])
     filled = markers.with_xyz(xyz)
     if edges is Edges.TRIM:
         complete = ~np.isnan(xyz).any(axis=(1, 2))

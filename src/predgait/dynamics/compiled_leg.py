@@ -161,11 +161,10 @@ class FastLeg:
         q, v = cs.vertcat(u_time[lay.qb], x[:2]), cs.vertcat(u_time[lay.vb], x[2:])
         tau = [u_time[lay.tau][i] for i in range(5)]
         if self.passive is not None:  # PassiveTorques.add on symbols (same table)
-            for name, (rows, sign) in self.passive.rows.items():
+            for name, (rows, clinical) in self.passive.rows.items():
                 joint = self._symbolic_joint(self.passive.joints[name])
-                angle = sign * sum(q[r] for r in rows)
-                rate = sign * sum(v[r] for r in rows)
-                moment = sign * joint.moment(angle, rate)
+                moment = clinical.generalized_force(joint.moment, sum(q[r] for r in rows),
+                                                    sum(v[r] for r in rows))
                 for row in rows:
                     tau[row] = tau[row] + moment
         if self.feedback is not None:  # JointFeedback.torque on symbols

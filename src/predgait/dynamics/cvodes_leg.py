@@ -9,7 +9,7 @@ input that depends on time alone is written in CasADi too, so SUNDIALS' CVODES
 - a sampled history (:class:`~predgait.dynamics.drivers.SampledHistory`: the measured
   foot motion, moments, hip load, passive offset, feedback reference) becomes CasADi's
   B-spline interpolant with not-a-knot ends on the same samples, the same spline as
-  SciPy's default CubicSpline and :mod:`predgait.dynamics.spline` (to ~1e-14 relative),
+  SciPy's default CubicSpline and :mod:`predgait.numerics.spline` (to ~1e-14 relative),
   held at its end values outside the samples as the history is;
 - a constant stays a constant; anything else (a Python function of time, the hip load
   held in the thigh frame, a torque change) is not written here: :func:`cvodes_solver`

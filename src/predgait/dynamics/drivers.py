@@ -1,7 +1,7 @@
 """Inputs of forward synthesis: time histories of prescribed motion, torques and loads.
 
 Measured histories (from inverse dynamics, a file or a function) are interpolated with
-cubic splines with "not-a-knot" ends (:class:`predgait.dynamics.spline.CubicSpline`,
+cubic splines with "not-a-knot" ends (:class:`predgait.numerics.spline.CubicSpline`,
 SciPy's default CubicSpline in NumPy), which pass through every sample and are C2, so a
 variable integration step can ask for inputs between the measured frames. The thesis
 (3.3.4) used Newton's divided difference formula for the same purpose; a spline avoids the
@@ -19,8 +19,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from predgait.dynamics.spline import CubicSpline
 from predgait.errors import InputError
+from predgait.numerics.spline import CubicSpline
 
 TimeFunction = Callable[[float], np.ndarray]
 

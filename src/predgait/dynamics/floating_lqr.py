@@ -18,66 +18,54 @@ form (:func:`predgait.dynamics.lqr.riccati_gains`), ending on the infinite-horiz
 (algebraic Riccati) solution of the last node, so that the gains do not fade to zero at
 the end of the window; u = -K(t) dx on the joints (Kirk 1970, ch. 3 and 5; Tedrake,
 Underactuated Robotics, "time-varying LQR"). Weights follow Bryson's rule
-(:class:`FloatingWeights`).
+(:data:`FLOATING_WEIGHTS`).
 """
 
 from __future__ import annotations
 
 import bisect
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
 from predgait.blas_threads import one_blas_thread
 from predgait.dynamics.forces import Force
-from predgait.dynamics.lqr import riccati_gains
+from predgait.dynamics.lqr import BrysonWeights, riccati_gains
+
+#: Bryson's-rule weights of a free-flyer body (:func:`floating_matrices`): the state
+#: errors and the joint torque that cost one unit.
+#:
+#: Every actuated joint has the same torque cost 1 / ``torque_n_m``^2, so a joint alone
+#: (I x'' = u, cost x^2 / angle^2 + u^2 / torque^2) gets the stiffness torque / angle
+#: (N m/rad) whatever its inertia I, and from the Riccati equation the damping
+#: sqrt(2 I torque / angle), i.e. a damping ratio of 0.71 at its natural frequency
+#: sqrt(torque / (angle I)) (the double integrator's LQR; Bryson's rule: Franklin, Powell &
+#: Emami-Naeini, Feedback Control of Dynamic Systems). The joint rates carry no weight:
+#: a rate weight adds a velocity gain torque / rate, which over a foot's 0.005 kg m^2 is
+#: a rate torque / (rate I) of ~6000 1/s alone and 10^7 1/s in the coupled body
+#: (walking5's re-simulation diverged at its first RK4 step of 1e-4 s); the pelvis (no
+#: actuator) keeps its rate weight. The sole points' heights get their own error
+#: (:func:`sole_height_weights`): a swing foot that drifts a centimetre low scuffs the
+#: floor, one that arrives high and late meets the stance torques in the air (the
+#: joints alone weigh that drift only through its few degrees).
+FLOATING_WEIGHTS = BrysonWeights(angle_deg=5.0, rate_deg_s=50.0, torque_n_m=25.0,
+                                 position_m=0.02, sole_height_m=0.002)
 
 
-@dataclass(frozen=True)
-class FloatingWeights:
-    """Bryson's-rule weights: the state errors and the joint torque that cost one unit.
+def floating_matrices(weights: BrysonWeights, actuated: int) -> tuple[np.ndarray, np.ndarray]:
+    """(Q (2 nv, 2 nv), R (n, n)) for n = ``actuated`` joint rows, SI units.
 
-    Every actuated joint has the same torque cost 1 / ``torque_n_m``^2, so a joint alone
-    (I x'' = u, cost x^2 / angle^2 + u^2 / torque^2) gets the stiffness torque / angle
-    (N m/rad) whatever its inertia I, and from the Riccati equation the damping
-    sqrt(2 I torque / angle), i.e. a damping ratio of 0.71 at its natural frequency
-    sqrt(torque / (angle I)) (the double integrator's LQR; Bryson's rule: Franklin, Powell &
-    Emami-Naeini, Feedback Control of Dynamic Systems). The joint rates carry no weight:
-    a rate weight adds a velocity gain torque / rate, which over a foot's 0.005 kg m^2 is
-    a rate torque / (rate I) of ~6000 1/s alone and 10^7 1/s in the coupled body
-    (walking5's re-simulation diverged at its first RK4 step of 1e-4 s); the pelvis (no
-    actuator) keeps its rate weight. The sole points' heights get their own error
-    (:func:`sole_height_weights`): a swing foot that drifts a centimetre low scuffs the
-    floor, one that arrives high and late meets the stance torques in the air (the
-    joints alone weigh that drift only through its few degrees).
-
-    Attributes:
-        angle_deg: Joint and pelvis orientation error, deg.
-        position_m: Pelvis position error, m.
-        rate_deg_s: Pelvis angular rate error, deg/s (pelvis linear rate: the position
-            error per 0.1 s).
-        torque_n_m: Feedback torque on any joint, N m.
-        sole_height_m: Height error of each sole (contact) point, m.
+    nv is taken as 6 + n (a free-flyer root and the actuated joints): root position and
+    orientation, every joint angle, the root's linear and angular rates; the joint rates
+    carry no weight (see :data:`FLOATING_WEIGHTS`).
     """
-
-    angle_deg: float = 5.0
-    position_m: float = 0.02
-    rate_deg_s: float = 50.0
-    torque_n_m: float = 25.0
-    sole_height_m: float = 0.002
-
-    def matrices(self, actuated: int) -> tuple[np.ndarray, np.ndarray]:
-        """(Q (2 nv, 2 nv), R (n, n)) for n = ``actuated`` joint rows, SI units.
-
-        nv is taken as 6 + n (a free-flyer root and the actuated joints).
-        """
-        angle, rate = np.radians(self.angle_deg), np.radians(self.rate_deg_s)
-        nv = 6 + actuated
-        inverse_q = np.concatenate([np.full(3, self.position_m), np.full(nv - 3, angle),
-                                    np.full(3, self.position_m / 0.1), np.full(3, rate)])
-        q = np.concatenate([inverse_q**-2.0, np.zeros(actuated)])
-        return np.diag(q), np.eye(actuated) / self.torque_n_m**2
+    angle, rate = np.radians(weights.angle_deg), np.radians(weights.rate_deg_s)
+    nv = 6 + actuated
+    inverse_q = np.concatenate([np.full(3, weights.position_m), np.full(nv - 3, angle),
+                                np.full(3, weights.root_speed_m_s()), np.full(3, rate)])
+    q = np.concatenate([inverse_q**-2.0, np.zeros(actuated)])
+    return np.diag(q), weights.torque_cost(actuated)
 
 
 def sole_height_weights(model, q: np.ndarray, points, height_m: float) -> np.ndarray:
@@ -149,9 +137,6 @@ class FloatingLQR(Force):
     gains: np.ndarray
     fastest_rate: float = float("nan")
     name: str = "feedback"
-    #: (t, q_ref, v_ref, K) of the latest time asked: RK4's middle stages share one t,
-    #: and a step's last stage is the next step's first.
-    _latest: list = field(default_factory=list, init=False, repr=False, compare=False)
 
     def gain(self, t: float) -> np.ndarray:
         """K(t) (n, 2 nv), held at the ends."""
@@ -160,20 +145,14 @@ class FloatingLQR(Force):
         w = min(max((t - times[k]) / (times[k + 1] - times[k]), 0.0), 1.0)
         return (1 - w) * self.gains[k] + w * self.gains[k + 1]
 
-    def _at(self, t: float) -> tuple:
-        if not self._latest or self._latest[0] != t:
-            q_ref, v_ref = self.reference(t)[:2]
-            self._latest[:] = (t, q_ref, v_ref, self.gain(t))
-        return self._latest[1:]
-
     def error(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """State error dx (2 nv,) from the reference at t."""
-        q_ref, v_ref, _ = self._at(t)
+        q_ref, v_ref = self.reference(t)[:2]
         return np.concatenate([pin.difference(self.model.pin_model, q_ref, q), v - v_ref])
 
     def torque(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Feedback torques (n,) at t."""
-        return -self._at(t)[2] @ self.error(t, q, v)
+        """Feedback torques (n,) at t (no state: the reference and K are read per call)."""
+        return -self.gain(t) @ self.error(t, q, v)
 
     def add(self, tau, t, q, v, data) -> None:
         """Add the feedback torques at t."""
@@ -181,7 +160,7 @@ class FloatingLQR(Force):
 
 
 def floating_tvlqr(system, reference, times: np.ndarray, actuated,
-                   weights: FloatingWeights = FloatingWeights(), *, points=(),
+                   weights: BrysonWeights = FLOATING_WEIGHTS, *, points=(),
                    substeps: int = 2) -> FloatingLQR:
     """Time-varying LQR of a free-floating ``system`` along ``reference`` on ``times``.
 
@@ -201,7 +180,7 @@ def floating_tvlqr(system, reference, times: np.ndarray, actuated,
     linear = [linearize_floating(system, t, *reference(t)[:2], actuated) for t in times]
     a_mats = np.array([a for a, _ in linear])
     b_mats = np.array([b for _, b in linear])
-    q, r = weights.matrices(actuated.size)
+    q, r = floating_matrices(weights, actuated.size)
     nv = system.pm.nv
     q = np.repeat(q[None], times.size, axis=0)
     if len(points):

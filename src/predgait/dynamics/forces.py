@@ -25,7 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.dynamics.external import Load, generalized_load
-from predgait.kinematics.clinical import clinical_joint
+from predgait.kinematics.clinical import ClinicalJoint, clinical_joint
 from predgait.models.loading import RigidBodyModel
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -109,11 +109,12 @@ class PassiveTorques(Force):
     problems); see :meth:`predgait.dynamics.drivers.LegDrivers.from_inverse`.
 
     Attributes:
-        rows: joint name -> (velocity rows, sign). joints: joint name -> PassiveJoint.
+        rows: joint name -> (velocity rows, its ClinicalJoint). joints: joint name ->
+            PassiveJoint.
         offset: Optional t -> (nv,) generalised passive force at the measured motion.
     """
 
-    rows: Mapping[str, tuple[tuple[int, ...], float]]
+    rows: Mapping[str, tuple[tuple[int, ...], ClinicalJoint]]
     joints: Mapping[str, object]
     offset: Callable[[float], np.ndarray] | None = None
     name: str = "passive"
@@ -126,24 +127,25 @@ class PassiveTorques(Force):
 
     def add(self, tau, t, q, v, data) -> None:
         """Add the passive moments at (q, v) (minus the offset at t)."""
-        for name, (rows, sign) in self.rows.items():
+        for name, (rows, clinical) in self.rows.items():
             if len(rows) == 1:
-                angle, rate = sign * q[rows[0]], sign * v[rows[0]]
+                angle, rate = q[rows[0]], v[rows[0]]
             else:
-                angle, rate = sign * q[list(rows)].sum(), sign * v[list(rows)].sum()
-            moment = sign * float(self.joints[name].moment(angle, rate))
+                angle, rate = q[list(rows)].sum(), v[list(rows)].sum()
+            moment = float(clinical.generalized_force(self.joints[name].moment, angle, rate))
             for row in rows:
                 tau[row] += moment
         if self.offset is not None:
             tau -= self.offset(t)
 
 
-def passive_rows(model: RigidBodyModel, joints) -> dict[str, tuple[tuple[int, ...], float]]:
-    """Joint name -> (velocity rows, clinical sign) from the one joint-sign table."""
+def passive_rows(model: RigidBodyModel, joints
+                 ) -> dict[str, tuple[tuple[int, ...], ClinicalJoint]]:
+    """Joint name -> (velocity rows, ClinicalJoint) from the one joint-sign table."""
     out = {}
     for name in joints:
         joint = clinical_joint(model, name)
-        out[name] = (tuple(model.coordinate_index(c) for c in joint.coordinates), joint.sign)
+        out[name] = (tuple(model.coordinate_index(c) for c in joint.coordinates), joint)
     return out
 
 
@@ -155,10 +157,10 @@ def passive_generalized(model: RigidBodyModel, joints: Mapping[str, object], q, 
     """
     q, v = np.atleast_2d(q), np.atleast_2d(v)
     out = np.zeros(q.shape)
-    for name, (rows, sign) in passive_rows(model, joints).items():
-        angle = sign * q[:, list(rows)].sum(axis=1)
-        rate = sign * v[:, list(rows)].sum(axis=1)
-        moment = sign * np.asarray(joints[name].moment(angle, rate), dtype=float)
+    for name, (rows, clinical) in passive_rows(model, joints).items():
+        moment = np.asarray(clinical.generalized_force(
+            joints[name].moment, q[:, list(rows)].sum(axis=1), v[:, list(rows)].sum(axis=1)),
+            dtype=float)
         for row in rows:
             out[:, row] += moment
     return out
@@ -173,8 +175,7 @@ def joint_passive_torque(model: RigidBodyModel, joint: str, element) -> Callable
     clinical = clinical_joint(model, joint)
     if len(clinical.coordinates) != 1:
         raise ValueError(f"joint '{joint}' spans several coordinates; use PassiveTorques.")
-    sign = clinical.sign
-    return lambda q, v: sign * element.moment(sign * q, sign * v)
+    return lambda q, v: clinical.generalized_force(element.moment, q, v)
 
 
 @dataclass(frozen=True, eq=False)
@@ -232,8 +233,8 @@ class FrameLoad(Force):
     tau += J^T (f, m), J the frame Jacobian: LOCAL_WORLD_ALIGNED for lab-frame components,
     LOCAL with ``body_fixed`` (components on the frame's own axes, so the load turns with
     the segment: the thesis' body-based forces, 3.2.3 and 3.3.3). A load that is zero at
-    all times is not added to a system at all (no Jacobian). The wrench is read once per
-    time (the modified-Euler correctors ask for the same t again and again).
+    all times is not added to a system at all (no Jacobian). No state: the wrench is
+    read from ``force`` and ``moment`` at each call.
 
     Attributes:
         model: The model. frame: frame name. force, moment: t -> (3,) N, N m (lab frame,
@@ -247,23 +248,14 @@ class FrameLoad(Force):
     moment: Callable[[float], np.ndarray]
     name: str = "load"
     body_fixed: bool = False
-    _id: int = field(init=False, repr=False)
-    _wrench: np.ndarray = field(init=False, repr=False)
-    _time: list = field(init=False, repr=False)  # [t] of the wrench held in _wrench
-
-    def __post_init__(self):
-        object.__setattr__(self, "_id", self.model.frame_id(self.frame))
-        object.__setattr__(self, "_wrench", np.zeros(6))
-        object.__setattr__(self, "_time", [None])
 
     def add(self, tau, t, q, v, data) -> None:
         """Add J^T w at t."""
-        wrench = self._wrench
-        if t != self._time[0]:
-            wrench[:3], wrench[3:] = self.force(t), self.moment(t)
-            self._time[0] = t
-        tau += wrench.dot(pin.computeFrameJacobian(self.model.pin_model, data, q, self._id,
-                                                   pin.LOCAL if self.body_fixed else LWA))
+        wrench = np.concatenate([self.force(t), self.moment(t)])
+        jacobian = pin.computeFrameJacobian(self.model.pin_model, data, q,
+                                            self.model.frame_id(self.frame),
+                                            pin.LOCAL if self.body_fixed else LWA)
+        tau += wrench.dot(jacobian)
 
 
 @dataclass(frozen=True, eq=False)
@@ -286,7 +278,7 @@ class MeasuredLoads(Force):
             tau += generalized_load(self.model, data, loads)
 
 
-@dataclass(eq=False)
+@dataclass(frozen=True, eq=False)
 class GroundContact(Force):
     """Point contacts of model frames with the ground plane z = ``ground_z``.
 
@@ -294,7 +286,7 @@ class GroundContact(Force):
     d = ground_z - z and rate -z_dot, and (if the model has friction) tangential forces
     along X and Y from its slip velocities (:mod:`predgait.dynamics.contact`), taken
     relative to the ground surface (a treadmill belt moves at ``belt_velocity`` along X).
-    ``last_forces`` holds the (n_frames, 3) lab-frame forces of the latest call.
+    No state: :meth:`forces` and :meth:`forces_at` return the forces of a given state.
 
     Attributes:
         model: The model. frames: contact frame names. contact: a contact model with
@@ -309,13 +301,12 @@ class GroundContact(Force):
     ground_z: float = 0.0
     planar: bool = False
     belt_velocity: float = 0.0
-    last_forces: np.ndarray = field(init=False, repr=False)
+    _ids: tuple[int, ...] = field(init=False, repr=False)  # frame ids, fixed at creation
     name = "contact"
     needs = Kinematics.JACOBIANS
 
     def __post_init__(self):
-        self._ids = [self.model.frame_id(f) for f in self.frames]
-        self.last_forces = np.zeros((len(self._ids), 3))
+        object.__setattr__(self, "_ids", tuple(self.model.frame_id(f) for f in self.frames))
 
     def forces(self, data: pin.Data) -> np.ndarray:
         """(n_frames, 3) lab-frame contact forces for the kinematics stored in ``data``.
@@ -338,10 +329,18 @@ class GroundContact(Force):
             out[:, 1] = np.where(near, tangential[1], 0.0)
         return out
 
-    def add(self, tau, t, q, v, data) -> None:
-        """Add the contact forces' generalised force (stored in ``last_forces``)."""
+    def forces_at(self, q: np.ndarray, v: np.ndarray, data: pin.Data | None = None
+                  ) -> np.ndarray:
+        """(n_frames, 3) lab-frame contact forces at the state (q, v) (kinematics computed)."""
         pm = self.model.pin_model
-        self.last_forces = self.forces(data)
-        for fid, force in zip(self._ids, self.last_forces, strict=True):
+        data = pm.createData() if data is None else data
+        pin.forwardKinematics(pm, data, q, v)
+        pin.updateFramePlacements(pm, data)
+        return self.forces(data)
+
+    def add(self, tau, t, q, v, data) -> None:
+        """Add the contact forces' generalised force at the kinematics in ``data``."""
+        pm = self.model.pin_model
+        for fid, force in zip(self._ids, self.forces(data), strict=True):
             if force.any():
                 tau += pin.getFrameJacobian(pm, data, fid, LWA)[:3].T @ force

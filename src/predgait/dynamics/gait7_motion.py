@@ -31,6 +31,7 @@ from predgait.dynamics.inverse_options import bundled_options
 from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
 from predgait.dynamics.leg_measurements import read_trial
 from predgait.errors import InputError
+from predgait.kinematics.clinical import clinical_joint, leg_clinical
 from predgait.models.gait7 import build_gait7_urdf
 from predgait.models.loading import Model, model_from_urdf
 from predgait.textfile import source_name
@@ -94,8 +95,14 @@ def map_legs(pitch_hat: np.ndarray, right: np.ndarray, left: np.ndarray
     out = {}
     for s, q in (("r", right), ("l", left)):
         thigh = q[:, 2] + q[:, 3] + q[:, 4]
-        out |= {f"hip_{s}": thigh - pitch_hat, f"knee_{s}": -q[:, 4], f"ankle_{s}": -q[:, 3]}
+        out |= {f"hip_{s}": thigh - pitch_hat, f"knee_{s}": leg_to_gait7("knee", s, q[:, 4]),
+                f"ankle_{s}": leg_to_gait7("ankle", s, q[:, 3])}
     return out
+
+
+def leg_to_gait7(joint: str, side: str, value: np.ndarray) -> np.ndarray:
+    """A leg knee or ankle angle or torque (model sign) as gait7's, through both tables."""
+    return clinical_joint("gait7", f"{joint}_{side}").clinical(leg_clinical(joint, value))
 
 
 def gait7_motion(model: Model, right: InverseResult, left: InverseResult, shoulder: np.ndarray,
@@ -126,7 +133,8 @@ def gait7_motion(model: Model, right: InverseResult, left: InverseResult, should
     v = differentiate(q, time, method="central5")
     a = differentiate(q, time, method="central5", order=2)
     points = {f"{name}_{s}": p for s, frames in pts.items() for name, p in frames.items()}
-    knee = {"right": -right.tau[:, 4], "left": -left.tau[:, 4]}
+    knee = {"right": leg_to_gait7("knee", "r", right.tau[:, 4]),
+            "left": leg_to_gait7("knee", "l", left.tau[:, 4])}
     strikes = {side: inv.events.heel_strikes + inv.provenance["time_zero_s"]
                for side, inv in (("right", right), ("left", left))}
     plate_time = plates["right"][0]

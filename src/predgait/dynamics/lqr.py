@@ -35,23 +35,44 @@ from predgait.errors import InputError
 
 
 @dataclass(frozen=True)
-class LqrWeights:
+class BrysonWeights:
     """Bryson's-rule weights: the error each term is allowed before it costs one unit.
 
+    Q = diag(1 / tolerance^2) over the state rows and R = I / torque_n_m^2 (Bryson & Ho,
+    Applied Optimal Control, 1975; Franklin, Powell & Emami-Naeini). The one weight type
+    of predgait's LQR controllers: the leg's free joints (:func:`tvlqr`, the defaults),
+    a free-flyer body (:data:`predgait.dynamics.floating_lqr.FLOATING_WEIGHTS`) and
+    gait7 on its planar root (:data:`predgait.simulations.gait7_predicted.GAIT7_WEIGHTS`).
+
     Attributes:
-        angle_deg: Joint angle error, deg. rate_deg_s: Joint rate error, deg/s.
-        torque_n_m: Feedback torque, N m.
+        angle_deg: Joint (and root orientation) angle error, deg.
+        rate_deg_s: Angular rate error, deg/s.
+        torque_n_m: Feedback torque on any joint, N m.
+        position_m: Root position error, m (None: a system without a moving root).
+        speed_m_s: Root linear speed error, m/s (None: ``position_m`` per 0.1 s).
+        sole_height_m: Height error of each sole (contact) point, m (None: not weighed).
     """
 
     angle_deg: float = 0.5
     rate_deg_s: float = 10.0
     torque_n_m: float = 10.0
+    position_m: float | None = None
+    speed_m_s: float | None = None
+    sole_height_m: float | None = None
+
+    def torque_cost(self, n: int) -> np.ndarray:
+        """R (n, n) for n actuated joints, 1/(N m)^2."""
+        return np.eye(n) / self.torque_n_m ** 2
 
     def matrices(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """(Q (2n, 2n), R (n, n)) for n free joints (SI units: rad, rad/s, N m)."""
         q = np.concatenate([np.full(n, np.radians(self.angle_deg) ** -2.0),
                             np.full(n, np.radians(self.rate_deg_s) ** -2.0)])
-        return np.diag(q), np.eye(n) / self.torque_n_m ** 2
+        return np.diag(q), self.torque_cost(n)
+
+    def root_speed_m_s(self) -> float:
+        """The root's linear speed error, m/s (``speed_m_s``, else ``position_m`` / 0.1 s)."""
+        return self.position_m / 0.1 if self.speed_m_s is None else self.speed_m_s
 
 
 def _applied_jacobians(system, t, q, v, step=1e-6):
@@ -187,7 +208,7 @@ class TimeVaryingLQR(Force):
         tau[self.rows] += self.torque(t, q, v)
 
 
-def tvlqr(system, reference, times: np.ndarray, weights: LqrWeights = LqrWeights()
+def tvlqr(system, reference, times: np.ndarray, weights: BrysonWeights = BrysonWeights()
           ) -> TimeVaryingLQR:
     """Time-varying LQR of ``system``'s free joints along ``reference`` on ``times``.
 

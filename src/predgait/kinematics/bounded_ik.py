@@ -27,6 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from predgait.numerics.lsq import bounded_step
+
 #: A joint coordinate closer than this to its limit (rad or m) counts as on the limit.
 ON_LIMIT = 1e-7
 
@@ -85,28 +87,6 @@ def velocity_bounds(model: pin.Model, lower: np.ndarray, upper: np.ndarray
             index[vi] = qi
             lo[vi], hi[vi] = lower[qi], upper[qi]
     return index, lo, hi
-
-
-def bounded_step(jac: np.ndarray, r: np.ndarray, damping: float, lo: np.ndarray,
-                 hi: np.ndarray) -> np.ndarray:
-    """The increment dv minimising |J dv + r|^2 + damping |dv|^2 within lo <= dv <= hi."""
-    nv = jac.shape[1]
-    if damping > 0:
-        step = np.linalg.solve(jac.T @ jac + damping * np.eye(nv), -jac.T @ r)
-    else:  # Gauss-Newton
-        step = np.linalg.lstsq(jac, -r, rcond=None)[0]
-    if np.all(step >= lo) and np.all(step <= hi):
-        return step
-    lo = np.minimum(lo, 0.0)    # the current point is feasible: 0 lies in the box
-    hi = np.maximum(hi, 0.0)
-    pinned = hi - lo <= 0.0     # at a limit with no room: lsq_linear needs lo < hi
-    a = np.vstack([jac, np.sqrt(damping) * np.eye(nv)])[:, ~pinned]
-    b = np.concatenate([-r, np.zeros(nv)])  # with damping 0 the extra rows are inert
-    from scipy.optimize import lsq_linear  # heavy (1 s of imports): only when a bound binds
-
-    out = np.zeros(nv)
-    out[~pinned] = lsq_linear(a, b, bounds=(lo[~pinned], hi[~pinned]), method="bvls").x
-    return out
 
 
 class BoundedSolver:

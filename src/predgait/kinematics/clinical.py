@@ -16,6 +16,7 @@ pelvis applies to the thigh). These are internal (muscle) moments, as in Winter 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,6 +43,31 @@ class ClinicalJoint:
     coordinates: tuple[str, ...]
     sign: float
 
+    def clinical(self, value):
+        """Model value -> clinical value: an angle, rate or generalised force times the sign.
+
+        The sign is +-1, so the same call turns a clinical value back into the model's.
+        Works on floats, arrays and CasADi values.
+        """
+        return self.sign * value
+
+    def generalized_force(self, moment: Callable, angle_sum, rate_sum):
+        """Generalised force on each coordinate of a clinical moment law.
+
+        Args:
+            moment: (clinical angle, clinical rate) -> clinical moment (N m), positive
+                toward the positive angle (a passive element, a spring).
+            angle_sum: Sum of ``q`` over :attr:`coordinates` (rad), model sign.
+            rate_sum: Sum of ``v`` over :attr:`coordinates` (rad/s), model sign.
+
+        Returns:
+            sign * moment(sign * angle_sum, sign * rate_sum): the generalised force the
+            moment applies to each of the coordinates (virtual work M d(angle)). The one
+            composition of passive torques of predgait (simulator, drivers, fitting and
+            predictive problems).
+        """
+        return self.clinical(moment(self.clinical(angle_sum), self.clinical(rate_sum)))
+
 
 #: THE joint-sign table of the planar models (simulator, drivers and fitting use it
 #: through :func:`clinical_joint`). Leg (:mod:`predgait.models.urdf`): ankle = ankle
@@ -58,26 +84,39 @@ PLANAR_JOINTS: dict[str, dict[str, ClinicalJoint]] = {
                                          ("knee", "knee_flexion", 1.0),
                                          ("ankle", "ankle_dorsiflexion", -1.0))},
 }
-#: Clinical sign of each leg joint coordinate and its torque (from the table).
-JOINT_SIGN = {j: PLANAR_JOINTS["leg"][j].sign for j in ("ankle", "knee")}
-#: Clinical name of each leg joint.
-CLINICAL_NAME = {j: PLANAR_JOINTS["leg"][j].angle for j in ("ankle", "knee")}
+#: The planar leg's free joints (model coordinates 3 and 4, after base x, z, pitch).
+LEG_FREE_JOINTS = ("ankle", "knee")
 
 
 def clinical_joint(model, joint: str) -> ClinicalJoint:
-    """The :class:`ClinicalJoint` of ``joint`` on ``model`` (leg, gait7 or whole body).
+    """The :class:`ClinicalJoint` of ``joint`` on ``model``: THE way to a clinical sign.
+
+    Every clinical angle, moment and passive torque of predgait (outputs, plots, the
+    simulator, the fitting and predictive problems) takes its sign from here.
+
+    Args:
+        model: A model (its ``kind``: leg, gait7, or the whole body) or a kind name
+            ("leg", "gait7", "fullbody") where no model is at hand (plots of arrays).
+        joint: Joint name ("knee", "hip_r", "knee_r_y", ...).
 
     Raises:
         InputError: The model has no such joint (the message lists those it has).
     """
-    table = PLANAR_JOINTS.get(model.kind)
+    kind = model if isinstance(model, str) else model.kind
+    table = PLANAR_JOINTS.get(kind)
     if table is None:  # the whole body: every joint coordinate is its own joint
+        names = CLINICAL_3D if isinstance(model, str) else model.coordinate_names
         table = {name: ClinicalJoint(CLINICAL_3D[name][0], (name,), CLINICAL_3D[name][1])
-                 for name in model.coordinate_names if name in CLINICAL_3D}
+                 for name in names if name in CLINICAL_3D}
     if joint not in table:
-        raise InputError(f"passive elements on '{joint}': the {model.kind} model has "
+        raise InputError(f"passive elements on '{joint}': the {kind} model has "
                          f"joints {', '.join(table) or 'none'}.")
     return table[joint]
+
+
+def leg_clinical(joint: str, value):
+    """A leg joint's model angle, rate or torque ``value`` in its clinical sign (and back)."""
+    return clinical_joint("leg", joint).clinical(value)
 
 
 def thigh_pitch(q: np.ndarray) -> np.ndarray:
@@ -88,18 +127,18 @@ def thigh_pitch(q: np.ndarray) -> np.ndarray:
 def clinical_angles(q: np.ndarray) -> dict[str, np.ndarray]:
     """Hip flexion, knee flexion, ankle dorsiflexion (rad) from leg coordinates (..., 5)."""
     return {
-        "hip_flexion": -thigh_pitch(q),
-        "knee_flexion": JOINT_SIGN["knee"] * q[..., 4],
-        "ankle_dorsiflexion": JOINT_SIGN["ankle"] * q[..., 3],
+        "hip_flexion": leg_clinical("hip", thigh_pitch(q)),
+        "knee_flexion": leg_clinical("knee", q[..., 4]),
+        "ankle_dorsiflexion": leg_clinical("ankle", q[..., 3]),
     }
 
 
 def clinical_moments(tau: np.ndarray, hip_moment_y: np.ndarray) -> dict[str, np.ndarray]:
     """Clinical joint moments (N m) from joint torques (..., 5) and the hip moment about +Y."""
     return {
-        "hip_flexion_moment": -np.asarray(hip_moment_y),
-        "knee_flexion_moment": JOINT_SIGN["knee"] * tau[..., 4],
-        "ankle_dorsiflexion_moment": JOINT_SIGN["ankle"] * tau[..., 3],
+        "hip_flexion_moment": leg_clinical("hip", np.asarray(hip_moment_y)),
+        "knee_flexion_moment": leg_clinical("knee", tau[..., 4]),
+        "ankle_dorsiflexion_moment": leg_clinical("ankle", tau[..., 3]),
     }
 
 
@@ -150,5 +189,5 @@ def clinical_angles_3d(joint_names, q_joints: np.ndarray) -> dict[str, np.ndarra
     positive angle, e.g. a hip flexor moment; internal moments, as in Winter 2009).
     """
     q_joints = np.asarray(q_joints)
-    return {CLINICAL_3D[n][0]: CLINICAL_3D[n][1] * q_joints[..., i]
-            for i, n in enumerate(joint_names)}
+    joints = [clinical_joint("fullbody", n) for n in joint_names]
+    return {j.angle: j.clinical(q_joints[..., i]) for i, j in enumerate(joints)}

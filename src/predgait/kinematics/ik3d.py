@@ -102,6 +102,20 @@ def pelvis_cardan(q: np.ndarray) -> np.ndarray:
     return out
 
 
+def coordinate_columns(q: np.ndarray, joint_names) -> dict[str, np.ndarray]:
+    """The whole body's coordinates as storage columns: the one layout of kinematics3d.sto.
+
+    ``pelvis_tx/ty/tz`` (m), the pelvis Cardan X-Y-Z angles ``pelvis_rx/ry/rz`` (deg,
+    :func:`pelvis_cardan`) and every joint coordinate (deg), from q (n, 7 + n_joints)
+    in Pinocchio's free-flyer layout. Write them with ``in_degrees=True``.
+    """
+    q = np.atleast_2d(q)
+    cols = {f"pelvis_t{a}": q[:, i] for i, a in enumerate("xyz")}
+    cols |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(q).T,
+                                                            strict=True)}
+    return cols | {n: np.degrees(q[:, 7 + i]) for i, n in enumerate(joint_names)}
+
+
 def _limits(model: Model3D, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     pm = model.pin_model
     lower = np.array(pm.lowerPositionLimit, dtype=float) - margin

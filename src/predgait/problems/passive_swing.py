@@ -21,7 +21,7 @@ interval from its own initial state (ankle, knee and their rates, estimated with
 within +-``initial_angle_span`` and +-``initial_rate_span`` of the measured one); the
 windows are not joined (muscles act between them). Under a prescribed thigh the shank
 and foot swing as a stable pendulum, so a whole quiet phase is one well-conditioned
-interval. The solver is the bounded Gauss-Newton of :mod:`predgait.problems.shooting`
+interval. The solver is the bounded Gauss-Newton of :mod:`predgait.problems.gauss_newton`
 (Jacobian by CasADi forward mode through the windows mapped in one call); w = 1 / m
 (m samples per correlation time of the filtered angles) and sigma_j the residual SD of a
 first pass, so J^T W J is the Fisher information; the initial states are profiled out of
@@ -32,7 +32,7 @@ Gauss-Newton model at the fit.
 from __future__ import annotations
 
 import time as clock
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -41,17 +41,18 @@ from predgait.dynamics.drivers import LegDrivers
 from predgait.errors import InputError, SolveFailed
 from predgait.problems.decomposition import Bootstrap
 from predgait.problems.gait_samples import GaitSamples
+from predgait.problems.gauss_newton import (
+    LeastSquares,
+    gauss_newton,
+    joint_row_weights,
+    prior_rows,
+    weighted_step,
+)
 from predgait.problems.passive_model import PassiveModel
 from predgait.problems.passive_swing_dynamics import (
     INPUT_ROWS,
     thigh_kinematics,
     windows_function,
-)
-from predgait.problems.shooting import (
-    bounded_step,
-    gauss_newton,
-    joint_row_weights,
-    prior_rows,
 )
 
 #: Ground reaction (N, vertical) above which a sample counts as stance (not a window).
@@ -177,8 +178,8 @@ class Windows:
 
 
 @dataclass(frozen=True, eq=False)
-class _LeastSquares:
-    """The weighted least-squares problem in z = (p scaled to its bounds, initial states).
+class _SwingResiduals:
+    """Residuals and Jacobian of the swing fit in z = (p scaled to its bounds, initial states).
 
     Residuals r (w L, 2): simulated minus measured angles, window by window, sample by
     sample (ankle, knee); Jacobian rows in the order of r raveled column-wise (every
@@ -189,30 +190,24 @@ class _LeastSquares:
     windows: Windows
     simulate: object       # CasADi windows function (x0, u, z, offset) -> (X, S)
     span: np.ndarray       # (4,) half-range of the initial-state unknowns
-    _last: list = field(default_factory=lambda: [None, None])
 
     @classmethod
-    def of(cls, leg, model: PassiveModel, windows: Windows, settings: SwingSettings):
+    def problem(cls, leg, model: PassiveModel, windows: Windows, settings: SwingSettings
+                ) -> LeastSquares:
+        """The fit's :class:`~predgait.problems.gauss_newton.LeastSquares` problem."""
         longest = windows.angles.shape[1]
         simulate = windows_function(leg, model, len(windows), longest - 1, windows.substeps,
                                     windows.dt / windows.substeps)
         span = np.array([settings.initial_angle_span] * 2 + [settings.initial_rate_span] * 2)
-        return cls(model, windows, simulate, span)
+        return LeastSquares(model, cls(model, windows, simulate, span))
 
     def start(self, z) -> np.ndarray:
         """(w, 4) initial states of the windows at z."""
         f = len(self.model.fitted)
         return self.windows.x0 + self.span * (2 * np.reshape(z[f:], (-1, 4)) - 1)
 
-    def evaluate(self, z) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, z) -> tuple[np.ndarray, np.ndarray]:
         """(r (w L, 2), J (2 w L, f + 4 w)) at z."""
-        z = np.asarray(z, dtype=float)
-        if self._last[0] is None or not np.array_equal(self._last[0], z):
-            self._last[0], self._last[1] = z.copy(), self._compute(z)
-        r, jac = self._last[1]
-        return r.copy(), jac.copy()
-
-    def _compute(self, z):
         windows, f = self.windows, len(self.model.fitted)
         n, longest = windows.angles.shape[:2]
         u = np.concatenate(list(windows.inputs), axis=1)
@@ -233,12 +228,6 @@ class _LeastSquares:
             jac[rows[:, None], cols] = sens[joint, :, :, :4].reshape(n * longest, 4) \
                 * 2 * self.span
         return r, jac
-
-    def prior_rows(self, z) -> tuple[np.ndarray, np.ndarray]:
-        """The passive priors' rows (:func:`~predgait.problems.shooting.prior_rows`)."""
-        f = len(self.model.fitted)
-        r, jac = prior_rows(self.model, z[:f])
-        return r, np.hstack([jac, np.zeros((jac.shape[0], z.size - f))])
 
 
 @dataclass(frozen=True, eq=False)
@@ -301,7 +290,7 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
                          f"{f} parameters and {4 * n} initial states (need {need}: 3 per "
                          "parameter beyond the initial states); "
                          "widen the quiet phases, use a longer trial or fit fewer parameters.")
-    problem = _LeastSquares.of(leg, model, windows, settings)
+    problem = _SwingResiduals.problem(leg, model, windows, settings)
     weights = windows.mask.ravel() / m
     guess = [min(max((start or {}).get(p.key, p.value), p.lower), p.upper) for p in fitted]
     z = np.concatenate([[(g - p.lower) / (p.upper - p.lower) for g, p in zip(guess, fitted,
@@ -371,7 +360,7 @@ def _replicate(windows, fit, rng, labels, position, prior, f) -> np.ndarray:
     weights = fit.weights * np.repeat(counts, longest)
     keep = np.concatenate([np.arange(f), f + np.flatnonzero(np.repeat(counts > 0, 4))])
     prior = (prior_r, np.hstack([prior_j, np.zeros((prior_j.shape[0], keep.size - f))]))
-    step = bounded_step(fit.jacobian[:, keep], fit.residual.ravel(order="F"),
+    step = weighted_step(fit.jacobian[:, keep], fit.residual.ravel(order="F"),
                         joint_row_weights(weights, fit.inv_var), fit.z[keep], prior)
     return np.clip(fit.z[:f] + step[:f], 0.0, 1.0)
 
@@ -381,7 +370,7 @@ def residuals_at(leg, windows: Windows, model: PassiveModel, values: dict,
                  settings: SwingSettings = SwingSettings()) -> tuple[np.ndarray, np.ndarray]:
     """The fit's residuals and Jacobian at given parameters, windows started at ``x0``.
 
-    The fit's own least-squares problem (:class:`_LeastSquares`; Jacobian by CasADi
+    The fit's own least-squares problem (:class:`_SwingResiduals`; Jacobian by CasADi
     forward mode) with each window started from ``windows.x0`` (for the Cramér-Rao bound,
     :func:`predgait.problems.identifiability.cramer_rao`: pass windows whose ``x0`` is
     the true state).
@@ -393,12 +382,12 @@ def residuals_at(leg, windows: Windows, model: PassiveModel, values: dict,
         initial ankle, knee, ankle rate, knee rate, per rad, rad/s).
     """
     fitted = model.fitted
-    problem = _LeastSquares.of(leg, model, windows, settings)
+    problem = _SwingResiduals.problem(leg, model, windows, settings)
     lower = np.array([p.lower for p in fitted])
     spans = np.array([p.upper - p.lower for p in fitted])
     z = np.concatenate([(np.array([values[p.key] for p in fitted]) - lower) / spans,
                         np.full(4 * len(windows), 0.5)])
     r, jac = problem.evaluate(z)
-    scale = np.concatenate([spans, np.tile(2 * problem.span, len(windows))])
+    scale = np.concatenate([spans, np.tile(2 * problem.compute.span, len(windows))])
     real = np.tile(windows.mask.ravel(), 2)
     return r.ravel(order="F")[real], jac[real] / scale

@@ -20,7 +20,7 @@ import numpy as np
 from predgait.errors import InputError
 from predgait.kinematics.clinical import clinical_joint
 from predgait.problems.passive_model import PassiveModel
-from predgait.problems.shooting import passive_torques, rk4_steps, scaled_values
+from predgait.problems.shooting_dynamics import passive_torques, rk4_steps, scaled_values
 
 #: Rows of one RK4 point's input: thigh pose s, rate s' and acceleration s'' (3 each).
 INPUT_ROWS = 9
@@ -102,7 +102,7 @@ def step_function(leg, model: PassiveModel, substeps: int, h: float):
 
     ``substeps`` classical RK4 steps of ``h`` s with the thigh inputs u (9, 2 substeps + 1)
     at the step ends and midpoints, the passive model (parameters z scaled to their
-    bounds, :func:`~predgait.problems.shooting.scaled_values`) as the only joint torque;
+    bounds, :func:`~predgait.problems.shooting_dynamics.scaled_values`) as the only joint torque;
     S = dx / d(x0, z) (4, 4 + f) carried along (forward sensitivities). Compiled through
     :mod:`predgait.function_cache` when the cache is on (in the background: the run that
     first meets it evaluates it in CasADi's virtual machine, ~40x slower).

@@ -343,11 +343,11 @@ class PredictiveProblem:
         """Generalised passive torques (6, N+1) on the joint rows: sign * M(angle, rate)."""
         rows = []
         for j, joint in enumerate(JOINTS):
-            sign = clinical_joint(self.model, joint).sign
             i = self.model.coordinate_index(joint)
             k, c, theta0 = springs[3 * j], springs[3 * j + 1], springs[3 * j + 2]
-            moment = -k * (sign * q[i, :] - theta0) - c * sign * v[i, :]
-            rows.append(sign * moment)
+            rows.append(clinical_joint(self.model, joint).generalized_force(
+                lambda angle, rate, k=k, c=c, theta0=theta0: -k * (angle - theta0) - c * rate,
+                q[i, :], v[i, :]))
         return cs.vertcat(*rows)
 
     def spring_vector(self, springs) -> np.ndarray:

@@ -35,22 +35,25 @@ model the answer is zero.
 
 from __future__ import annotations
 
-import functools
 import time as clock
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from predgait.dynamics.drivers import LegDrivers
 from predgait.errors import InputError, SolveFailed
-from predgait.kinematics.clinical import clinical_joint
 from predgait.problems.decomposition import Bootstrap, resampling_units
 from predgait.problems.gait_samples import GaitSamples
+from predgait.problems.gauss_newton import (
+    LeastSquares,
+    gauss_newton,
+    joint_row_weights,
+    prior_rows,
+    weighted_step,
+)
 from predgait.problems.passive_model import PassiveModel
+from predgait.problems.shooting_dynamics import INPUT_ROWS, residual_function
 
-#: Rows of the inputs of one RK4 point: base q, v, a (3 each), ankle and knee torque
-#: (model sign), hip F_x, F_z, M_y.
-INPUT_ROWS = 14
 #: Largest shooting interval allowed, s (below 1 / lambda of the driven leg in stance).
 MAX_INTERVAL_S = 0.025
 
@@ -176,202 +179,18 @@ class ShootingFit:
     seconds: float
 
 
-def _interval_function(leg, model: PassiveModel, substeps: int, h: float):
-    """CasADi ``shoot(x0, u, z, knee_offset) -> (ankle, knee)`` at the interval end."""
-    import casadi as cs
-
-    from predgait.problems.collocation import free_dynamics
-
-    z = cs.SX.sym("z", len(model.fitted))
-    values = scaled_values(model, z)
-    x0 = cs.SX.sym("x0", 4)
-    u = cs.SX.sym("u", INPUT_ROWS, 2 * substeps + 1)
-    offset = cs.SX.sym("knee_offset")
-    dynamics = free_dynamics(leg)
-
-    def rhs(x, column):
-        return dynamics(x, column[0:3], column[3:6], column[6:9],
-                        column[9:11] + passive_torques(leg, model, values, x, offset),
-                        column[11:14])
-
-    x = rk4_steps(rhs, x0, u, substeps, h)
-    return cs.Function("shoot", [x0, u, z, offset], [x[:2]])
-
-
-def rk4_steps(rhs, x0, u, substeps: int, h: float):
-    """``substeps`` classical RK4 steps of length h (s) from x0.
-
-    ``rhs(x, column)`` is the state rate; ``u`` holds the drive at the RK4 points
-    (start, midpoint, end of each step: 2 substeps + 1 columns).
-    """
-    x = x0
-    for s in range(substeps):
-        a, m, b = u[:, 2 * s], u[:, 2 * s + 1], u[:, 2 * s + 2]
-        k1 = rhs(x, a)
-        k2 = rhs(x + 0.5 * h * k1, m)
-        k3 = rhs(x + 0.5 * h * k2, m)
-        k4 = rhs(x + h * k3, b)
-        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return x
-
-
-def scaled_values(model: PassiveModel, z) -> dict:
-    """Key -> value of every parameter, the fitted ones lower + (upper - lower) z_i."""
-    values = dict(model.values())
-    for i, p in enumerate(model.fitted):
-        values[p.key] = p.lower + (p.upper - p.lower) * z[i]
-    return values
-
-
-def passive_torques(leg, model: PassiveModel, values, x, knee_offset):
-    """CasADi (2,) ankle, knee torques (model sign) of the passive model at free state x.
-
-    x = (q_ankle, q_knee, v_ankle, v_knee) in model coordinates; the elements act on the
-    clinical angles through the one joint-sign table, the knee on its anatomical angle
-    (clinical - ``knee_offset``, rad), as in the decomposition fit.
-    """
-    import casadi as cs
-
-    row = {"ankle": 0, "knee": 1}
-    extra = [0, 0]
-    for joint in model.joints:
-        sign = clinical_joint(leg, joint).sign
-        angle = sign * x[row[joint]] - (knee_offset if joint == "knee" else 0.0)
-        moment = model.passive_joint(joint, values).moment(angle, sign * x[2 + row[joint]])
-        extra[row[joint]] = sign * moment
-    return cs.vertcat(*extra)
-
-
-def _residual_function(leg, model: PassiveModel, n: int, substeps: int, h: float):
-    """``residuals(z, data) -> (r (n, 2), d vec(r) / dz (2 n, f))`` for n intervals.
-
-    ``data`` = (vec x0 (4, n), vec u (rows, points n), vec end (2, n), knee offset);
-    vec(r) stacks the ankle errors of every interval, then the knee's. Compiled through
-    :mod:`predgait.function_cache` when the cache is on (in the background: the run that
-    first meets a trial's shape evaluates it in CasADi's virtual machine, ~15x slower).
-    """
-    from predgait import function_cache
-
-    return _residual_function_built(leg, model, n, substeps, h, function_cache.enabled())
-
-
-@functools.lru_cache(maxsize=8)
-def _residual_function_built(leg, model, n, substeps, h, cached):
-    import casadi as cs
-
-    from predgait import function_cache
-
-    shoot = _interval_function(leg, model, substeps, h).map(n)
-    z = cs.MX.sym("z", len(model.fitted))
-    x0 = cs.MX.sym("x0", 4, n)
-    u = cs.MX.sym("u", INPUT_ROWS, (2 * substeps + 1) * n)
-    end = cs.MX.sym("end", 2, n)
-    offset = cs.MX.sym("offset")
-    residual = (shoot(x0, u, cs.repmat(z, 1, n), offset) - end).T
-    data = cs.vertcat(cs.vec(x0), cs.vec(u), cs.vec(end), offset)
-    function = cs.Function("shooting_residuals", [z, data],
-                           [residual, cs.jacobian(cs.vec(residual), z)])
-    if not cached:
-        return function
-    return function_cache.compiled(function, function_cache.key_of([function.serialize()])) \
-        or function
-
-
 def _data(intervals: Intervals) -> np.ndarray:
     u = np.concatenate(list(intervals.inputs), axis=1)    # (rows, points * n)
     return np.concatenate([intervals.x0.ravel(), u.ravel(order="F"), intervals.end.ravel(),
                            [intervals.knee_offset]])
 
 
-@dataclass(frozen=True, eq=False)
-class _LeastSquares:
-    """The weighted least-squares problem in z (scaled parameters) and its priors."""
-
-    model: PassiveModel
-    residuals: object      # CasADi function (z, data) -> (r, J)
-    data: np.ndarray
-    _last: list = field(default_factory=lambda: [None, None])   # z, (r, J) of the last call
-
-    @classmethod
-    def of(cls, leg, model: PassiveModel, intervals: Intervals) -> _LeastSquares:
-        function = _residual_function(leg, model, len(intervals), intervals.substeps,
-                                      intervals.length_s / intervals.substeps)
-        return cls(model, function, _data(intervals))
-
-    def evaluate(self, z) -> tuple[np.ndarray, np.ndarray]:
-        """(r (n, 2), J (2 n, f)) at z (the last point's values are kept)."""
-        z = np.asarray(z, dtype=float)
-        if self._last[0] is None or not np.array_equal(self._last[0], z):
-            r, jac = self.residuals(z, self.data)
-            self._last[0], self._last[1] = z.copy(), (np.array(r), np.array(jac))
-        r, jac = self._last[1]
-        return r.copy(), jac.copy()
-
-    def prior_rows(self, z) -> tuple[np.ndarray, np.ndarray]:
-        """Prior residuals and their Jacobian rows (:func:`prior_rows`)."""
-        return prior_rows(self.model, z)
-
-
-def prior_rows(model: PassiveModel, z) -> tuple[np.ndarray, np.ndarray]:
-    """Prior residuals ((p - mean) / sd) and their rows of the Jacobian in z."""
-    fitted = model.fitted
-    rows = [i for i, p in enumerate(fitted) if p.prior is not None]
-    r = np.array([(fitted[i].lower + (fitted[i].upper - fitted[i].lower) * z[i]
-                   - fitted[i].prior) / fitted[i].prior_sd for i in rows])
-    jac = np.zeros((len(rows), len(fitted)))
-    for k, i in enumerate(rows):
-        jac[k, i] = (fitted[i].upper - fitted[i].lower) / fitted[i].prior_sd
-    return r, jac
-
-
-def bounded_step(jac, r, row_weights, z, prior) -> np.ndarray:
-    """Gauss-Newton step dz minimising |sqrt(W)(r + J dz)|^2 + priors, z + dz in [0, 1]."""
-    from scipy.optimize import lsq_linear
-
-    root = np.sqrt(row_weights)
-    prior_r, prior_j = prior
-    a = np.vstack([jac * root[:, None], prior_j])
-    b = -np.concatenate([r * root, prior_r])
-    lower, upper = -z, 1.0 - z
-    upper = np.maximum(upper, lower + 1e-15)
-    return lsq_linear(a, b, bounds=(lower, upper), method="bvls").x
-
-
-def _cost(r, row_weights, prior) -> float:
-    return float(np.sum(row_weights * r ** 2) + np.sum(prior[0] ** 2))
-
-
-def gauss_newton(problem, z, row_weights, max_iter: int) -> tuple[np.ndarray, int, bool]:
-    """Bounded Gauss-Newton with step halving: (z, iterations, converged).
-
-    ``problem`` has ``evaluate(z) -> (r (n, 2), J (2 n, f))`` (ankle rows, then knee rows)
-    and ``prior_rows(z) -> (r_prior, J_prior)``; z is scaled to [0, 1].
-    """
-    r, jac = problem.evaluate(z)
-    r = r.ravel(order="F")
-    cost = _cost(r, row_weights, problem.prior_rows(z))
-    for iteration in range(1, max_iter + 1):
-        step = bounded_step(jac, r, row_weights, z, problem.prior_rows(z))
-        if np.max(np.abs(step)) < 1e-8:
-            return z, iteration, True
-        for _ in range(30):
-            trial = np.clip(z + step, 0.0, 1.0)
-            r_new, jac_new = problem.evaluate(trial)
-            r_new = r_new.ravel(order="F")
-            cost_new = _cost(r_new, row_weights, problem.prior_rows(trial))
-            if cost_new <= cost * (1 + 1e-12):
-                break
-            step = step / 2
-        else:
-            return z, iteration, False
-        # z is scaled to the bounds: 1e-7 of a bound range is far inside any interval. A
-        # relative decrease below 1e-6 of a cost of order its degrees of freedom moves the
-        # estimate by well under 1 % of its standard error.
-        converged = np.max(np.abs(trial - z)) < 1e-7 or cost - cost_new <= 1e-6 * cost
-        z, r, jac, cost = trial, r_new, jac_new, cost_new
-        if converged:
-            return z, iteration, True
-    return z, max_iter, False
+def _problem(leg, model: PassiveModel, intervals: Intervals) -> LeastSquares:
+    """The fit's least-squares problem in z (scaled parameters) and its priors."""
+    function = residual_function(leg, model, len(intervals), intervals.substeps,
+                                 intervals.length_s / intervals.substeps)
+    data = _data(intervals)
+    return LeastSquares(model, lambda z: function(z, data))
 
 
 def _values(model: PassiveModel, z) -> dict:
@@ -390,11 +209,6 @@ def check_intervals(intervals: Intervals, model: PassiveModel, *, where: str) ->
                          f"({independent:.1f} independent ones) are too few for "
                          f"{len(model.fitted)} fitted parameters (need {need}); use a longer "
                          "trial or fit fewer parameters.")
-
-
-def joint_row_weights(weights, inv_var) -> np.ndarray:
-    """Row weights of the stacked residual (ankle rows, then knee rows): w / sigma_j^2."""
-    return np.concatenate([weights * inv_var[0], weights * inv_var[1]])
 
 
 def fit_shooting(leg, intervals: Intervals, model: PassiveModel,
@@ -420,7 +234,7 @@ def fit_shooting(leg, intervals: Intervals, model: PassiveModel,
     """
     check_intervals(intervals, model, where=where)
     fitted = model.fitted
-    problem = _LeastSquares.of(leg, model, intervals)
+    problem = _problem(leg, model, intervals)
     m = intervals.correlation_intervals
     weights = np.full(len(intervals), 1.0 / m)
     z = np.array([(p.value - p.lower) / (p.upper - p.lower) for p in fitted])
@@ -459,8 +273,7 @@ def _no_elements(leg, model, intervals) -> np.ndarray:
     parameters = tuple(replace(p, value=off.get(p.name, p.value), fit=False,
                                lower=min(p.lower, off.get(p.name, p.value)))
                        for p in model.parameters)
-    return _LeastSquares.of(leg, replace(model, parameters=parameters),
-                            intervals).evaluate(np.zeros(0))[0]
+    return _problem(leg, replace(model, parameters=parameters), intervals).evaluate(np.zeros(0))[0]
 
 
 def engine_elements(model: PassiveModel, values, knee_offset: float) -> dict:
@@ -512,7 +325,7 @@ def bootstrap_shooting(intervals: Intervals, samples: GaitSamples, model: Passiv
     for _ in range(repeats):
         counts = np.bincount(rng.integers(0, labels.size, labels.size), minlength=labels.size)
         weights = fit.weights * np.where(of_interval >= 0, counts[position], 0)
-        step = bounded_step(fit.jacobian, r, joint_row_weights(weights, fit.inv_var), fit.z,
+        step = weighted_step(fit.jacobian, r, joint_row_weights(weights, fit.inv_var), fit.z,
                              prior)
         rows.append(lower + span * np.clip(fit.z + step, 0.0, 1.0))
     return Bootstrap(np.array(rows).reshape(-1, len(model.fitted)), kind, int(labels.size), 0)

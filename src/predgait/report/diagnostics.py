@@ -14,13 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from predgait.kinematics.clinical import JOINT_SIGN
+from predgait.kinematics.clinical import LEG_FREE_JOINTS, clinical_joint
 from predgait.report.figures import new_figure, save_figure
 
-#: Free joint -> (column in the full coordinates, column in the free state, clinical sign
-#: from the joint-sign table).
-JOINTS = {"ankle": (3, 0, JOINT_SIGN["ankle"]), "knee": (4, 1, JOINT_SIGN["knee"])}
-CLINICAL = {"ankle": "ankle dorsiflexion", "knee": "knee flexion"}
+#: Free joint -> (column in the full coordinates, column in the free state).
+JOINTS = {joint: (3 + i, i) for i, joint in enumerate(LEG_FREE_JOINTS)}
 
 
 def _axes(ax):
@@ -71,22 +69,21 @@ def plot_angles(joint: str, measured_t, measured_q, *, fit=None, simulations=Non
         The axes.
     """
     ax = _axes(ax)
-    full, free, sign = JOINTS[joint]
+    (full, free), sign = JOINTS[joint], clinical_joint("leg", joint)
     t = np.asarray(measured_t)
     if fit is not None:
         keep = (t >= fit.t[0] - 1e-9) & (t <= fit.t[-1] + 1e-9)
         t, measured_q = t[keep], np.asarray(measured_q)[keep]
-    ax.plot(t, np.degrees(sign * np.asarray(measured_q)[:, full]), "k", lw=3, alpha=0.3,
-            label="measured")
+    measured = np.degrees(sign.clinical(np.asarray(measured_q)[:, full]))
+    ax.plot(t, measured, "k", lw=3, alpha=0.3, label="measured")
     if fit is not None:
-        ax.plot(fit.t, np.degrees(sign * fit.x[:, free]), label="optimised (collocation)")
+        ax.plot(fit.t, np.degrees(sign.clinical(fit.x[:, free])), label="optimised (collocation)")
     for i, (label, sim) in enumerate((simulations or {}).items()):
-        ax.plot(sim.t, np.degrees(sign * sim.q[:, full]), "--", color=f"C{i + 1}",
+        ax.plot(sim.t, np.degrees(sign.clinical(sim.q[:, full])), "--", color=f"C{i + 1}",
                 label=label)
-    lo, hi = np.degrees(sign * np.asarray(measured_q)[:, full]).min(), \
-        np.degrees(sign * np.asarray(measured_q)[:, full]).max()
+    lo, hi = measured.min(), measured.max()
     ax.set_ylim(lo - 0.5 * (hi - lo) - 5, hi + 0.5 * (hi - lo) + 5)
-    ax.set_title(CLINICAL[joint])
+    ax.set_title(sign.angle.replace("_", " "))
     ax.set_xlabel("time from heel strike (s)")
     ax.set_ylabel("deg")
     ax.grid(alpha=0.3)
@@ -107,10 +104,10 @@ def plot_moments(joint: str, t, original, change, ax=None):
         The axes.
     """
     ax = _axes(ax)
-    _, free, sign = JOINTS[joint]
-    ax.plot(t, sign * original[:, free], label="inverse dynamics")
-    ax.plot(t, sign * (original[:, free] + change[:, free]), "--", label="corrected")
-    ax.set_title(f"{CLINICAL[joint]} moment")
+    (_, free), sign = JOINTS[joint], clinical_joint("leg", joint)
+    ax.plot(t, sign.clinical(original[:, free]), label="inverse dynamics")
+    ax.plot(t, sign.clinical(original[:, free] + change[:, free]), "--", label="corrected")
+    ax.set_title(f"{sign.angle.replace('_', ' ')} moment")
     ax.set_xlabel("time from heel strike (s)")
     ax.set_ylabel("N m")
     ax.grid(alpha=0.3)

@@ -39,8 +39,8 @@ def save_prediction_plots(stage: Path, model, predictions: dict, *,
             st = pred.aligned
             cycle = 100 * st["t"] / st["t"][-1]
             j = clinical_joint(model, f"{joint}_r")
-            ax.plot(cycle, np.degrees(j.sign * st["q"][:, model.coordinate_index(f"{joint}_r")]),
-                    label=label)
+            angle = j.clinical(st["q"][:, model.coordinate_index(f"{joint}_r")])
+            ax.plot(cycle, np.degrees(angle), label=label)
         ax.set_title(f"right {j.angle.removesuffix('_r').replace('_', ' ')}")
         ax.set_xlabel("% stride (from right heel strike)")
         ax.set_ylabel("deg")

@@ -6,10 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from predgait.kinematics.clinical import LEG_FREE_JOINTS, clinical_joint
 from predgait.report.figures import new_figure, save_figure
-
-#: Free joint: (column in q, column in the feedback torque, clinical sign).
-JOINTS = (("ankle dorsiflexion", 3, 0, 1.0), ("knee flexion", 4, 1, -1.0))
 
 
 def save_scenario_plot(folder: Path, result) -> str:
@@ -26,11 +24,14 @@ def save_scenario_plot(folder: Path, result) -> str:
                            title=True)
     runs = ((result.baseline, result.feedback_baseline, "baseline", "#2a6f97"),
             (result.edited, result.feedback_edited, "edited", "#e07b00"))
-    for column, (joint, q_col, fb_col, sign) in enumerate(JOINTS):
+    for column, name in enumerate(LEG_FREE_JOINTS):
+        sign = clinical_joint("leg", name)  # q column 3 + column, feedback column column
+        joint = sign.angle.replace("_", " ")
         top, bottom = axes[0, column], axes[1, column]
         for sim, feedback, label, colour in runs:
-            top.plot(sim.t, np.degrees(sign * sim.q[:, q_col]), color=colour, label=label)
-            bottom.plot(sim.t, sign * feedback[:, fb_col], color=colour, label=label)
+            top.plot(sim.t, np.degrees(sign.clinical(sim.q[:, 3 + column])), color=colour,
+                     label=label)
+            bottom.plot(sim.t, sign.clinical(feedback[:, column]), color=colour, label=label)
             if sim.time_to_fall is not None:
                 top.axvline(sim.time_to_fall, color=colour, ls="--", lw=1)
         top.set_title(f"{joint} (deg)", fontsize=10)

@@ -160,11 +160,12 @@ def joint_constraints(model: Model, edits, sides) -> tuple[dict, tuple[PassiveSp
             if not isinstance(edit, LockJoint | RangeOfMotion | PassiveEdit):
                 continue
             name = f"{edit.joint}_{s}"
-            sign = clinical_joint(model, name).sign
+            joint = clinical_joint(model, name)
             if isinstance(edit, LockJoint):
-                bounds[name] = (sign * edit.angle, sign * edit.angle)
+                bounds[name] = (joint.clinical(edit.angle), joint.clinical(edit.angle))
             elif isinstance(edit, RangeOfMotion):
-                bounds[name] = tuple(sorted((sign * edit.lower, sign * edit.upper)))
+                bounds[name] = tuple(sorted((joint.clinical(edit.lower),
+                                             joint.clinical(edit.upper))))
             else:
                 springs.append(PassiveSpring(name, edit.k, edit.c, edit.theta0))
     return bounds, tuple(springs)
@@ -252,9 +253,9 @@ def predicted_metrics(model: Model, base: Prediction, edited: Prediction, sides)
         side = {"r": "right", "l": "left"}[s]
         for joint in ANGLES:
             name = f"{joint}_{s}"
-            i, sign = model.coordinate_index(name), clinical_joint(model, name).sign
-            angle_e = np.degrees(sign * percent_of_stride(e, i))
-            angle_b = np.degrees(sign * percent_of_stride(b, i))
+            i, joint_sign = model.coordinate_index(name), clinical_joint(model, name)
+            angle_e = np.degrees(joint_sign.clinical(percent_of_stride(e, i)))
+            angle_b = np.degrees(joint_sign.clinical(percent_of_stride(b, i)))
             out[f"{name}_range_deg"] = float(angle_e.max() - angle_e.min())
             out[f"{name}_baseline_range_deg"] = float(angle_b.max() - angle_b.min())
             out[f"{name}_rms_change_deg"] = float(np.sqrt(np.mean((angle_e - angle_b) ** 2)))

@@ -30,7 +30,7 @@ from predgait.dynamics.inverse_options import bundled_source
 from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
 from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError, SimulationDiverged
-from predgait.kinematics.clinical import JOINT_SIGN
+from predgait.kinematics.clinical import leg_clinical
 from predgait.models.loading import model_from_urdf
 from predgait.models.urdf import leg_urdf
 from predgait.problemfile import Table, load_problem
@@ -162,7 +162,7 @@ def _locked(drivers: LegDrivers, model, locks) -> tuple[LegDrivers, tuple[str, .
     if not locks:
         return drivers, ("ankle", "knee")
     index = {lock.joint: model.coordinate_index(lock.joint) for lock in locks}
-    value = {lock.joint: JOINT_SIGN[lock.joint] * lock.angle for lock in locks}
+    value = {lock.joint: leg_clinical(lock.joint, lock.angle) for lock in locks}
 
     def hold(function, zero: bool):
         def held(t):
@@ -243,10 +243,10 @@ def _metrics(base: SimulationResult, edit: SimulationResult, fb_base, fb_edit, d
     metrics = {"status": edit.status, "simulated_s": float(edit.t[-1] - edit.t[0]),
                "time_to_fall_s": edit.time_to_fall, "baseline_time_to_fall_s": base.time_to_fall}
     for i, joint in enumerate(("ankle", "knee")):
-        sign = JOINT_SIGN[joint]
         metrics[f"{joint}_rms_change_deg"] = float(np.sqrt(np.mean(diff[:, i] ** 2)))
         metrics[f"{joint}_max_change_deg"] = float(np.abs(diff[:, i]).max())
-        metrics[f"{joint}_peak_angle_deg"] = float(np.degrees(sign * edit.q[:, 3 + i]).max())
+        peak = np.degrees(leg_clinical(joint, edit.q[:, 3 + i])).max()
+        metrics[f"{joint}_peak_angle_deg"] = float(peak)
         metrics[f"{joint}_feedback_rms_n_m"] = float(np.sqrt(np.mean(fb_edit[:, i] ** 2)))
         metrics[f"{joint}_extra_feedback_rms_n_m"] = float(
             np.sqrt(np.mean((fb_edit[:n, i] - fb_base[:n, i]) ** 2)))

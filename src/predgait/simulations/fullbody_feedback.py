@@ -21,9 +21,10 @@ import pinocchio as pin
 from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.falls import FallLimit
-from predgait.dynamics.floating_lqr import FloatingLQR, FloatingWeights, floating_tvlqr
+from predgait.dynamics.floating_lqr import FloatingLQR, floating_tvlqr
 from predgait.dynamics.forces import GroundContact, JointTorques
 from predgait.dynamics.integrators import IntegratorOptions, Method
+from predgait.dynamics.lqr import BrysonWeights
 from predgait.dynamics.motion import MotionHistory
 from predgait.dynamics.partitioned import PartitionedSystem, simulate_partitioned
 from predgait.errors import SimulationDiverged
@@ -86,7 +87,7 @@ def body_system(model, solution: TrackingSolution, law: ImpactContact, *,
 
 
 def feedback_gains(system: PartitionedSystem, history: MotionHistory,
-                   solution: TrackingSolution, weights: FloatingWeights) -> FloatingLQR:
+                   solution: TrackingSolution, weights: BrysonWeights) -> FloatingLQR:
     """Time-varying LQR along the solution, linearised at its nodes, on its sole points."""
     return floating_tvlqr(system, history, solution.time, np.arange(6, system.pm.nv),
                           weights, points=solution.points)

@@ -12,7 +12,7 @@ a time-varying LQR on the engine's own linearisation along the prediction, the s
 as the whole body's (:mod:`predgait.dynamics.floating_lqr`: A by central differences of
 the accelerations, B = [0; M^-1 S] with S the joint rows; here every coordinate is a
 plain number, so the tangent-space error is q - q_pred). The weights are this module's
-(:class:`FeedbackWeights`: tolerated errors per coordinate, one torque scale). The report
+(:data:`GAIT7_WEIGHTS`: tolerated errors per coordinate, one torque scale). The report
 is how far the re-simulation stays from the prediction and how much feedback torque that
 takes.
 """
@@ -27,23 +27,17 @@ from predgait.dynamics.drivers import SampledHistory
 from predgait.dynamics.floating_lqr import FloatingLQR, linearize_floating
 from predgait.dynamics.forces import GroundContact, JointTorques, PassiveTorques
 from predgait.dynamics.integrators import IntegratorOptions, Method
-from predgait.dynamics.lqr import riccati_gains
+from predgait.dynamics.lqr import BrysonWeights, riccati_gains
 from predgait.dynamics.partitioned import PartitionedSystem, SimulationResult, simulate_partitioned
 from predgait.errors import SimulationDiverged
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model
 from predgait.problems.predictive import JOINTS
 
-
-@dataclass(frozen=True)
-class FeedbackWeights:
-    """Bryson's-rule LQR weights: tolerated errors (m, deg, m/s, deg/s) and torque (N m)."""
-
-    position_m: float = 0.05
-    angle_deg: float = 5.0
-    speed_m_s: float = 0.5
-    rate_deg_s: float = 50.0
-    torque_n_m: float = 50.0
+#: Bryson's-rule LQR weights of gait7's re-simulation: tolerated errors (m, deg, m/s,
+#: deg/s; base_x, base_z on the position and speed) and torque (N m).
+GAIT7_WEIGHTS = BrysonWeights(angle_deg=5.0, rate_deg_s=50.0, torque_n_m=50.0,
+                              position_m=0.05, speed_m_s=0.5)
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,7 +72,7 @@ class Resimulation:
 
 
 def resimulate(model: Model, stride: dict[str, np.ndarray], contact, ground_z: float,
-               passive: dict, *, weights: FeedbackWeights = FeedbackWeights(),
+               passive: dict, *, weights: BrysonWeights = GAIT7_WEIGHTS,
                options: IntegratorOptions | None = None) -> Resimulation:
     """Run the engine from the stride's first state with its torques plus TVLQR feedback.
 
@@ -120,7 +114,7 @@ def resimulate(model: Model, stride: dict[str, np.ndarray], contact, ground_z: f
         rates[model.coordinate_index(name)] = weights.speed_m_s ** -2
     gains = riccati_gains(t, np.array([a for a, _ in linear]), np.array([b for _, b in linear]),
                           np.diag(np.concatenate([angles, rates])),
-                          np.eye(rows.size) / weights.torque_n_m ** 2)
+                          weights.torque_cost(rows.size))
     feedback = FloatingLQR(model, rows, reference, t, gains)
     system = PartitionedSystem(model, everything, nothing_prescribed, [*forces, feedback])
     options = options or IntegratorOptions(method=Method.LSODA, step=float(t[1] - t[0]),

@@ -44,6 +44,56 @@ METHOD = ("decomposition of the inverse-dynamics moment, tau_ID = tau_active + "
 
 
 @dataclass(frozen=True)
+class Resampling:
+    """``[uncertainty]`` of the passive fits: bootstrap over gait cycles (or blocks).
+
+    Attributes:
+        repeats: Replicates (``bootstrap``; 0 or 1: none). seed: Random seed.
+        min_cycles: Fewest gait cycles to resample cycles (else blocks of ``block_s`` s).
+    """
+
+    repeats: int = 200
+    seed: int = 0
+    min_cycles: int = 6
+    block_s: float = 0.1
+
+
+def parse_uncertainty(unc: Table, *, blocks: bool = True, extra: tuple[str, ...] = ()
+                      ) -> Resampling:
+    """``[uncertainty]`` bootstrap, seed (and min_cycles, block_s with ``blocks``).
+
+    ``extra``: further keys the caller reads itself. The one parser of this table (the
+    same defaults and bounds in every passive fit).
+    """
+    unc.check_keys(("bootstrap", "seed", *(("min_cycles", "block_s") if blocks else ()),
+                    *extra))
+    default = Resampling()
+    return Resampling(
+        repeats=int(unc.number("bootstrap", default.repeats, low=0, high=10000)),
+        seed=int(unc.number("seed", default.seed, low=0)),
+        min_cycles=int(unc.number("min_cycles", default.min_cycles, low=2, high=1000))
+        if blocks else default.min_cycles,
+        block_s=unc.number("block_s", default.block_s, low=0.01, high=2.0, unit="s")
+        if blocks else default.block_s)
+
+
+def parse_filter(filt: Table, *, default_cutoff: float | str = "residual",
+                 sensitivity: tuple[float, ...] | None = None
+                 ) -> tuple[float | None, tuple[float, ...]]:
+    """``[filter]``: marker_cutoff (:func:`parse_cutoff`) and the sensitivity cut-offs.
+
+    ``sensitivity``: default of the ``sensitivity_hz`` key (Hz); None when the fit has
+    no such key (then the second value is empty).
+    """
+    filt.check_keys(("marker_cutoff", *(("sensitivity_hz",) if sensitivity else ())))
+    cutoff = parse_cutoff(filt, default_cutoff)
+    if not sensitivity:
+        return cutoff, ()
+    return cutoff, tuple(filt.numbers("sensitivity_hz", list(sensitivity), low=0.5, high=100,
+                                      unit="Hz", increasing=True))
+
+
+@dataclass(frozen=True)
 class DecompositionSpec:
     """A parsed ``passive_decomposition`` problem file (see problems/passive_decomposition.toml)."""
 
@@ -54,10 +104,7 @@ class DecompositionSpec:
     settings: Settings
     cutoff: float | None            # Hz; None: residual analysis
     sensitivity_hz: tuple[float, ...]
-    repeats: int
-    seed: int
-    min_cycles: int
-    block_s: float
+    resampling: Resampling
     noise_repeats: int = 0
     noise_marker_mm: float = 1.0
     noise_force_percent: float = 1.0
@@ -101,6 +148,30 @@ def parse_cutoff(filt: Table, default: float | str = "residual") -> float | None
     return filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
 
 
+def write_passive_moments(path: Path, samples, joints, parts: dict, *, what: str,
+                          cutoff_hz: float, extra: dict | None = None) -> None:
+    """passive_moments.sto of a passive fit: the one writer (decomposition, shooting, swing).
+
+    Args:
+        path: The file.
+        samples: :class:`~predgait.problems.gait_samples.GaitSamples` (time, % gait cycle
+            and the inverse-dynamics clinical moments).
+        joints: Joints of the passive model, in column order.
+        parts: column suffix -> joint -> (n,) clinical moment, N m (e.g. "passive").
+        what: The header's description.
+        cutoff_hz: Marker cut-off of the moments, Hz.
+        extra: Further columns after the joints' (e.g. the quiet-phase flags).
+    """
+    columns = {"percent_gait_cycle": samples.percent}
+    for joint in joints:
+        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
+        columns |= {f"{joint}_moment_{suffix}": values[joint] for suffix, values in parts.items()}
+    write_storage(path, samples.time, columns | (extra or {}),
+                  header={"units": "N m (clinical sign: positive toward knee flexion / "
+                                   "ankle dorsiflexion), % gait cycle",
+                          "what": what, "marker_cutoff_hz": f"{cutoff_hz:.3g}"})
+
+
 def parse_decomposition(table: Table) -> DecompositionSpec:
     """DecompositionSpec from a problem file (errors name the file, key and line)."""
     table.check_keys(("kind", "joints", "quiet_phases", "smoothness_weight", "trial", "filter",
@@ -108,12 +179,11 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
     joints = parse_joints(table)
     checked = parse_phases(table)
     trial = leg_trial(table.table("trial"))
-    filt = table.table("filter")
-    filt.check_keys(("marker_cutoff", "sensitivity_hz"))
-    cutoff = parse_cutoff(filt)
+    cutoff, sensitivity = parse_filter(table.table("filter"),
+                                       sensitivity=(4.0, 6.0, 8.0, 12.0, 20.0))
     unc = table.table("uncertainty")
-    unc.check_keys(("bootstrap", "seed", "min_cycles", "block_s", "noise_repeats",
-                    "noise_marker_mm", "noise_force_percent"))
+    resampling = parse_uncertainty(unc, extra=("noise_repeats", "noise_marker_mm",
+                                               "noise_force_percent"))
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
     settings = Settings(quiet_phases=checked,
@@ -122,13 +192,7 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
     return DecompositionSpec(
         source=table.path, inverse_problem=trial.inverse_problem, side=trial.side,
         model=parse_passive_model(table.table("passive"), joints), settings=settings,
-        cutoff=cutoff,
-        sensitivity_hz=filt.numbers("sensitivity_hz", [4.0, 6.0, 8.0, 12.0, 20.0], low=0.5,
-                                    high=100, unit="Hz", increasing=True),
-        repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
-        seed=int(unc.number("seed", 0, low=0)),
-        min_cycles=int(unc.number("min_cycles", 6, low=2, high=1000)),
-        block_s=unc.number("block_s", 0.1, low=0.01, high=2.0, unit="s"),
+        cutoff=cutoff, sensitivity_hz=sensitivity, resampling=resampling,
         noise_repeats=int(unc.number("noise_repeats", 0, low=0, high=1000)),
         noise_marker_mm=unc.number("noise_marker_mm", 1.0, low=0.0, high=50.0, unit="mm"),
         noise_force_percent=unc.number("noise_force_percent", 1.0, low=0.0, high=50.0,
@@ -212,7 +276,7 @@ def noise_sensitivity(spec: DecompositionSpec, options: InverseOptions, cutoff: 
     from predgait.dynamics.leg_measurements import read_trial
 
     trial, turn = read_trial(options)
-    rng = np.random.default_rng(spec.seed + 1)
+    rng = np.random.default_rng(spec.resampling.seed + 1)
     options = replace(options, cutoff=cutoff, grf_cutoff=cutoff)
     rows, failed = [], 0
     for _ in range(spec.noise_repeats):
@@ -252,9 +316,10 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
     where = f"{spec.source}: quiet_phases"
     check_samples(samples, spec.model, spec.settings, where=where)
     fit = fit_decomposition(samples, spec.model, spec.settings)
-    boot = bootstrap(samples, spec.model, fit, spec.settings, repeats=spec.repeats,
-                     seed=spec.seed, min_cycles=spec.min_cycles, block_s=spec.block_s) \
-        if spec.repeats > 1 else None
+    res = spec.resampling
+    boot = bootstrap(samples, spec.model, fit, spec.settings, repeats=res.repeats,
+                     seed=res.seed, min_cycles=res.min_cycles, block_s=res.block_s) \
+        if res.repeats > 1 else None
     reports, correlation = assess(spec.model, fit, boot)
     sensitivity = cutoff_sensitivity(spec, options)
     noise = noise_sensitivity(spec, options, chosen)
@@ -274,7 +339,7 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         "cycle_timing": samples.timing,
         "bootstrap": None if boot is None else {
             "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
-            "units": boot.n_units, "seed": spec.seed},
+            "units": boot.n_units, "seed": spec.resampling.seed},
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
@@ -283,19 +348,12 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
-    columns = {"percent_gait_cycle": samples.percent}
-    for joint in spec.model.joints:
-        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
-        columns[f"{joint}_moment_passive"] = fit.passive[joint]
-        columns[f"{joint}_moment_active"] = fit.active[joint]
-    columns["quiet_phase"] = quiet.astype(float)
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
         solution = write_summary(stage / "solution.json", solution)
-        write_storage(stage / "passive_moments.sto", samples.time, columns,
-                      header={"units": "N m (clinical sign: positive toward knee flexion / "
-                                       "ankle dorsiflexion), % gait cycle",
-                              "what": "inverse-dynamics moment split into passive + active",
-                              "marker_cutoff_hz": f"{chosen:.3g}"})
+        write_passive_moments(stage / "passive_moments.sto", samples, spec.model.joints,
+                              {"passive": fit.passive, "active": fit.active},
+                              what="inverse-dynamics moment split into passive + active",
+                              cutoff_hz=chosen, extra={"quiet_phase": quiet.astype(float)})
         if plots_wanted():
             from predgait.report.decomposition_plots import plot_active_passive
 

@@ -14,13 +14,11 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import numpy as np
-
 from predgait import __version__
 from predgait.data import read_trc, write_storage
 from predgait.dynamics.integrators import Status
 from predgait.errors import InputError
-from predgait.kinematics.ik3d import pelvis_cardan
+from predgait.kinematics.ik3d import coordinate_columns
 from predgait.report.tidy import write_summary
 from predgait.simulations.forward3d import Forward3DRun, FullbodyDrive, simulate_fullbody
 from predgait.workflows.forward3d_spec import FullbodySpec, TrialSpec
@@ -48,10 +46,7 @@ def _slug(name: str) -> str:
 
 def write_states(folder: Path, run: Forward3DRun, joint_names, header: dict) -> Path:
     """``states_<variant>.sto`` (``_partial`` if it diverged): m and deg."""
-    cols = {f"pelvis_t{a}": run.q[:, i] for i, a in enumerate("xyz")}
-    cols |= {f"pelvis_r{a}": np.degrees(c)
-             for a, c in zip("xyz", pelvis_cardan(run.q).T, strict=True)}
-    cols |= {n: np.degrees(run.q[:, 7 + i]) for i, n in enumerate(joint_names)}
+    cols = coordinate_columns(run.q, joint_names)
     tail = "_partial" if run.status is Status.DIVERGED else ""
     path = folder / f"states_{_slug(run.mode.name)}{tail}.sto"
     write_storage(path, run.t, cols, in_degrees=True, header=header | {

@@ -4,7 +4,7 @@ Problem file (problems/fullbody_tracking.toml): ``[trial]`` and ``[contact]`` as
 ``kind = "fullbody"`` (:mod:`predgait.workflows.forward3d_spec`), ``[window]`` (start,
 end in trial time; default the first right gait cycle), ``[weights]``
 (:class:`~predgait.problems.fullbody_tracking.TrackingWeights`), ``[solver]`` and
-``[feedback]`` (:class:`~predgait.dynamics.floating_lqr.FloatingWeights`, the RK4 step
+``[feedback]`` (:data:`~predgait.dynamics.floating_lqr.FLOATING_WEIGHTS`, the RK4 step
 of the re-simulation).
 
 Steps: whole-body IK + ID of the trial, the tracking problem on the marker frames of the
@@ -23,11 +23,12 @@ reference), ``resimulated_kinematics3d.sto`` (the run with feedback), ``summary.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from predgait.dynamics.floating_lqr import FloatingWeights
+from predgait.dynamics.floating_lqr import FLOATING_WEIGHTS
+from predgait.dynamics.lqr import BrysonWeights
 from predgait.errors import InputError
 from predgait.models.fullbody import CONTACTS, SOLE_EDGES
 from predgait.problemfile import Table
@@ -56,7 +57,7 @@ class TrackingSpec:
     contact_height: float
     stride: int
     max_iter: int
-    feedback: FloatingWeights
+    feedback: BrysonWeights
     step: float
     source: str
 
@@ -79,8 +80,8 @@ def parse_tracking(table: Table) -> TrackingSpec:
     solver = table.table("solver")
     solver.check_keys(("max_iter",))
     feedback = table.table("feedback")
-    fb = FloatingWeights()
-    feedback.check_keys((*vars(fb), "step"))
+    fb = {k: v for k, v in vars(FLOATING_WEIGHTS).items() if v is not None}
+    feedback.check_keys((*fb, "step"))
     contact = parse_contact(table)
     unknown = [f for f in contact.frames if f not in CONTACTS + SOLE_EDGES]
     if unknown:
@@ -95,8 +96,8 @@ def parse_tracking(table: Table) -> TrackingSpec:
         contact_height=window.number("contact_height", 0.03, low=0.0, high=0.2, unit="m"),
         stride=int(window.number("stride", 1, low=1, high=50)),
         max_iter=int(solver.number("max_iter", 200, low=1, high=5000)),
-        feedback=FloatingWeights(**{k: feedback.number(k, v, low=1e-6)
-                                    for k, v in vars(fb).items()}),
+        feedback=replace(FLOATING_WEIGHTS, **{k: feedback.number(k, v, low=1e-6)
+                                              for k, v in fb.items()}),
         step=feedback.number("step", 1e-4, low=1e-6, high=5e-3, unit="s"),
         source=str(table.path))
 

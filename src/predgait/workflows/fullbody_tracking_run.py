@@ -12,7 +12,7 @@ import numpy as np
 
 from predgait import __version__
 from predgait.data import write_storage
-from predgait.kinematics.ik3d import pelvis_cardan
+from predgait.kinematics.ik3d import coordinate_columns
 from predgait.problems.fullbody_tracking import (
     TrackingData,
     TrackingSolution,
@@ -53,8 +53,8 @@ def write_solution(folder: Path, drive: FullbodyDrive, solution: TrackingSolutio
     """kinematics3d.sto, corrected_moments3d.sto and contact_forces.sto."""
     names = drive.model.joint_names
     t = solution.time
-    write_storage(folder / "kinematics3d.sto", t, _angles(solution.q, names), in_degrees=True,
-                  header=header | {
+    write_storage(folder / "kinematics3d.sto", t, coordinate_columns(solution.q, names),
+                  in_degrees=True, header=header | {
         "units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
         "what": "dynamically consistent (corrected) kinematics"})
     moments = {f"{n}_moment": solution.tau[:, 6 + i] for i, n in enumerate(names)}
@@ -67,14 +67,6 @@ def write_solution(folder: Path, drive: FullbodyDrive, solution: TrackingSolutio
     forces |= {f"foot_{s}": solution.foot_forces()[:, j] for j, s in enumerate("rl")}
     write_storage(folder / "contact_forces.sto", t, forces, header=header | {
         "units": "N (lab frame, on each sole point and each foot)"})
-
-
-def _angles(q: np.ndarray, names) -> dict:
-    """Pelvis position (m), pelvis Cardan and joint angles (deg) as storage columns."""
-    cols = {f"pelvis_t{a}": q[:, i] for i, a in enumerate("xyz")}
-    cols |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(q).T,
-                                                            strict=True)}
-    return cols | {n: np.degrees(q[:, 7 + i]) for i, n in enumerate(names)}
 
 
 def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> dict:
@@ -157,8 +149,8 @@ def run_tracking(spec: TrackingSpec, out: Path, *, force: bool = False) -> dict:
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
         write_solution(stage, drive, solution, header)
         write_gains(stage / "feedback_gains.npz", lqr, solution, names)
-        write_storage(stage / "resimulated_kinematics3d.sto", run.t, _angles(run.q, names),
-                      in_degrees=True, header=header | {
+        write_storage(stage / "resimulated_kinematics3d.sto", run.t,
+                      coordinate_columns(run.q, names), in_degrees=True, header=header | {
                           "units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
                           "what": "forward re-simulation with the LQR feedback, "
                                   f"{feedback['with_feedback']['status']}"})

@@ -22,6 +22,7 @@ from predgait.data.storage import write_csv, write_storage
 from predgait.dynamics.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
 from predgait.dynamics.integrators import Status
 from predgait.errors import InputError
+from predgait.kinematics.clinical import clinical_joint
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
@@ -128,18 +129,21 @@ def _plot_knees(folder: Path, model, kin: Gait7Result, results) -> None:
     from predgait.report.raster import Line, Panel, save_chart
     from predgait.report.simulation_plots import COLORS
 
+    def flexion_deg(run, side):
+        name = f"knee_{side[0]}"
+        return np.degrees(clinical_joint(model, name).clinical(
+            run.q[:, model.coordinate_index(name)]))
+
     lines = []
     for side, grey in zip(SIDES, ("#999999", "#cccccc"), strict=True):
-        col = model.coordinate_index(f"knee_{side[0]}")
-        lines.append(Line(kin.run.t, np.degrees(kin.run.q[:, col]), color=grey, width=2.5,
+        lines.append(Line(kin.run.t, flexion_deg(kin.run, side), color=grey, width=2.5,
                           label=f"{side} knee, kinematic"))
     for i, (row, _, driven) in enumerate(results):
         if driven is None:
             continue
         color = COLORS[i % len(COLORS)]
         for side in row["knee_run"]["sides"]:
-            col = model.coordinate_index(f"knee_{side[0]}")
-            angle = np.degrees(driven.run.q[:, col])
+            angle = flexion_deg(driven.run, side)
             lines.append(Line(driven.run.t, angle, color=color, width=1.0,
                               label=f"{row['name']} ({side})"))
             if driven.status is not Status.COMPLETED:

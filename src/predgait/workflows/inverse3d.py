@@ -35,7 +35,7 @@ from predgait.dynamics.inverse3d_trial import (
 )
 from predgait.kinematics.ik3d import (
     IKOptions,
-    pelvis_cardan,
+    coordinate_columns,
 )
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
@@ -134,11 +134,7 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
         out[hide] = np.nan
         return out
 
-    kin = {"pelvis_tx": result.q[:, 0], "pelvis_ty": result.q[:, 1], "pelvis_tz": result.q[:, 2]}
-    kin |= {f"pelvis_r{a}": np.degrees(c) for a, c in zip("xyz", pelvis_cardan(result.q).T,
-                                                        strict=True)}
-    kin |= {n: np.degrees(result.q[:, 7 + i]) for i, n in enumerate(model.joint_names)}
-    kin = {k: masked(v) for k, v in kin.items()}
+    kin = {k: masked(v) for k, v in coordinate_columns(result.q, model.joint_names).items()}
     write_storage(folder / "kinematics3d.sto", time, kin, in_degrees=True,
                   header={"units": "deg (angles: Cardan X-Y-Z), m (pelvis_t*)",
                           "provenance": prov})

@@ -28,12 +28,15 @@ from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_sw
 from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
+    Resampling,
     inverse_samples,
-    parse_cutoff,
+    parse_filter,
     parse_joints,
     parse_passive_model,
     parse_phases,
+    parse_uncertainty,
     residual_cutoff,
+    write_passive_moments,
 )
 from predgait.workflows.output import staged_output
 from predgait.workflows.trials import LegTrial, leg_trial
@@ -60,8 +63,7 @@ class SwingSpec:
     settings: SwingSettings
     cutoff: float | None            # Hz; None: residual analysis
     sensitivity_hz: tuple[float, ...]
-    repeats: int
-    seed: int
+    resampling: Resampling
 
 
 def parse_swing(table: Table) -> SwingSpec:
@@ -70,13 +72,10 @@ def parse_swing(table: Table) -> SwingSpec:
                       "uncertainty", "passive"))
     joints = parse_joints(table)
     trial = leg_trial(table.table("trial"))
-    filt = table.table("filter")
-    filt.check_keys(("marker_cutoff", "sensitivity_hz"))
-    cutoff = parse_cutoff(filt, DEFAULT_CUTOFF_HZ)
+    cutoff, sensitivity = parse_filter(table.table("filter"), default_cutoff=DEFAULT_CUTOFF_HZ,
+                                       sensitivity=(10.0, 15.0, 25.0))
     sim = table.table("simulation")
     sim.check_keys(("step_s", "max_iter", "initial_angle_span_deg", "initial_rate_span_deg_s"))
-    unc = table.table("uncertainty")
-    unc.check_keys(("bootstrap", "seed"))
     return SwingSpec(
         source=table.path, trial=trial, model=parse_passive_model(table.table("passive"),
                                                                   joints),
@@ -89,11 +88,8 @@ def parse_swing(table: Table) -> SwingSpec:
                                                      high=45.0, unit="deg")),
             initial_rate_span=np.radians(sim.number("initial_rate_span_deg_s", 172.0,
                                                     low=1.0, high=2000.0, unit="deg/s"))),
-        cutoff=cutoff,
-        sensitivity_hz=tuple(filt.numbers("sensitivity_hz", [10.0, 15.0, 25.0], low=0.5,
-                                          high=100, unit="Hz", increasing=True)),
-        repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
-        seed=int(unc.number("seed", 0, low=0)))
+        cutoff=cutoff, sensitivity_hz=sensitivity,
+        resampling=parse_uncertainty(table.table("uncertainty"), blocks=False))
 
 
 def _fit_at(spec: SwingSpec, options, cutoff: float):
@@ -134,8 +130,9 @@ def solve_swing(spec: SwingSpec) -> dict:
     options = spec.trial.options()
     chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
     samples, inverse, windows, fit, start = _fit_at(spec, options, chosen)
-    boot = bootstrap_swing(windows, spec.model, fit, repeats=spec.repeats, seed=spec.seed) \
-        if spec.repeats > 1 else None
+    res = spec.resampling
+    boot = bootstrap_swing(windows, spec.model, fit, repeats=res.repeats, seed=res.seed) \
+        if res.repeats > 1 else None
     reports, correlation = assess(spec.model, fit, boot)
     residual = fit.residual.reshape(len(windows), -1, 2)[windows.mask]
     rms = np.degrees(np.sqrt(np.mean(residual ** 2, axis=0)))
@@ -155,7 +152,7 @@ def solve_swing(spec: SwingSpec) -> dict:
             p.key: start[p.key] for p in spec.model.fitted},
         "bootstrap": None if boot is None else {
             "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
-            "units": boot.n_units, "seed": spec.seed},
+            "units": boot.n_units, "seed": spec.resampling.seed},
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
@@ -171,13 +168,9 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
     """Solve (:func:`solve_swing`) and write the result folder; returns solution.json."""
     result = solve_swing(spec)
     samples, windows, fit = result["samples"], result["windows"], result["fit"]
-    columns = {"percent_gait_cycle": samples.percent}
-    for joint in spec.model.joints:
-        passive = np.asarray(spec.model.passive_joint(joint, fit.values).moment(
-            samples.angles[joint], samples.rates[joint]))
-        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
-        columns[f"{joint}_moment_passive"] = passive
-        columns[f"{joint}_moment_active"] = samples.moments[joint] - passive
+    passive = {joint: np.asarray(spec.model.passive_joint(joint, fit.values).moment(
+        samples.angles[joint], samples.rates[joint])) for joint in spec.model.joints}
+    active = {joint: samples.moments[joint] - passive[joint] for joint in spec.model.joints}
     index = (windows.first[:, None] + np.arange(windows.mask.shape[1]))[windows.mask]
     angles = {"window": np.repeat(np.arange(len(windows)), windows.length).astype(float)}
     for i, joint in enumerate(("ankle", "knee")):
@@ -186,13 +179,12 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
     with staged_output(out, force=force, inputs=[spec.source, spec.trial.inverse_problem]) \
             as stage:
         solution = write_summary(stage / "solution.json", result["solution"])
-        write_storage(stage / "passive_moments.sto", samples.time, columns,
-                      header={"units": "N m (clinical sign: positive toward knee flexion / "
-                                       "ankle dorsiflexion), % gait cycle",
-                              "what": "passive moment of the fitted model along the measured "
-                                      "motion; active = inverse dynamics - passive",
-                              "marker_cutoff_hz": f"{solution['marker_cutoff_hz']:.3g}"})
-        write_storage(stage / "swing_angles.sto", result["time"][index], angles,
+        write_passive_moments(stage / "passive_moments.sto", samples, spec.model.joints,
+                              {"passive": passive, "active": active},
+                              what="passive moment of the fitted model along the measured "
+                                   "motion; active = inverse dynamics - passive",
+                              cutoff_hz=solution["marker_cutoff_hz"])
+        write_storage(stage / "swing_angles.sto", result["time"][index], angles, in_degrees=True,
                       header={"units": "deg, model coordinates (knee: -flexion)",
                               "what": "measured and simulated angles in the quiet-phase "
                                       "windows of the fit"})

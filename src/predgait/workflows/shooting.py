@@ -18,7 +18,6 @@ from pathlib import Path
 
 import numpy as np
 
-from predgait.data import write_storage
 from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, bootstrap, fit_decomposition
 from predgait.problems.identifiability import assess
@@ -38,12 +37,15 @@ from predgait.workflows.decomposition import (
     METHOD as DECOMPOSITION_METHOD,
 )
 from predgait.workflows.decomposition import (
+    Resampling,
     inverse_samples,
-    parse_cutoff,
+    parse_filter,
     parse_joints,
     parse_passive_model,
     parse_phases,
+    parse_uncertainty,
     residual_cutoff,
+    write_passive_moments,
 )
 from predgait.workflows.output import staged_output
 from predgait.workflows.trials import LegTrial, leg_trial
@@ -70,10 +72,7 @@ class ShootingSpec:
     settings: ShootingSettings
     decomposition: Settings
     cutoff: float | None            # Hz; None: residual analysis
-    repeats: int
-    seed: int
-    min_cycles: int
-    block_s: float
+    resampling: Resampling
 
 
 def parse_shooting(table: Table) -> ShootingSpec:
@@ -82,14 +81,11 @@ def parse_shooting(table: Table) -> ShootingSpec:
                       "uncertainty", "passive"))
     joints = parse_joints(table)
     trial = leg_trial(table.table("trial"))
-    filt = table.table("filter")
-    filt.check_keys(("marker_cutoff",))
+    cutoff, _ = parse_filter(table.table("filter"))
     shooting = table.table("shooting")
     shooting.check_keys(("interval_s", "step_s", "max_iter"))
     beside = table.table("decomposition")
     beside.check_keys(("quiet_phases", "smoothness_weight"))
-    unc = table.table("uncertainty")
-    unc.check_keys(("bootstrap", "seed", "min_cycles", "block_s"))
     return ShootingSpec(
         source=table.path, trial=trial, model=parse_passive_model(table.table("passive"),
                                                                   joints),
@@ -101,11 +97,7 @@ def parse_shooting(table: Table) -> ShootingSpec:
         decomposition=Settings(quiet_phases=parse_phases(beside),
                                smoothness_weight=beside.number("smoothness_weight", 0.01,
                                                                low=0.0)),
-        cutoff=parse_cutoff(filt),
-        repeats=int(unc.number("bootstrap", 200, low=0, high=10000)),
-        seed=int(unc.number("seed", 0, low=0)),
-        min_cycles=int(unc.number("min_cycles", 6, low=2, high=1000)),
-        block_s=unc.number("block_s", 0.1, low=0.01, high=2.0, unit="s"))
+        cutoff=cutoff, resampling=parse_uncertainty(table.table("uncertainty")))
 
 
 def _rms_deg(residual: np.ndarray) -> dict:
@@ -162,14 +154,15 @@ def solve_shooting(spec: ShootingSpec) -> dict:
     intervals = Intervals.from_inverse(inverse, samples, spec.settings)
     fit = fit_shooting(inverse.model, intervals, spec.model, spec.settings,
                        where=f"{spec.source}: shooting")
-    boot = bootstrap_shooting(intervals, samples, spec.model, fit, repeats=spec.repeats,
-                              seed=spec.seed, min_cycles=spec.min_cycles,
-                              block_s=spec.block_s) if spec.repeats > 1 else None
+    res = spec.resampling
+    boot = bootstrap_shooting(intervals, samples, spec.model, fit, repeats=res.repeats,
+                              seed=res.seed, min_cycles=res.min_cycles,
+                              block_s=res.block_s) if res.repeats > 1 else None
     parameters, correlation = _assessed(spec.model, fit, boot)
     split = fit_decomposition(samples, spec.model, spec.decomposition)
     split_boot = bootstrap(samples, spec.model, split, spec.decomposition,
-                           repeats=spec.repeats, seed=spec.seed, min_cycles=spec.min_cycles,
-                           block_s=spec.block_s) if spec.repeats > 1 else None
+                           repeats=res.repeats, seed=res.seed, min_cycles=res.min_cycles,
+                           block_s=res.block_s) if res.repeats > 1 else None
     split_parameters, _ = _assessed(spec.model, split, split_boot)
     stabilising = {joint: np.asarray(spec.model.passive_joint(joint, fit.values).moment(
         samples.angles[joint], samples.rates[joint])) for joint in spec.model.joints}
@@ -185,7 +178,7 @@ def solve_shooting(spec: ShootingSpec) -> dict:
                                  "without_elements": _rms_deg(fit.residual_none)},
         "gait_cycles": int(np.unique(samples.cycle[samples.cycle >= 0]).size),
         "whole_cycle_resimulation": check,
-        "bootstrap": _boot_summary(boot, spec.seed),
+        "bootstrap": _boot_summary(boot, spec.resampling.seed),
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
@@ -195,7 +188,7 @@ def solve_shooting(spec: ShootingSpec) -> dict:
             "ipopt_status": split.status, "parameters": split_parameters,
             "quiet_phases_percent": [list(p) for p in spec.decomposition.quiet_phases],
             "quiet_phase_residual_sd_n_m": split.noise_sd,
-            "bootstrap": _boot_summary(split_boot, spec.seed)},
+            "bootstrap": _boot_summary(split_boot, spec.resampling.seed)},
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
@@ -207,22 +200,16 @@ def run_shooting(spec: ShootingSpec, out: Path, *, force: bool = False) -> dict:
     """Solve (:func:`solve_shooting`) and write the result folder; returns solution.json."""
     result = solve_shooting(spec)
     samples, split, stabilising = result["samples"], result["split"], result["stabilising"]
-    columns = {"percent_gait_cycle": samples.percent}
-    for joint in spec.model.joints:
-        columns[f"{joint}_moment_inverse_dynamics"] = samples.moments[joint]
-        columns[f"{joint}_moment_passive_decomposition"] = split.passive[joint]
-        columns[f"{joint}_moment_active_decomposition"] = split.active[joint]
-        columns[f"{joint}_moment_stabilising_shooting"] = stabilising[joint]
     with staged_output(out, force=force,
                        inputs=[spec.source, spec.trial.inverse_problem]) as stage:
         solution = write_summary(stage / "solution.json", result["solution"])
-        write_storage(stage / "passive_moments.sto", samples.time, columns,
-                      header={"units": "N m (clinical sign: positive toward knee flexion / "
-                                       "ankle dorsiflexion), % gait cycle",
-                              "what": "inverse-dynamics moment split into passive + active "
-                                      "(decomposition) and the stabilising elements' moment "
-                                      "along the measured motion (multiple shooting)",
-                              "marker_cutoff_hz": f"{solution['marker_cutoff_hz']:.3g}"})
+        write_passive_moments(
+            stage / "passive_moments.sto", samples, spec.model.joints,
+            {"passive_decomposition": split.passive, "active_decomposition": split.active,
+             "stabilising_shooting": stabilising},
+            what="inverse-dynamics moment split into passive + active (decomposition) and "
+                 "the stabilising elements' moment along the measured motion (multiple "
+                 "shooting)", cutoff_hz=solution["marker_cutoff_hz"])
         if plots_wanted():
             from predgait.report.decomposition_plots import plot_active_passive
 

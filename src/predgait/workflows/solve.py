@@ -27,6 +27,7 @@ from predgait.dynamics.integrators import IntegratorOptions, Method
 from predgait.dynamics.inverse_trial import InverseResult
 from predgait.dynamics.passive import LinearSpringDamper, PassiveJoint
 from predgait.errors import SimulationDiverged
+from predgait.kinematics.clinical import LEG_FREE_JOINTS, clinical_joint
 from predgait.problemfile import Table
 from predgait.problems.collocation import NodeData, Transcription
 from predgait.problems.fitting import FitResult, correct_torques, fit_feedback, fit_knee
@@ -284,10 +285,11 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
         if fit.torque_change is not None:
             original = np.array([drivers.joint_torque(t) for t in fit.t])
             corrected = original + fit.torque_change
-            clinical = {"ankle_dorsiflexion_moment": original[:, 0],
-                        "knee_flexion_moment": -original[:, 1],
-                        "ankle_dorsiflexion_moment_corrected": corrected[:, 0],
-                        "knee_flexion_moment_corrected": -corrected[:, 1]}
+            clinical = {}
+            for i, joint in enumerate(LEG_FREE_JOINTS):
+                sign = clinical_joint("leg", joint)
+                clinical[f"{sign.angle}_moment"] = sign.clinical(original[:, i])
+                clinical[f"{sign.angle}_moment_corrected"] = sign.clinical(corrected[:, i])
             write_storage(stage / "corrected_moments.sto", fit.t, clinical,
                           header={"units": "N m (clinical sign)"})
         if plots_wanted():

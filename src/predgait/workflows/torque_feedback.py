@@ -20,12 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
+from predgait.kinematics.clinical import LEG_FREE_JOINTS, clinical_joint
 from predgait.problemfile import Table
 from predgait.workflows.trials import LegTrial, leg_trial
 
-JOINTS = ("ankle", "knee")
-#: Model torque -> clinical moment (ankle dorsiflexion, knee flexion), see solve.py.
-CLINICAL_SIGN = np.array([1.0, -1.0])
+JOINTS = LEG_FREE_JOINTS
 
 
 class Feedforward(enum.Enum):
@@ -157,7 +156,7 @@ def solve_feedback(spec: FeedbackSpec) -> dict:
     """Gains, re-simulations and the torque split (everything written by run_feedback)."""
     from predgait.dynamics.drivers import LegDrivers
     from predgait.dynamics.forward import LegSystem
-    from predgait.dynamics.lqr import LqrWeights, tvlqr
+    from predgait.dynamics.lqr import BrysonWeights, tvlqr
 
     inverse = spec.trial.inverse()
     window = _window(spec, inverse)
@@ -167,7 +166,7 @@ def solve_feedback(spec: FeedbackSpec) -> dict:
     end = min(window[1] + spec.horizon, float(inverse.time[-1]))
     n_nodes = max(2, int(np.ceil((end - window[0]) / spec.node_step)) + 1)
     nodes = np.linspace(window[0], end, n_nodes)
-    weights = LqrWeights(spec.angle_deg, spec.rate_deg_s, spec.torque_n_m)
+    weights = BrysonWeights(spec.angle_deg, spec.rate_deg_s, spec.torque_n_m)
     controller = tvlqr(LegSystem(inverse.model, feedforward), feedforward.reference, nodes,
                        weights)
     open_sim, open_loop = _simulate(inverse, feedforward, window, spec)
@@ -246,15 +245,15 @@ def run_feedback(spec: FeedbackSpec, out: Path, *, force: bool = False) -> dict:
         solution = write_summary(stage / "solution.json", solution)
         clinical = {}
         for i, joint in enumerate(JOINTS):
-            name = "ankle_dorsiflexion_moment" if joint == "ankle" else "knee_flexion_moment"
-            sign = CLINICAL_SIGN[i]
-            clinical[f"{name}_inverse_dynamics"] = sign * r["measured"][:, i]
-            clinical[f"{name}_feedforward"] = sign * r["feedforward"][:, i]
-            clinical[f"{name}_feedback"] = sign * r["feedback"][:, i]
-            clinical[f"{name}_total"] = sign * (r["feedforward"][:, i] + r["feedback"][:, i])
-            low, high = (sign * r["band"][:, :, i]).min(axis=0), \
-                (sign * r["band"][:, :, i]).max(axis=0)
-            clinical[f"{name}_id_cutoff_min"], clinical[f"{name}_id_cutoff_max"] = low, high
+            sign = clinical_joint("leg", joint)
+            name = f"{sign.angle}_moment"
+            clinical[f"{name}_inverse_dynamics"] = sign.clinical(r["measured"][:, i])
+            clinical[f"{name}_feedforward"] = sign.clinical(r["feedforward"][:, i])
+            clinical[f"{name}_feedback"] = sign.clinical(r["feedback"][:, i])
+            clinical[f"{name}_total"] = sign.clinical(r["feedforward"][:, i] + r["feedback"][:, i])
+            band = sign.clinical(r["band"][:, :, i])
+            clinical[f"{name}_id_cutoff_min"] = band.min(axis=0)
+            clinical[f"{name}_id_cutoff_max"] = band.max(axis=0)
         write_storage(stage / "corrected_moments.sto", r["t"], clinical,
                       header={"units": "N m (clinical sign)",
                               "what": "feedforward + LQR feedback along the re-simulation"})
