@@ -1,6 +1,11 @@
 """OpenSim Moco's predictive 2D walking example, timed (the peer of bench_predict.py).
 
-Usage: MOCO_2D_GAIT_DIR=DIR OPENSIM_PYTHON benchmarks/opensim_moco_2d_walking.py
+Usage: MOCO_2D_GAIT_DIR=DIR OPENSIM_PYTHON benchmarks/opensim_moco_2d_walking.py [--write OUT]
+
+``--write OUT`` also writes both solutions into OUT (after the timed work): for each stage
+``<stage>_solution.sto`` (the half stride, a MocoTrajectory), ``_fullcycle.sto`` (the
+stride, createPeriodicTrajectory) and ``_fullcycle_grf.sto`` (createExternalLoadsTableForGait
+of the heel and front spheres); tests/reference/osim2d/moco_prediction/ was made so.
 
 DIR holds the files of opensim-core's OpenSim/Examples/Moco/example2DWalking
 (2D_gait.osim, referenceCoordinates.sto, referenceGRF.sto, referenceGRF.xml); they are
@@ -162,7 +167,22 @@ def describe(solution, solver, wall, cpu):
             "controls": solution.getNumControls(), "final_time": solution.getFinalTime()}
 
 
-def main(folder):
+def write_solution(solution, model, stem):
+    """``stem``.sto, ``stem``_fullcycle.sto and ``stem``_fullcycle_grf.sto of a solution."""
+    solution.write(stem + ".sto")
+    full = osim.createPeriodicTrajectory(solution)
+    full.write(stem + "_fullcycle.sto")
+    feet = []
+    for side in ("r", "l"):
+        names = osim.StdVectorString()
+        names.append(f"contactHeel_{side}")
+        names.append(f"contactFront_{side}")
+        feet.append(names)
+    grf = osim.createExternalLoadsTableForGait(model, full, feet[0], feet[1])
+    osim.STOFileAdapter.write(grf, stem + "_fullcycle_grf.sto")
+
+
+def main(folder, write=None):
     work = tempfile.mkdtemp(prefix="moco2d")
     try:
         for name in FILES:
@@ -178,9 +198,18 @@ def main(folder):
                           "muscles": model.getMuscles().getSize(),
                           "tracking": describe(track, track_solver, track_wall, track_cpu),
                           "predictive": describe(pred, pred_solver, pred_wall, pred_cpu)}))
+        if write:
+            os.makedirs(write, exist_ok=True)
+            write_solution(track, model, os.path.join(write, "gaitTracking_solution"))
+            write_solution(pred, model, os.path.join(write, "gaitPrediction_solution"))
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
 
 if __name__ == "__main__":
-    main(os.environ.get("MOCO_2D_GAIT_DIR") or sys.exit("MOCO_2D_GAIT_DIR is not set"))
+    out = None
+    if sys.argv[1:2] == ["--write"] and len(sys.argv) == 3:
+        out = os.path.abspath(sys.argv[2])
+    elif sys.argv[1:]:
+        sys.exit("usage: opensim_moco_2d_walking.py [--write OUT]")
+    main(os.environ.get("MOCO_2D_GAIT_DIR") or sys.exit("MOCO_2D_GAIT_DIR is not set"), out)
