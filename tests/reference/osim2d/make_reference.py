@@ -6,7 +6,7 @@ Run with the OpenSim 4.6 Python (the peer; predgait never imports opensim), from
         [--model PATH/2D_gait.osim] [--tables NAME,...]
 
 (``--tables``: a comma-separated subset of muscle_geometry, muscle_force, contact_force,
-model_frames; default all). Values are written with 12 significant digits.
+model_frames, contact_parameters; default all). Values are written with 12 significant digits.
 
 It reads ``2D_gait.osim`` (default: ``../shared/data/opensim_moco_2d_walking/`` beside the
 repository, i.e. opensim-core's Moco example2DWalking model) and writes, next to this script,
@@ -46,6 +46,14 @@ Tables (one header row; ``nan`` never appears):
     and OpenSim's ``getRecordValues``: ``force_x/y/z`` (force on the sphere's body, ground
     frame, N) and ``torque_x/y/z`` (torque on it about the body's origin, N m; the force acts
     at Simbody's contact point, centre - (radius - penetration / 2) * normal).
+``contact_parameters.csv``: one row per SmoothSphereHalfSpaceForce: ``force``, ``sphere``,
+    ``body``, ``radius`` (m), ``location_x/y/z`` (sphere centre in the body frame, m) and the
+    element's properties as OpenSim 4.6 holds them after reading the file: ``stiffness``
+    (N/m^2), ``dissipation`` (s/m), ``static_friction``, ``dynamic_friction``,
+    ``viscous_friction`` (s/m), ``transition_velocity`` (m/s), ``constant_contact_force``,
+    ``hertz_smoothing`` (1/m), ``hunt_crossley_smoothing`` (s/m). (The file's
+    ``derivative_smoothing`` is an old name OpenSim 4.6 ignores: constant_contact_force is its
+    default 1e-5; a file value of 1e-3 there leaves it at 1e-5.)
 ``model_frames.csv``: at 6 poses, one row per body, contact sphere and the whole model:
     ``pose``, ``kind`` (``body``, ``sphere``, ``model``), ``name``, the 10 coordinates,
     ``x/y/z`` (body origin, sphere centre or model COM in ground, m), ``com_x/y/z`` (body COM in
@@ -66,7 +74,8 @@ import opensim as osim
 HERE = Path(__file__).resolve().parent
 DEFAULT_MODEL = HERE.parents[3] / "shared" / "data" / "opensim_moco_2d_walking" / "2D_gait.osim"
 SEED = 20261204
-TABLES = ("muscle_geometry", "muscle_force", "contact_force", "model_frames")
+TABLES = ("muscle_geometry", "muscle_force", "contact_force", "model_frames",
+          "contact_parameters")
 JOINT_COORDS = (
     "hip_flexion_l", "hip_flexion_r", "knee_angle_l", "knee_angle_r",
     "ankle_angle_l", "ankle_angle_r", "lumbar",
@@ -353,6 +362,26 @@ def model_frames(peer: Peer, rng: np.random.Generator) -> tuple[list[str], list[
     return header, rows
 
 
+CONTACT_PROPERTIES = (
+    "stiffness", "dissipation", "static_friction", "dynamic_friction", "viscous_friction",
+    "transition_velocity", "constant_contact_force", "hertz_smoothing",
+    "hunt_crossley_smoothing",
+)
+
+
+def contact_parameters(peer: Peer, rng: np.random.Generator) -> tuple[list[str], list[list]]:
+    del rng
+    header = ["force", "sphere", "body", "radius", "location_x", "location_y", "location_z",
+              *CONTACT_PROPERTIES]
+    rows = []
+    for force in peer.contacts:
+        sphere, frame = _sphere(force)
+        values = [getattr(force, f"get_{name}")() for name in CONTACT_PROPERTIES]
+        rows.append([force.getName(), sphere.getName(), frame.findBaseFrame().getName(),
+                     sphere.getRadius(), *_vec(sphere.get_location()), *values])
+    return header, rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, default=DEFAULT_MODEL)
@@ -360,7 +389,8 @@ def main() -> None:
     args = parser.parse_args()
     peer = Peer(args.model)
     builders = {"muscle_geometry": muscle_geometry, "muscle_force": muscle_force,
-                "contact_force": contact_force, "model_frames": model_frames}
+                "contact_force": contact_force, "model_frames": model_frames,
+                "contact_parameters": contact_parameters}
     for name in args.tables.split(","):
         # One generator per table, so regenerating one table leaves the others unchanged.
         rng = np.random.default_rng([SEED, TABLES.index(name)])
