@@ -16,7 +16,7 @@ import casadi as cs
 import numpy as np
 import pytest
 
-from predgait.dynamics.smooth_contact import SmoothSphereContact
+from predgait.dynamics.smooth_contact import SmoothSphereContact, contacts_from_osim
 from predgait.errors import InputError
 
 REFERENCE = Path(__file__).resolve().parent / "reference" / "osim2d"
@@ -183,3 +183,21 @@ def test_impossible_parameters_are_refused(key, value):
     kwargs = {**MOCO_HEEL.__dict__, key: value}
     with pytest.raises(InputError, match=key):
         SmoothSphereContact(**kwargs)
+
+
+def test_laws_from_the_read_model_are_opensims(tmp_path):
+    from predgait.models.osim import bundled_2d_gait, bundled_2d_gait_path, read_osim
+
+    osim = bundled_2d_gait()
+    laws = contacts_from_osim(osim)
+    params = _table("contact_parameters.csv")
+    reference = _laws()
+    assert [c.name for c in osim.contacts] == list(params["force"])
+    for contact, law in zip(osim.contacts, laws, strict=True):
+        assert law == reference[contact.name]
+    tilted = bundled_2d_gait_path().read_text().replace(
+        "<orientation>0 0 -1.5707963267948966</orientation>", "<orientation>0 0 -1.4</orientation>")
+    path = tmp_path / "tilted.osim"
+    path.write_text(tilted)
+    with pytest.raises(InputError, match=r"tilted.osim: line \d+: ContactHalfSpace 'floor'"):
+        contacts_from_osim(read_osim(path))

@@ -178,3 +178,46 @@ class SmoothSphereContact:
 
     def _values(self) -> list:
         return [getattr(self, f.name) for f in fields(self)]
+
+
+def _floor_normal(orientation) -> np.ndarray:
+    """Outward normal (the frame's -X) of a ContactHalfSpace, in its body's frame.
+
+    ``orientation``: OpenSim's body-fixed X-Y-Z Euler angles (rad).
+    """
+    a, b, c = (float(x) for x in orientation)
+    rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+    ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
+    rz = np.array([[math.cos(c), -math.sin(c), 0], [math.sin(c), math.cos(c), 0], [0, 0, 1]])
+    return rx @ ry @ rz @ np.array([-1.0, 0.0, 0.0])
+
+
+def contacts_from_osim(osim) -> tuple[SmoothSphereContact, ...]:
+    """One law per SmoothSphereHalfSpaceForce of a read model (``osim.contacts`` order).
+
+    Args:
+        osim: :class:`predgait.models.osim.OsimModel` (``contacts``, ``spheres``,
+            ``half_spaces`` and ``source``).
+
+    Raises:
+        InputError: a half-space that is not the level floor through the ground origin
+            (on ``ground``, outward normal OpenSim +Y = predgait +Z), the only floor this
+            law knows.
+    """
+    spheres = {s.name: s for s in osim.spheres}
+    floors = {h.name: h for h in osim.half_spaces}
+    laws = []
+    for contact in osim.contacts:
+        floor = floors[contact.half_space]
+        normal = _floor_normal(floor.orientation)
+        level = np.allclose(normal, [0.0, 1.0, 0.0], atol=1e-9)
+        through_origin = abs(float(np.dot(normal, floor.location))) < 1e-12
+        if floor.body != "ground" or not level or not through_origin:
+            raise InputError(
+                f"{osim.source}: line {floor.line}: ContactHalfSpace '{floor.name}' (used by "
+                f"SmoothSphereHalfSpaceForce '{contact.name}') is on '{floor.body}' with "
+                f"outward normal {np.round(normal, 6).tolist()} through location "
+                f"{list(floor.location)}; predgait's smooth contact needs the floor y = 0 of "
+                "ground: socket_frame /ground, location 0 0 0, orientation 0 0 -1.5707963")
+        laws.append(SmoothSphereContact.from_osim(contact, spheres[contact.sphere].radius))
+    return tuple(laws)
