@@ -69,8 +69,8 @@ def read_function(f: OsimFile, node: Node) -> Function:
     tag = node.tag
     if tag in ("SimmSpline", "NaturalCubicSpline"):
         f.check_known(node, {"x", "y"})
-        xs = f.floats(node.only_child("x", f))
-        ys = f.floats(node.only_child("y", f))
+        xs = f.floats(node.only_child("x", f), owner=node)
+        ys = f.floats(node.only_child("y", f), owner=node)
         if len(xs) != len(ys) or len(xs) < 2:
             f.fail(node, f"{len(xs)} x and {len(ys)} y values", "give as many x as y, at "
                    "least 2")

@@ -143,17 +143,17 @@ class OsimFile:
         return list(objects.children) if objects is not None else []
 
     # -- values ----------------------------------------------------------------
-    def floats(self, node: Node) -> tuple[float, ...]:
+    def floats(self, node: Node, owner: Node | None = None) -> tuple[float, ...]:
         """The numbers in a node's text."""
         try:
             return tuple(float(t) for t in node.text.split())
         except ValueError:
             self.fail(node, f"'{node.text.strip()}' is not a list of numbers",
-                      "give numbers")
+                      "give numbers", owner=owner)
 
     def vec(self, node: Node, n: int, owner: Node | None = None) -> tuple[float, ...]:
         """Exactly ``n`` finite numbers."""
-        values = self.floats(node)
+        values = self.floats(node, owner)
         if len(values) != n or not all(math.isfinite(v) for v in values):
             self.fail(node, f"'{node.text.strip()}' is not {n} finite numbers",
                       f"give {n} numbers", owner=owner)
@@ -161,7 +161,7 @@ class OsimFile:
 
     def number(self, node: Node, owner: Node | None = None) -> float:
         """One number (may be inf, as OpenSim's control bounds)."""
-        values = self.floats(node)
+        values = self.floats(node, owner)
         if len(values) != 1 or math.isnan(values[0]):
             self.fail(node, f"'{node.text.strip()}' is not one number", "give one number",
                       owner=owner)

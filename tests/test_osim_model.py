@@ -1,0 +1,163 @@
+"""build_model on OpenSim's 2D gait model: Pinocchio = ADAM, and Pinocchio = OpenSim.
+
+OpenSim's own body frames, sphere centres and model COM at 6 poses come from
+tests/reference/osim2d/model_frames.csv (written once by OpenSim 4.6 with
+make_reference.py there). A wrong axis mapping, joint sign or base sign moves them.
+"""
+
+import csv
+import re
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from predgait.errors import InputError
+from predgait.models.osim import bundled_2d_gait, bundled_2d_gait_path
+from predgait.models.osim_model import build_model
+from predgait.models.symbolic import symbolic_model
+
+FRAMES = Path(__file__).resolve().parent / "reference" / "osim2d" / "model_frames.csv"
+TEXT = bundled_2d_gait_path().read_text()
+#: OpenSim (X forward, Y up, Z right) -> predgait lab (X forward, Y left, Z up), written out
+#: here rather than imported, so that a wrong mapping in the code cannot hide.
+LAB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+COORDINATES = ("pelvis_tilt", "pelvis_tx", "pelvis_ty", "hip_flexion_l", "hip_flexion_r",
+               "knee_angle_l", "knee_angle_r", "ankle_angle_l", "ankle_angle_r", "lumbar")
+
+
+@pytest.fixture(scope="module")
+def built():
+    return build_model(bundled_2d_gait())
+
+
+def _poses():
+    with FRAMES.open() as handle:
+        rows = list(csv.DictReader(handle))
+    poses: dict[int, list[dict]] = {}
+    for row in rows:
+        poses.setdefault(int(row["pose"]), []).append(row)
+    return poses
+
+
+def test_coordinates_kind_and_limits(built):
+    model = built.model
+    assert model.kind == "osim2d" and model.nq == 10
+    assert model.gravity == 9.80665
+    assert built.osim_coordinates[:3] == ("pelvis_tx", "pelvis_ty", "pelvis_tilt")
+    assert set(built.osim_coordinates) == set(COORDINATES)
+    assert model.joint_names == built.osim_coordinates[3:]  # joints named as coordinates
+    pm = model.pin_model
+    for i, name in enumerate(model.joint_names):
+        low, high = built.osim.coordinate(name).range
+        assert (pm.lowerPositionLimit[3 + i], pm.upperPositionLimit[3 + i]) == (low, high)
+    values = dict(zip(COORDINATES, np.linspace(-0.4, 0.5, 10), strict=True))
+    q = built.q_from_osim(values)
+    assert q[0] == values["pelvis_tx"] and q[2] == -values["pelvis_tilt"]
+    back = built.osim_from_q(q)
+    assert all(back[n] == pytest.approx(v, abs=0) for n, v in values.items())
+    rows = built.q_from_osim({n: np.full(4, v) for n, v in values.items()})
+    assert rows.shape == (4, 10) and np.array_equal(rows[2], q)
+    with pytest.raises(InputError, match="no value for coordinate.*lumbar"):
+        built.q_from_osim({n: v for n, v in values.items() if n != "lumbar"})
+
+
+def test_total_mass_is_the_files(built):
+    masses = [float(m) for m in re.findall(r"<mass>([^<]+)</mass>", TEXT)]
+    assert len(masses) == 12
+    assert built.model.total_mass() == pytest.approx(sum(masses), rel=1e-13)
+
+
+def test_adam_equals_pinocchio(built):
+    model = built.model
+    sym = symbolic_model(model)
+    pm = model.pin_model
+    data = pm.createData()
+    rng = np.random.default_rng(26)
+    for _ in range(3):
+        q = rng.uniform(-0.8, 0.8, model.nq)
+        v = rng.uniform(-2.0, 2.0, model.nq)
+        mass = pin.crba(pm, data, q)
+        mass = np.triu(mass) + np.triu(mass, 1).T
+        bias = pin.rnea(pm, data, q, v, np.zeros(model.nq))
+        assert np.abs(np.array(sym.mass_matrix(q)) - mass).max() < 1e-9
+        assert np.abs(np.array(sym.bias_force(q, v)).ravel() - bias).max() < 1e-9
+        pin.framesForwardKinematics(pm, data, q)
+        for body in ("toes_r", "torso"):
+            expected = data.oMf[pm.getFrameId(built.body_link(body))].translation
+            got = np.array(sym.frame_position(built.body_link(body))(q)).ravel()
+            assert np.abs(got - expected).max() < 1e-9
+
+
+def test_body_frames_sphere_centres_and_com_match_opensim(built):
+    model = built.model
+    pm = model.pin_model
+    data = pm.createData()
+    poses = _poses()
+    assert len(poses) == 6
+    checked = 0
+    for rows in poses.values():
+        values = {n: float(rows[0][n]) for n in COORDINATES}
+        q = built.q_from_osim(values)
+        pin.framesForwardKinematics(pm, data, q)
+        for row in rows:
+            expected = LAB @ np.array([float(row[k]) for k in ("x", "y", "z")])
+            if row["kind"] == "model":
+                com = pin.centerOfMass(pm, data, q)
+                assert np.abs(com - expected).max() < 1e-9
+                assert float(row["mass"]) == pytest.approx(model.total_mass(), rel=1e-10)
+                continue
+            if row["kind"] == "body":
+                body, location = row["name"], np.zeros(3)
+            else:
+                sphere = next(s for s in built.osim.spheres if s.name == row["name"])
+                body, location = sphere.body, np.array(sphere.location)
+            link, point = built.point_on_body(body, location)
+            placement = data.oMf[pm.getFrameId(link)]
+            assert np.abs(placement.act(point) - expected).max() < 1e-9, row["name"]
+            if row["kind"] == "body":
+                rotation = np.array([float(row[f"r{i}{j}"]) for i in range(3)
+                                     for j in range(3)]).reshape(3, 3)
+                got = placement.rotation @ built.rotation_to_link(body)
+                assert np.abs(got - LAB @ rotation).max() < 1e-9, row["name"]
+            checked += 1
+    assert checked == 6 * 16
+
+
+# --- models build_model refuses -------------------------------------------------------
+
+def _copy(tmp_path, old: str, new: str, *, start: str = "") -> Path:
+    index = TEXT.index(old, TEXT.index(start) if start else 0)
+    path = tmp_path / "bad_gait.osim"
+    path.write_text(TEXT[:index] + new + TEXT[index + len(old):])
+    return path
+
+
+def test_non_planar_offset_frame(tmp_path):
+    start = '<PinJoint name="knee_l">'
+    path = _copy(tmp_path, "<orientation>0 0 0", "<orientation>0.1 0 0", start=start)
+    line = TEXT.count("\n", 0, TEXT.index('<PhysicalOffsetFrame name="femur_l_offset">',
+                                          TEXT.index(start))) + 1
+    with pytest.raises(InputError) as info:
+        build_model(path)
+    msg = str(info.value)
+    assert f"{path}:{line}:" in msg and "PhysicalOffsetFrame 'femur_l_offset'" in msg
+    assert "PinJoint 'knee_l'" in msg and "about Z alone" in msg
+
+
+def test_locked_coordinate(tmp_path):
+    start = '<Coordinate name="knee_angle_r">'
+    path = _copy(tmp_path, start, start + "<locked>true</locked>")
+    with pytest.raises(InputError, match=rf":{TEXT.count(chr(10), 0, TEXT.index(start)) + 1}: "
+                       r"Coordinate 'knee_angle_r' is locked; unlock it"):
+        build_model(path)
+
+
+def test_second_joint_to_ground(tmp_path):
+    start = '<PinJoint name="lumbar">'
+    path = _copy(tmp_path, "<socket_parent>/bodyset/pelvis", "<socket_parent>/ground",
+                 start=start)
+    with pytest.raises(InputError, match="exactly one joint to ground, a PlanarJoint; found "
+                       "PlanarJoint 'groundPelvis', PinJoint 'lumbar'"):
+        build_model(path)
