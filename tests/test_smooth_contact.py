@@ -141,6 +141,9 @@ def test_hunt_crossley_dissipation_and_lift_off():
         ratio = MOCO_HEEL.normal_force(depth, rate) / static
         assert ratio == pytest.approx(1.0 + 1.5 * c * rate, rel=1e-5)
     assert abs(MOCO_HEEL.normal_force(depth, -1.0)) < 1e-12 * static
+    elastic = SmoothSphereContact(**{**MOCO_HEEL.__dict__, "dissipation": 0.0})
+    for rate in (-1.0, 0.0, 2.0):
+        assert elastic.normal_force(depth, rate) == pytest.approx(static, rel=1e-12)
 
 
 def test_friction_opposes_slip_with_stribeck_peak_at_transition():
@@ -200,4 +203,14 @@ def test_laws_from_the_read_model_are_opensims(tmp_path):
     path = tmp_path / "tilted.osim"
     path.write_text(tilted)
     with pytest.raises(InputError, match=r"tilted.osim: line \d+: ContactHalfSpace 'floor'"):
+        contacts_from_osim(read_osim(path))
+    text = bundled_2d_gait_path().read_text()
+    start = text.index('<SmoothSphereHalfSpaceForce name="contactFront_r">')
+    stalled = text[:start] + text[start:].replace(
+        "<transition_velocity>0.20000000000000001</transition_velocity>",
+        "<transition_velocity>0</transition_velocity>", 1)
+    path = tmp_path / "stalled.osim"
+    path.write_text(stalled)
+    with pytest.raises(InputError, match=r"stalled.osim: line 50: SmoothSphereHalfSpaceForce "
+                       r"'contactFront_r': .*transition_velocity = 0.0"):
         contacts_from_osim(read_osim(path))

@@ -105,8 +105,9 @@ class SmoothSphereContact:
             if bad:
                 need = "> 0" if field.name in positive else ">= 0"
                 raise InputError(
-                    f"smooth sphere contact: {field.name} = {value!r}; give a finite value "
-                    f"{need} ({field.name} of the SmoothSphereHalfSpaceForce)")
+                    f"smooth sphere contact: {field.name} = {value!r} is not finite and "
+                    f"{need}; give {field.name} {need} (SmoothSphereHalfSpaceForce property, "
+                    "or the ContactSphere's radius)")
 
     @classmethod
     def from_osim(cls, record, radius: float) -> SmoothSphereContact:
@@ -153,8 +154,9 @@ class SmoothSphereContact:
         Args:
             center: sphere centre, (3,) or (..., 3) array, or a CasADi 3-vector, m.
             velocity: the centre's velocity, m/s (same shape).
-            angular_velocity: the sphere body's angular velocity, rad/s (default zero); the
-                slip and normal speed are those of the contact point, as in Simbody.
+            angular_velocity: the sphere body's angular velocity, rad/s (default zero; a
+                planar model turning about +Y: (0, pitch rate, 0)); the slip and normal
+                speed are those of the contact point, as in Simbody.
 
         Returns:
             (force, point): numpy arrays of the input's shape, or CasADi 3x1 columns.
@@ -202,7 +204,8 @@ def contacts_from_osim(osim) -> tuple[SmoothSphereContact, ...]:
     Raises:
         InputError: a half-space that is not the level floor through the ground origin
             (on ``ground``, outward normal OpenSim +Y = predgait +Z), the only floor this
-            law knows.
+            law knows; a zero stiffness, transition velocity, constant contact force or
+            radius (Simbody would divide by zero).
     """
     spheres = {s.name: s for s in osim.spheres}
     floors = {h.name: h for h in osim.half_spaces}
@@ -219,5 +222,10 @@ def contacts_from_osim(osim) -> tuple[SmoothSphereContact, ...]:
                 f"outward normal {np.round(normal, 6).tolist()} through location "
                 f"{list(floor.location)}; predgait's smooth contact needs the floor y = 0 of "
                 "ground: socket_frame /ground, location 0 0 0, orientation 0 0 -1.5707963")
-        laws.append(SmoothSphereContact.from_osim(contact, spheres[contact.sphere].radius))
+        try:
+            law = SmoothSphereContact.from_osim(contact, spheres[contact.sphere].radius)
+        except InputError as error:
+            raise InputError(f"{osim.source}: line {contact.line}: SmoothSphereHalfSpaceForce "
+                             f"'{contact.name}': {error}") from None
+        laws.append(law)
     return tuple(laws)
