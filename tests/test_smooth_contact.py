@@ -214,3 +214,60 @@ def test_laws_from_the_read_model_are_opensims(tmp_path):
     with pytest.raises(InputError, match=r"stalled.osim: line 50: SmoothSphereHalfSpaceForce "
                        r"'contactFront_r': .*transition_velocity = 0.0"):
         contacts_from_osim(read_osim(path))
+
+
+def _gait():
+    table = _table("gait_contact.csv")
+    assert len(table["time"]) == 101
+    return table
+
+
+def test_gait_states_of_mocos_tracking_solution():
+    """OpenSim's forces along Moco's example2DWalking gait, from OpenSim's sphere kinematics."""
+    table, laws = _gait(), _laws()
+    peak = max(np.abs(table[f"{n}.force_y"]).max() for n in laws)
+    assert peak > 300.0                                   # a loaded stance, not a swing
+    rolling_effect = 0.0
+    for name, law in laws.items():
+        center, velocity = _lab(table, f"{name}.center_"), _lab(table, f"{name}.center_v")
+        omega, expected = _lab(table, f"{name}.omega_"), _lab(table, f"{name}.force_")
+        force, _ = law.force_and_point(center, velocity, angular_velocity=omega)
+        np.testing.assert_allclose(force, expected, rtol=0, atol=1e-6 * peak)
+        centre_only, _ = law.force_and_point(center, velocity)
+        rolling_effect = max(rolling_effect, np.abs(centre_only - expected).max() / peak)
+    assert rolling_effect > 0.05           # the contact point's slip matters along a gait
+
+
+def test_gait_forces_from_the_predgait_model():
+    """The same forces with sphere kinematics from the predgait model of 2D_gait.osim."""
+    import pinocchio as pin
+
+    from predgait.models.osim import bundled_2d_gait
+    from predgait.models.osim_model import build_model
+
+    table, built = _gait(), build_model(bundled_2d_gait())
+    model, laws = built.model.pin_model, contacts_from_osim(built.osim)
+    data = model.createData()
+    spheres = {s.name: s for s in built.osim.spheres}
+    names = built.osim_coordinates
+    q = built.q_from_osim({n: table[n] for n in names})
+    v = built.q_from_osim({n: table[f"{n}.speed"] for n in names})
+    peak = max(np.abs(table[f"{c.name}.force_y"]).max() for c in built.osim.contacts)
+    frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    for contact, law in zip(built.osim.contacts, laws, strict=True):
+        sphere = spheres[contact.sphere]
+        link, location = built.point_on_body(sphere.body, sphere.location)
+        fid = model.getFrameId(link)
+        forces = []
+        for k in range(len(q)):
+            pin.forwardKinematics(model, data, q[k], v[k])
+            pin.updateFramePlacements(model, data)
+            placement = data.oMf[fid]
+            center = placement.act(location)
+            twist = pin.getFrameVelocity(model, data, fid, frame)
+            offset = placement.rotation @ location
+            velocity = twist.linear + np.cross(twist.angular, offset)
+            force, _ = law.force_and_point(center, velocity, angular_velocity=twist.angular)
+            forces.append(force)
+        expected = _lab(table, f"{contact.name}.force_")
+        np.testing.assert_allclose(np.array(forces), expected, rtol=0, atol=1e-6 * peak)

@@ -6,7 +6,10 @@ Run with the OpenSim 4.6 Python (the peer; predgait never imports opensim), from
         [--model PATH/2D_gait.osim] [--tables NAME,...]
 
 (``--tables``: a comma-separated subset of muscle_geometry, muscle_force, contact_force,
-model_frames, contact_parameters; default all). Values are written with 12 significant digits.
+model_frames, contact_parameters; default all these; ``gait_contact`` also needs
+``--moco-solution gaitTracking_solution_fullcycle.sto``, Moco's tracking solution of
+example2DWalking as benchmarks/peer/moco_2d_walking.py writes it). Values are written with 12
+significant digits.
 
 It reads ``2D_gait.osim`` (default: ``../shared/data/opensim_moco_2d_walking/`` beside the
 repository, i.e. opensim-core's Moco example2DWalking model) and writes, next to this script,
@@ -54,6 +57,10 @@ Tables (one header row; ``nan`` never appears):
     ``hertz_smoothing`` (1/m), ``hunt_crossley_smoothing`` (s/m). (The file's
     ``derivative_smoothing`` is an old name OpenSim 4.6 ignores: constant_contact_force is its
     default 1e-5; a file value of 1e-3 there leaves it at 1e-5.)
+``gait_contact.csv``: every second state (101) of Moco's example2DWalking tracking solution
+    (full cycle): ``time``, the 10 coordinates and speeds, then per SmoothSphereHalfSpaceForce
+    ``<force>.center_x/y/z``, ``.center_vx/vy/vz``, ``.omega_x/y/z`` (as in contact_force.csv)
+    and ``.force_x/y/z`` (getRecordValues: force on the sphere's body, ground frame, N).
 ``model_frames.csv``: at 6 poses, one row per body, contact sphere and the whole model:
     ``pose``, ``kind`` (``body``, ``sphere``, ``model``), ``name``, the 10 coordinates,
     ``x/y/z`` (body origin, sphere centre or model COM in ground, m), ``com_x/y/z`` (body COM in
@@ -75,7 +82,7 @@ HERE = Path(__file__).resolve().parent
 DEFAULT_MODEL = HERE.parents[3] / "shared" / "data" / "opensim_moco_2d_walking" / "2D_gait.osim"
 SEED = 20261204
 TABLES = ("muscle_geometry", "muscle_force", "contact_force", "model_frames",
-          "contact_parameters")
+          "contact_parameters", "gait_contact")
 JOINT_COORDS = (
     "hip_flexion_l", "hip_flexion_r", "knee_angle_l", "knee_angle_r",
     "ankle_angle_l", "ankle_angle_r", "lumbar",
@@ -382,15 +389,49 @@ def contact_parameters(peer: Peer, rng: np.random.Generator) -> tuple[list[str],
     return header, rows
 
 
+def gait_contact(peer: Peer, rng: np.random.Generator, solution: Path | None = None):
+    """Every second state of a Moco solution, each sphere's kinematics and contact force."""
+    del rng
+    if solution is None:
+        raise SystemExit("gait_contact needs --moco-solution PATH (a Moco solution .sto)")
+    table = osim.TimeSeriesTable(str(solution))
+    labels = list(table.getColumnLabels())
+    paths = {c.getName(): c.getAbsolutePathString() for c in peer.coords}
+    header = ["time", *peer.names, *[f"{n}.speed" for n in peer.names]]
+    for force in peer.contacts:
+        header += [f"{force.getName()}.{k}" for k in (
+            "center_x", "center_y", "center_z", "center_vx", "center_vy", "center_vz",
+            "omega_x", "omega_y", "omega_z", "force_x", "force_y", "force_z")]
+    times = table.getIndependentColumn()
+    rows = []
+    for i in range(0, table.getNumRows(), 2):
+        row = table.getRowAtIndex(i)
+        value = {n: row[labels.index(f"{paths[n]}/value")] for n in peer.names}
+        speed = {n: row[labels.index(f"{paths[n]}/speed")] for n in peer.names}
+        peer.set(value, speed)
+        out = [times[i], *value.values(), *speed.values()]
+        for force in peer.contacts:
+            sphere, frame = _sphere(force)
+            record = force.getRecordValues(peer.state)
+            out += [*_vec(frame.findStationLocationInGround(peer.state, sphere.get_location())),
+                    *_vec(frame.findStationVelocityInGround(peer.state, sphere.get_location())),
+                    *_vec(frame.findBaseFrame().getVelocityInGround(peer.state).get(0)),
+                    *[record.get(k) for k in range(3)]]
+        rows.append(out)
+    return header, rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, default=DEFAULT_MODEL)
-    parser.add_argument("--tables", default=",".join(TABLES))
+    parser.add_argument("--tables", default=",".join(TABLES[:-1]))
+    parser.add_argument("--moco-solution", type=Path, default=None)
     args = parser.parse_args()
     peer = Peer(args.model)
     builders = {"muscle_geometry": muscle_geometry, "muscle_force": muscle_force,
                 "contact_force": contact_force, "model_frames": model_frames,
-                "contact_parameters": contact_parameters}
+                "contact_parameters": contact_parameters,
+                "gait_contact": lambda p, r: gait_contact(p, r, args.moco_solution)}
     for name in args.tables.split(","):
         # One generator per table, so regenerating one table leaves the others unchanged.
         rng = np.random.default_rng([SEED, TABLES.index(name)])
