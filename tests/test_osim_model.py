@@ -14,11 +14,15 @@ import pinocchio as pin
 import pytest
 
 from predgait.errors import InputError
-from predgait.models.osim import bundled_2d_gait, bundled_2d_gait_path
+from predgait.models.osim import PointKind, bundled_2d_gait, bundled_2d_gait_path
 from predgait.models.osim_model import build_model
 from predgait.models.symbolic import symbolic_model
 
-FRAMES = Path(__file__).resolve().parent / "reference" / "osim2d" / "model_frames.csv"
+REFERENCE = Path(__file__).resolve().parent / "reference" / "osim2d"
+FRAMES = REFERENCE / "model_frames.csv"
+#: 2D_gait.osim with turned and shifted offset frames and products of inertia, saved by
+#: OpenSim 4.6, with its body frames and both models' kinetic energy (make_body_frames.py).
+OFFSETS = REFERENCE / "offsets_2d_gait.osim"
 TEXT = bundled_2d_gait_path().read_text()
 #: OpenSim (X forward, Y up, Z right) -> predgait lab (X forward, Y left, Z up), written out
 #: here rather than imported, so that a wrong mapping in the code cannot hide.
@@ -30,6 +34,11 @@ COORDINATES = ("pelvis_tilt", "pelvis_tx", "pelvis_ty", "hip_flexion_l", "hip_fl
 @pytest.fixture(scope="module")
 def built():
     return build_model(bundled_2d_gait())
+
+
+def _rows(path: Path) -> list[dict]:
+    with path.open() as handle:
+        return list(csv.DictReader(handle))
 
 
 def _poses():
@@ -123,6 +132,64 @@ def test_body_frames_sphere_centres_and_com_match_opensim(built):
                 assert np.abs(got - LAB @ rotation).max() < 1e-9, row["name"]
             checked += 1
     assert checked == 6 * 16
+
+
+def test_offset_frames_match_opensim():
+    built = build_model(OFFSETS)
+    pm = built.model.pin_model
+    data = pm.createData()
+    rows = _rows(REFERENCE / "offsets_frames.csv")
+    assert len(rows) == 5 * 12
+    for row in rows:
+        q = built.q_from_osim({n: float(row[n]) for n in COORDINATES})
+        pin.framesForwardKinematics(pm, data, q)
+        body = built.osim.body(row["name"])
+        placement = data.oMf[pm.getFrameId(built.body_link(body.name))]
+        for point, keys in ((np.zeros(3), ("x", "y", "z")),
+                            (np.array(body.mass_center), ("com_x", "com_y", "com_z"))):
+            expected = LAB @ np.array([float(row[k]) for k in keys])
+            got = placement.act(built.point_on_body(body.name, point)[1])
+            assert np.abs(got - expected).max() < 1e-9, (row["pose"], body.name)
+        rotation = np.array([float(row[f"r{i}{j}"]) for i in range(3)
+                             for j in range(3)]).reshape(3, 3)
+        got = placement.rotation @ built.rotation_to_link(body.name)
+        assert np.abs(got - LAB @ rotation).max() < 1e-9, (row["pose"], body.name)
+
+
+def test_kinetic_energy_matches_opensim(built):
+    """0.5 v^T M v = OpenSim's kinetic energy for random v: the whole planar mass matrix.
+
+    (Only a body's OpenSim Izz, predgait's Iyy, enters it: products of inertia and the
+    in-plane moments act out of the plane, where the planar root holds the model.)
+    """
+    models = {"original": built, "offsets": build_model(OFFSETS)}
+    rows = _rows(REFERENCE / "kinetic_energy.csv")
+    assert len(rows) == 2 * 15
+    for row in rows:
+        model = models[row["model"]]
+        q = model.q_from_osim({n: float(row[n]) for n in COORDINATES})
+        v = model.q_from_osim({n: float(row[f"{n}.speed"]) for n in COORDINATES})
+        mass = pin.crba(model.model.pin_model, model.model.pin_model.createData(), q)
+        mass = np.triu(mass) + np.triu(mass, 1).T
+        energy = float(row["kinetic_energy"])
+        assert 0.5 * v @ mass @ v == pytest.approx(energy, rel=1e-10, abs=1e-10)
+
+
+def test_a_file_opensim_wrote_reads_the_same():
+    """OpenSim 4.6's own print of the model (format 40600) reads to the same elements."""
+    original, printed = bundled_2d_gait(), build_model(OFFSETS).osim
+    strip = lambda items: [{k: v for k, v in vars(i).items() if k != "line"} for i in items]  # noqa: E731
+    for name in ("muscles", "actuators", "spheres", "half_spaces", "contacts"):
+        a, b = strip(getattr(original, name)), strip(getattr(printed, name))
+        if name == "muscles":  # path points carry lines; a moving point's legacy
+            for muscle in a + b:  # location is not written by OpenSim 4.6
+                muscle["path"] = [{k: v for k, v in vars(p).items() if k != "line" and
+                                   (k != "location" or p.kind is not PointKind.MOVING)}
+                                  for p in muscle["path"]]
+        assert a == b, name
+    changed = {"torso", "talus_r"}
+    assert strip(b for b in original.bodies if b.name not in changed) == \
+        strip(b for b in printed.bodies if b.name not in changed)
 
 
 # --- models build_model refuses -------------------------------------------------------
