@@ -262,6 +262,12 @@ def test_malformed_xml_and_missing_file(tmp_path):
         read_osim(tmp_path / "none.osim")
 
 
+def test_opensim_3_format(tmp_path):
+    path, _ = _corrupt(tmp_path, 'Version="40000"', 'Version="30000"')
+    msg = _message(path)
+    assert f"{path}:2:" in msg and "Version '30000'" in msg and "save it again" in msg
+
+
 def test_missing_mass_and_bad_number(tmp_path):
     path, _ = _corrupt(tmp_path, "<mass>9.7143336091723995</mass>", "")
     msg = _message(path)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 
+from predgait.errors import InputError
 from predgait.models.osim_functions import Function
 from predgait.models.osim_xml import Node, OsimFile
 
@@ -271,11 +272,12 @@ def _named(items, name: str, what: str, source: str):
     for item in items:
         if item.name == name:
             return item
-    from predgait.errors import InputError
-
     raise InputError(f"{source}: no {what} '{name}'; it has "
                      f"{', '.join(i.name for i in items)}.")
 
+
+#: First OpenSimDocument Version of the OpenSim 4 format (joints in a JointSet).
+FIRST_VERSION = 30500
 
 #: Model children skipped (display, metadata) or read only when empty.
 _MODEL_SKIP = {"credits", "publications", "ModelVisualPreferences", "assembly_accuracy",
@@ -293,6 +295,11 @@ def read_osim(path: str | Path) -> OsimModel:
             element and name.
     """
     f = OsimFile.parse(path)
+    version = f.root.attrib.get("Version", "")
+    if not version.isdigit() or int(version) < FIRST_VERSION:
+        raise InputError(f"{path}:{f.root.line}: OpenSimDocument Version '{version}' is older "
+                         f"than OpenSim 4's format ({FIRST_VERSION}); open the model in "
+                         "OpenSim 4 and save it again to convert it.")
     model = f.root.only_child("Model", f)
     f.check_known(f.root, {"Model"})
     forces: list[Node] = []
