@@ -70,6 +70,15 @@ def test_coordinates_kind_and_limits(built):
     assert rows.shape == (4, 10) and np.array_equal(rows[2], q)
     with pytest.raises(InputError, match="no value for coordinate.*lumbar"):
         built.q_from_osim({n: v for n, v in values.items() if n != "lumbar"})
+    assert built.state_path("knee_angle_r", "speed") == "/jointset/knee_r/knee_angle_r/speed"
+    degrees = {built.state_path(n): np.rad2deg(v) if n not in ("pelvis_tx", "pelvis_ty")
+               else v for n, v in values.items()}
+    assert np.allclose(built.q_from_table(degrees, in_degrees=True), q, rtol=1e-15, atol=0)
+    speeds = built.table_from_q(q, quantity="speed")
+    assert list(speeds)[2] == "/jointset/groundPelvis/pelvis_tilt/speed"
+    with pytest.raises(InputError, match="no column '/jointset/lumbar/lumbar/speed'"):
+        built.q_from_table({k: v for k, v in speeds.items() if "lumbar" not in k},
+                           quantity="speed")
 
 
 def test_total_mass_is_the_files(built):
@@ -228,3 +237,36 @@ def test_second_joint_to_ground(tmp_path):
     with pytest.raises(InputError, match="exactly one joint to ground, a PlanarJoint; found "
                        "PlanarJoint 'groundPelvis', PinJoint 'lumbar'"):
         build_model(path)
+
+
+def test_reference_motion_stands_on_the_floor(built):
+    """Moco's tracking reference through the model: in every frame the lowest contact
+    sphere is 0-3 cm into the floor (z = 0), and every foot carrying over 200 N (its
+    referenceGRF) presses a sphere into it. (Feet carrying under 5 N are not always clear:
+    at the left toe-off the reference's toe sphere is 15 mm deep with 0.4 N.)"""
+    from predgait.data.bundled import bundled_path
+    from predgait.data.storage import read_storage
+
+    coordinates = read_storage(bundled_path("moco_2d_walking/referenceCoordinates.sto"))
+    grf = read_storage(bundled_path("moco_2d_walking/referenceGRF.sto"))
+    q = built.q_from_table(coordinates.columns)
+    assert q.shape == (50, 10) and np.array_equal(
+        q[:, 0], coordinates.columns["/jointset/groundPelvis/pelvis_tx/value"])
+    assert np.array_equal(built.q_from_table(built.table_from_q(q)), q)
+    assert np.array_equal(grf.time, coordinates.time)
+    pm = built.model.pin_model
+    data = pm.createData()
+    loaded = 0
+    for k, qk in enumerate(q):
+        pin.framesForwardKinematics(pm, data, qk)
+        clearance = {"r": [], "l": []}
+        for sphere in built.osim.spheres:
+            link, point = built.point_on_body(sphere.body, sphere.location)
+            clearance[sphere.body[-1]].append(data.oMf[pm.getFrameId(link)].act(point)[2]
+                                              - sphere.radius)
+        assert -0.03 < min(min(c) for c in clearance.values()) < 0.0, k
+        for side, values in clearance.items():
+            if grf.columns[f"ground_force_{side}_vy"][k] > 200.0:
+                assert min(values) < 0.0, (k, side)
+                loaded += 1
+    assert loaded > 40

@@ -110,6 +110,42 @@ class OsimPlanarModel:
         return {n: (float(values[..., i]) if values.ndim == 1 else values[..., i])
                 for i, n in enumerate(self.osim_coordinates)}
 
+    def state_path(self, name: str, quantity: str = "value") -> str:
+        """OpenSim state label of a coordinate: ``/jointset/<joint>/<name>/<quantity>``."""
+        return f"/jointset/{self.osim.coordinate(name).joint}/{name}/{quantity}"
+
+    def q_from_table(self, columns, *, quantity: str = "value",
+                     in_degrees: bool = False) -> np.ndarray:
+        """(n, nq) model q (``quantity="value"``) or v (``"speed"``) from table columns.
+
+        Args:
+            columns: label -> (n,) values, e.g. ``read_storage(path).columns`` of a Moco
+                solution or ``referenceCoordinates.sto``: state labels
+                (:meth:`state_path`) or, for values, bare coordinate names.
+            quantity: ``value`` (rad, m) or ``speed`` (rad/s, m/s).
+            in_degrees: Rotational columns are in degrees (the file's ``inDegrees=yes``).
+
+        Raises:
+            InputError: A coordinate has no column (the message names the label).
+        """
+        rows = {}
+        for i, name in enumerate(self.osim_coordinates):
+            label = self.state_path(name, quantity)
+            if label not in columns and quantity == "value" and name in columns:
+                label = name
+            if label not in columns:
+                raise InputError(f"{self.osim.source}: the table has no column '{label}' "
+                                 f"for coordinate {name}; give all of "
+                                 f"{', '.join(self.osim_coordinates)}.")
+            values = np.asarray(columns[label], float)
+            rows[name] = np.deg2rad(values) if in_degrees and i >= 2 else values
+        return self.q_from_osim(rows)
+
+    def table_from_q(self, q, *, quantity: str = "value") -> dict[str, np.ndarray]:
+        """OpenSim state label -> (n,) values of model q or v ((n, nq)), for an STO file."""
+        values = self.osim_from_q(np.atleast_2d(q))
+        return {self.state_path(n, quantity): values[n] for n in self.osim_coordinates}
+
     def body_link(self, body: str) -> str:
         """URDF link (Pinocchio frame) of an OpenSim body; ``ground`` -> ``universe``."""
         if body == "ground":
