@@ -70,6 +70,7 @@ def test_coordinates_kind_and_limits(built):
     assert rows.shape == (4, 10) and np.array_equal(rows[2], q)
     with pytest.raises(InputError, match="no value for coordinate.*lumbar"):
         built.q_from_osim({n: v for n, v in values.items() if n != "lumbar"})
+    assert np.array_equal(built.default_q(), np.zeros(10))  # the file's defaults: all 0
     assert built.state_path("knee_angle_r", "speed") == "/jointset/knee_r/knee_angle_r/speed"
     degrees = {built.state_path(n): np.rad2deg(v) if n not in ("pelvis_tx", "pelvis_ty")
                else v for n, v in values.items()}

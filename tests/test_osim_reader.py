@@ -262,6 +262,21 @@ def test_malformed_xml_and_missing_file(tmp_path):
         read_osim(tmp_path / "none.osim")
 
 
+def test_duplicate_names_and_body_wrap_objects(tmp_path):
+    start = '<Coordinate name="knee_angle_r">'
+    path, line = _corrupt(tmp_path, start, '<Coordinate name="knee_angle_l">')
+    msg = _message(path)
+    assert f"{path}:{line}:" in msg and "a second Coordinate named 'knee_angle_l'" in msg
+    path, line = _corrupt(tmp_path, '<ContactSphere name="front_r">',
+                          '<ContactSphere name="heel_r">')
+    assert f"{path}:{line}:" in _message(path)
+    body = '<Body name="tibia_l">'
+    path, line = _corrupt(tmp_path, body, body + '<WrapObjectSet><objects><WrapCylinder '
+                          'name="knee_cyl"/></objects></WrapObjectSet>')
+    msg = _message(path)
+    assert f"{path}:{line}:" in msg and "<WrapCylinder> 'knee_cyl' in Body 'tibia_l'" in msg
+
+
 def test_opensim_3_format(tmp_path):
     path, _ = _corrupt(tmp_path, 'Version="40000"', 'Version="30000"')
     msg = _message(path)

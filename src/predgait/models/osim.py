@@ -336,6 +336,9 @@ def read_osim(path: str | Path) -> OsimModel:
     names = {b.name for b in bodies} | {"ground"}
     joints = tuple(el.read_joint(f, n, names) for n in joint_nodes)
     f.check_unique(joint_nodes, "Joint")
+    f.check_unique([c for n in joint_nodes for k in n.children if k.tag == "coordinates"
+                    for c in k.children], "Coordinate")
+    f.check_unique(geometry, "contact geometry")
     coordinates = {c.name for j in joints for c in j.coordinates}
     spheres, half_spaces = [], []
     for n in geometry:

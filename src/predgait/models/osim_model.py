@@ -110,6 +110,10 @@ class OsimPlanarModel:
         return {n: (float(values[..., i]) if values.ndim == 1 else values[..., i])
                 for i, n in enumerate(self.osim_coordinates)}
 
+    def default_q(self) -> np.ndarray:
+        """(nq,) model q of the coordinates' ``default_value`` (OpenSim's default pose)."""
+        return self.q_from_osim({c.name: c.default_value for c in self.osim.coordinates})
+
     def state_path(self, name: str, quantity: str = "value") -> str:
         """OpenSim state label of a coordinate: ``/jointset/<joint>/<name>/<quantity>``."""
         return f"/jointset/{self.osim.coordinate(name).joint}/{name}/{quantity}"
