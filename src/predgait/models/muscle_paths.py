@@ -298,6 +298,18 @@ def fit_smooth_paths(geometry: PathGeometry, *, n_samples: int = SAMPLES, seed: 
                                         tuple(polynomials))
 
 
+def smooth_paths(built, *, on_model_q: bool = False):
+    """The fitted smooth paths of a built model (:func:`fit_smooth_paths`), ~1 s.
+
+    Args:
+        built: :class:`~predgait.models.osim_model.OsimPlanarModel`.
+        on_model_q: Take the model's q (``built.osim_coordinates`` order and signs) instead
+            of OpenSim values in the file's coordinate order.
+    """
+    paths = fit_smooth_paths(PathGeometry(built))
+    return paths.reordered(built.osim_coordinates, built.signs) if on_model_q else paths
+
+
 def _replace(point: _Point, **changes) -> _Point:
     from dataclasses import replace
 

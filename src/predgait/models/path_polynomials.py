@@ -237,6 +237,21 @@ class SmoothPaths:
         return (casadi.Function("muscle_lengths", [q], [self.lengths(q)], ["q"], ["l"]),
                 casadi.Function("moment_arms", [q], [self.moment_arms(q)], ["q"], ["d"]))
 
+    def valid_ranges(self) -> dict[str, tuple[float, float]]:
+        """Per spanned coordinate, where every muscle's fit holds (this vector's values).
+
+        Bound the optimiser's coordinates within it: polynomials of high degree grow fast
+        outside their fitting range.
+        """
+        out: dict[str, tuple[float, float]] = {}
+        for p in self.polynomials:
+            for c, (a, b) in zip(p.columns, p.ranges, strict=True):
+                lo, hi = min(a, b), max(a, b)
+                name = self.coordinate_names[c]
+                old = out.get(name, (-np.inf, np.inf))
+                out[name] = (max(old[0], lo), min(old[1], hi))
+        return out
+
     def reordered(self, names, signs=None) -> SmoothPaths:
         """The same functions of another coordinate vector.
 
