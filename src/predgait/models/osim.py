@@ -281,7 +281,7 @@ FIRST_VERSION = 30500
 
 #: Model children skipped (display, metadata) or read only when empty.
 _MODEL_SKIP = {"credits", "publications", "ModelVisualPreferences", "assembly_accuracy",
-               "defaults"}
+               "defaults", "Ground"}
 _EMPTY_SETS = {"ControllerSet", "ConstraintSet", "MarkerSet", "ProbeSet", "ComponentSet"}
 _FORCE_TAGS = {"DeGrooteFregly2016Muscle", "CoordinateActuator", "SmoothSphereHalfSpaceForce"}
 
@@ -309,7 +309,7 @@ def read_osim(path: str | Path) -> OsimModel:
     gravity = (0.0, -9.80665, 0.0)
     for child in model.children:
         tag = child.tag
-        if tag in _MODEL_SKIP or tag in ("Ground",):
+        if tag in _MODEL_SKIP:
             continue
         if tag == "gravity":
             gravity = f.vec(child, 3)
@@ -329,7 +329,7 @@ def read_osim(path: str | Path) -> OsimModel:
                 f.unsupported(obj)
         else:
             f.unsupported(child)
-    from predgait.models import osim_elements as el
+    from predgait.models import osim_elements as el  # it imports this module's classes
 
     bodies = tuple(el.read_body(f, n) for n in body_nodes)
     f.check_unique(body_nodes, "Body")
