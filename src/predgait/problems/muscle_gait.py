@@ -1,0 +1,301 @@
+"""Muscle-driven predictive gait of OpenSim's 2D_gait.osim by direct collocation (NLP).
+
+The predictive problem of OpenSim Moco's ``example2DWalking`` (Dembia et al. 2020, PLoS
+Comput Biol 16:e1008493), written with exact CasADi derivatives (Ipopt, exact Hessian):
+
+* half a stride from right heel strike; periodicity with left/right symmetry as Moco's
+  MocoPeriodicityGoal pairs it: every coordinate but pelvis_tx, every speed (pelvis_tx's
+  with itself), the activations (left <-> right) and the lumbar control;
+* cost = w_speed (d / T - v_desired)^2 (MocoAverageSpeedGoal, weight 1)
+  + w_effort / d * integral sum_i |u_i|^3 dt (MocoControlGoal, weight 10, exponent 3,
+  divided by displacement), over the 18 excitations and the lumbar control, with d the
+  pelvis_tx displacement (the symmetric states put the centre of mass at the same height
+  at both ends, so d is also Moco's centre-of-mass displacement) and T the free duration;
+* optionally (the tracking stage that starts a prediction, as Moco's example starts
+  from a MocoTrack solution) w_track times the mean squared coordinate error to a
+  reference, rad^2 (m^2 for the pelvis translations).
+
+Dynamics: implicit, :mod:`predgait.problems.muscle_gait_dynamics` (accelerations as
+controls, the inverse-dynamics residual as constraints; Falisse et al. 2019): no symbolic
+inverse of the 10x10 mass matrix, the residual is linear in the accelerations, so the
+constraint Jacobian and the exact Hessian stay sparse.
+
+Transcription: trapezoidal on N uniform intervals of h = T/N (T free):
+
+    x_{k+1} - x_k - h/2 (xdot_k + xdot_{k+1}) = 0   for x = q (xdot = v), v (a), act,
+
+with the residual and every path bound at each node. Trapezoidal rather than
+Hermite-Simpson (Moco's default) or Radau-3 (Falisse 2019): with implicit dynamics each
+higher-order scheme adds collocation points holding their own accelerations, residuals,
+muscle and contact evaluations (HS: 2N+1 points, Radau-3: 3N+1) for the same grid, and
+the heel-strike transients of the stiff sphere contacts (3 MN/m^1.5) are shorter than any
+affordable interval, so the higher order buys little accuracy in stance; the product grid
+(50 intervals, Moco's mesh) keeps every node a point where the dynamics hold exactly,
+which :func:`predgait.problems.muscle_gait_check.node_residuals` re-evaluates with
+Pinocchio.
+
+Decision vector (scaled; :meth:`MuscleGaitProblem.unpack` is the only place that slices
+it): w = [T, vec(Q), vec(V), vec(A)/10, vec(ACT), vec(EXC), vec(U)/10], each block
+(rows, N+1) column-major (node by node). Constraints: residuals / 100, defects / h_0,
+periodicity; box bounds on everything (Moco's coordinate bounds).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as cs
+import numpy as np
+
+from predgait.errors import InputError
+from predgait.problems.collocation import Solved, _history
+from predgait.problems.muscle_gait_dynamics import MusclePlant, node_function
+
+#: Scale of each block of the decision vector (physical = scale * scaled).
+SCALES = {"h": 0.01, "q": 1.0, "v": 1.0, "a": 10.0, "act": 1.0, "exc": 1.0, "u": 10.0,
+          "E": 0.01}
+#: Residual scale (N, N m per unit of the scaled constraint).
+RESIDUAL_SCALE = 100.0
+#: Nominal duration used to scale the defects, s.
+NOMINAL_DURATION = 0.5
+#: Ipopt's tolerances: Moco's example (convergence and constraint tolerance 1e-4).
+IPOPT_OPTIONS = {"tol": 1e-4, "constr_viol_tol": 1e-4, "mu_strategy": "adaptive",
+                 "linear_solver": "mumps", "hessian_approximation": "exact"}
+
+
+@dataclass(frozen=True)
+class Goal:
+    """Objective weights and targets (see the module docstring)."""
+
+    speed: float = 1.2            # m/s, desired average speed
+    speed_weight: float = 1.0     # per (m/s)^2
+    effort_weight: float = 10.0   # per (unit control)^3 s / m
+    tracking_weight: float = 0.0  # per rad^2 (m^2)
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Box bounds (physical units): name -> (low, high) of every block.
+
+    Attributes:
+        q, v, a: (nq, 2) per coordinate (m, rad; /s; /s^2).
+        duration: (low, high) s.
+        activation, excitation: (low, high); lumbar: (low, high) control.
+    """
+
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    duration: tuple[float, float]
+    activation: tuple[float, float]
+    excitation: tuple[float, float]
+    lumbar: tuple[float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A point of the NLP at the nodes (guess or solution), physical units.
+
+    Attributes: duration (s); q, v, a (N+1, nq); act, exc (N+1, m); u (N+1,) lumbar.
+    """
+
+    duration: float
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    act: np.ndarray
+    exc: np.ndarray
+    u: np.ndarray
+
+    @property
+    def t(self) -> np.ndarray:
+        """(N+1,) s from the first node."""
+        return np.linspace(0.0, self.duration, self.q.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
+class MuscleGait:
+    """A solved half stride: the trajectory, forces and Ipopt's outcome.
+
+    Attributes:
+        path: the :class:`Trajectory`.
+        grf: (N+1, n_spheres, 3) N, contact forces on the spheres (lab frame).
+        points: (N+1, n_spheres, 3) m, where the contact forces act.
+        force: (N+1, m) N, muscle-tendon forces. fibre: normalised fibre velocities.
+        residual: (N+1, nq) N, N m, the NLP's own dynamics residual.
+        muscle_tau: (N+1, nq) N m, the muscles' generalised forces.
+        terms: unweighted objective terms; solved: status, iterations, time, history.
+    """
+
+    path: Trajectory
+    grf: np.ndarray
+    points: np.ndarray
+    force: np.ndarray
+    fibre: np.ndarray
+    residual: np.ndarray
+    muscle_tau: np.ndarray
+    terms: dict
+    objective: float
+    solved: Solved
+
+
+def mirror_rows(names: tuple[str, ...]) -> np.ndarray:
+    """Index i -> the row of the other side's ``names[i]`` (itself when unsided).
+
+    Names ending in ``_r``/``_l`` pair (model coordinates ``hip_r``, OpenSim
+    ``hip_flexion_r``, muscles ``soleus_r``).
+    """
+    out = []
+    for name in names:
+        side = name[-2:]
+        other = name[:-2] + {"_r": "_l", "_l": "_r"}.get(side, side)
+        out.append(names.index(other) if other in names else names.index(name))
+    return np.array(out)
+
+
+class MuscleGaitProblem:
+    """The NLP of one grid; goal weights and the reference are parameters.
+
+    Args:
+        plant: the model, muscles and contacts (:class:`MusclePlant`).
+        intervals: N.
+        coordinate_names: model coordinates (for the left/right pairs).
+        tx_row: model row of pelvis_tx (excluded from the position periodicity).
+        max_iter: Ipopt's iteration limit.
+    """
+
+    def __init__(self, plant: MusclePlant, intervals: int, *, tx_row: int,
+                 max_iter: int = 2000, print_level: int = 0):
+        if not 4 <= intervals <= 400:
+            raise InputError(f"nodes = {intervals}: give 4..400 collocation intervals.")
+        self.plant, self.n, self.tx_row = plant, intervals, tx_row
+        nq, m, n1 = plant.model.nq, plant.n_muscles, intervals + 1
+        self.sizes = (("h", 1, intervals), ("q", nq, n1), ("v", nq, n1), ("a", nq, n1),
+                      ("act", m, n1), ("exc", m, n1), ("u", 1, n1), ("E", 1, n1))
+        self.w = cs.SX.sym("w", sum(r * c for _, r, c in self.sizes))
+        x = self.unpack(self.w)
+        h, q, v, a, act, exc, u, running = (x[k] for k in ("h", "q", "v", "a", "act", "exc",
+                                                           "u", "E"))
+        self.p_sizes = (("goal", 4), ("q_ref", nq * n1))
+        self.p = cs.SX.sym("p", 4 + nq * n1)
+        goal, q_ref = self.p[:4], cs.reshape(self.p[4:], nq, n1)
+        node = node_function(plant).map(n1)
+        r, act_dot, grf, points, force, fibre, muscle_tau = node(q, v, a, act, exc, u)
+        scale = intervals / NOMINAL_DURATION       # 1 / h_0
+
+        def defect(y, ydot):
+            return cs.vec(y[:, 1:] - y[:, :-1]
+                          - 0.5 * cs.repmat(h, y.shape[0], 1) * (ydot[:, 1:] + ydot[:, :-1]))
+
+        mq = mirror_rows(plant.model.coordinate_names)
+        mm = mirror_rows(plant.muscle_names)
+        keep = [i for i in range(nq) if i != tx_row]
+        g = [cs.vec(r) / RESIDUAL_SCALE, defect(q, v) * scale,
+             defect(v, a) * scale / 10.0, defect(act, act_dot) * scale / 10.0,
+             q[keep, -1] - q[mq[keep], 0], v[:, -1] - v[mq, 0],
+             act[:, -1] - act[mm, 0], u[:, -1] - u[:, 0],
+             cs.vec(h[:, 1:] - h[:, :-1]) * scale,
+             defect(running, cs.sum1(exc ** 3) + cs.fabs(u) ** 3) / SCALES["E"]]
+        self.ng = sum(e.shape[0] for e in g)
+        quad = np.full((n1, 1), 1.0)
+        quad[[0, -1]] = 0.5
+        # pelvis_tx(0) = 0 (a bound) and E(0) = 0: the distance and the effort integral are
+        # last-node values, so no objective term couples all nodes (a sparse KKT system)
+        distance, duration = q[tx_row, -1], intervals * h[0, -1]
+        tracking = cs.sum2(cs.sum1((q - q_ref) ** 2) @ quad) / intervals / nq
+        terms = {"speed": (distance / duration - goal[0]) ** 2,
+                 "effort": running[0, -1] / distance,
+                 "tracking": tracking}
+        objective = (goal[1] * terms["speed"] + goal[2] * terms["effort"]
+                     + goal[3] * terms["tracking"])
+        self.term_names = tuple(terms)
+        self.outputs = cs.Function("outputs", [self.w, self.p],
+                                   [r, grf, points, force, fibre, muscle_tau, *terms.values()])
+        opts = {"ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter, **({"print_timing_statistics": "yes"} if print_level else {}),
+                          **IPOPT_OPTIONS}, "print_time": False}
+        self.nlp = {"x": self.w, "p": self.p, "f": objective, "g": cs.vertcat(*g)}
+        self.solver = cs.nlpsol("muscle_gait", "ipopt", self.nlp, opts)
+
+    def unpack(self, w) -> dict:
+        """Block name -> (rows, N+1) physical values (symbolic or numeric)."""
+        out, offset = {}, 0
+        symbolic = isinstance(w, cs.SX | cs.MX)
+        if not symbolic:
+            w = np.asarray(w, dtype=float).ravel()
+        for name, rows, cols in self.sizes:
+            part = w[offset:offset + rows * cols] * SCALES[name]
+            offset += rows * cols
+            out[name] = (cs.reshape(part, rows, cols) if symbolic
+                         else np.reshape(part, (cols, rows)).T)
+        return out
+
+    def pack(self, path: Trajectory) -> np.ndarray:
+        """The scaled decision vector of a trajectory."""
+        n = self.n
+        f = (path.exc ** 3).sum(axis=1) + np.abs(path.u) ** 3
+        running = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]))]) \
+            * path.duration / n
+        blocks = {"h": np.full((1, n), path.duration / n), "q": path.q.T, "v": path.v.T,
+                  "a": path.a.T, "act": path.act.T, "exc": path.exc.T,
+                  "u": np.reshape(path.u, (1, -1)), "E": running[None, :]}
+        return np.concatenate([blocks[name].T.ravel() / SCALES[name]
+                               for name, _, _ in self.sizes])
+
+    def box(self, bounds: Bounds) -> tuple[np.ndarray, np.ndarray]:
+        """(lbx, ubx), scaled, with pelvis_tx fixed to 0 at the first node."""
+        n1, m = self.n + 1, self.plant.n_muscles
+        low = Trajectory(bounds.duration[0], *(np.tile(b[:, 0], (n1, 1))
+                                               for b in (bounds.q, bounds.v, bounds.a)),
+                         np.full((n1, m), bounds.activation[0]),
+                         np.full((n1, m), bounds.excitation[0]),
+                         np.full(n1, bounds.lumbar[0]))
+        high = Trajectory(bounds.duration[1], *(np.tile(b[:, 1], (n1, 1))
+                                                for b in (bounds.q, bounds.v, bounds.a)),
+                          np.full((n1, m), bounds.activation[1]),
+                          np.full((n1, m), bounds.excitation[1]),
+                          np.full(n1, bounds.lumbar[1]))
+        low.q[0, self.tx_row] = high.q[0, self.tx_row] = 0.0
+        lbx, ubx = self.pack(low), self.pack(high)
+        e = slice(lbx.size - n1, lbx.size)       # the effort integral: 0 at the start
+        lbx[e], ubx[e] = 0.0, np.inf
+        ubx[e.start] = 0.0
+        return lbx, ubx
+
+    def solve(self, guess: Trajectory, bounds: Bounds, goal: Goal,
+              reference: np.ndarray | None = None) -> MuscleGait:
+        """Solve from ``guess``; ``reference`` (N+1, nq) for a tracking goal."""
+        n1, nq = self.n + 1, self.plant.model.nq
+        ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
+        p = np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,
+                             goal.tracking_weight], ref.ravel()])
+        lbx, ubx = self.box(bounds)
+        w0 = np.clip(self.pack(guess), lbx, ubx)
+        clock = time.perf_counter()
+        out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
+        seconds = time.perf_counter() - clock
+        stats = self.solver.stats()
+        g = np.array(out["g"]).ravel()
+        w = np.array(out["x"]).ravel()
+        solved = Solved(w=w, status=stats["return_status"], success=bool(stats["success"]),
+                        iterations=int(stats["iter_count"]), seconds=seconds,
+                        objective=float(out["f"]),
+                        constraint_violation=float(np.abs(g).max()),
+                        history=_history(stats))
+        return self.evaluate(w, p, solved)
+
+    def evaluate(self, w: np.ndarray, p: np.ndarray, solved: Solved) -> MuscleGait:
+        """The gait of a (scaled) decision vector."""
+        x = self.unpack(w)
+        n1 = self.n + 1
+        path = Trajectory(float(x["h"].sum()), x["q"].T, x["v"].T, x["a"].T, x["act"].T,
+                          x["exc"].T, x["u"].ravel())
+        r, grf, points, force, fibre, muscle_tau, *terms = self.outputs(w, p)
+        k = len(self.plant.spheres)
+        return MuscleGait(
+            path=path, grf=np.array(grf).T.reshape(n1, k, 3),
+            points=np.array(points).T.reshape(n1, k, 3), force=np.array(force).T,
+            fibre=np.array(fibre).T, residual=np.array(r).T,
+            muscle_tau=np.array(muscle_tau).T,
+            terms={name: float(t) for name, t in zip(self.term_names, terms, strict=True)},
+            objective=solved.objective, solved=solved)
