@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from predgait.errors import InputError
-from predgait.models.muscle_paths import PathGeometry, fit_smooth_paths, fitting_ranges
+from predgait.models.muscle_paths import PathGeometry, branch_ranges, fit_smooth_paths
 from predgait.models.osim import bundled_2d_gait
 from predgait.models.osim_model import build_model
 
@@ -81,8 +81,8 @@ def test_polynomials_match_opensim_within_1_mm(smooth, reference):
     fitted_arms = np.moveaxis(smooth.moment_arms(poses.T), -1, 0)
     for i, p in enumerate(smooth.polynomials):
         columns = list(p.columns)
-        inside = np.all((poses[:, columns] >= p.ranges[:, 0]) &
-                        (poses[:, columns] <= p.ranges[:, 1]), axis=1)
+        inside = np.all((poses[:, columns] >= p.opensim_ranges[:, 0]) &
+                        (poses[:, columns] <= p.opensim_ranges[:, 1]), axis=1)
         assert inside.sum() >= 140, p.muscle            # most poses lie in the fitted range
         length_error = np.abs(fitted_lengths[inside, i] - lengths[inside, i]).max()
         arm_error = np.abs(fitted_arms[inside, i] - arms[inside, i]).max()
@@ -90,13 +90,16 @@ def test_polynomials_match_opensim_within_1_mm(smooth, reference):
         assert length_error < 0.25e-3, p.muscle          # lengths well inside the goal
 
 
-def test_fitting_ranges_stop_at_large_conditional_jumps(geometry, smooth):
+def test_branch_ranges_stop_at_large_conditional_jumps(geometry, smooth):
     """vasti and rect_fem switch a point with a length jump of 3.4 and 2.5 mm near 81 and
-    84 deg of knee flexion: their fits stop there; the other ranges are the model's."""
+    84 deg of knee flexion: their fits follow OpenSim up to there; all fits span the
+    model's whole coordinate ranges."""
     knee = geometry.coordinate_names.index("knee_angle_r")
     for m, name in enumerate(geometry.muscle_names):
-        ranges = fitting_ranges(geometry, m)
+        ranges = branch_ranges(geometry, m)
         full = geometry.ranges[list(geometry.columns(m))]
+        assert np.array_equal(smooth.polynomials[m].ranges, full) or np.allclose(
+            smooth.polynomials[m].ranges, full, rtol=1e-14, atol=0)
         if name in ("vasti_r", "vasti_l", "rect_fem_r", "rect_fem_l"):
             row = geometry.columns(m).index(knee if name.endswith("_r") else knee - 1)
             assert ranges[row, 0] == pytest.approx(-1.42 if "vasti" in name else -1.45997,
@@ -107,6 +110,21 @@ def test_fitting_ranges_stop_at_large_conditional_jumps(geometry, smooth):
     valid = smooth.valid_ranges()
     assert valid["knee_angle_r"][0] == pytest.approx(-1.42, abs=1e-4)
     assert np.allclose(valid["hip_flexion_r"], geometry.ranges[4], rtol=1e-14, atol=0)
+
+
+def test_beyond_the_switch_the_fit_follows_the_branch_continued(geometry, smooth, reference):
+    """Over the whole ranges the fits stay within 1 mm of the path whose conditional points
+    are decided inside the branch ranges (no blow-up of the polynomials beyond 81 deg)."""
+    poses = reference[0]
+    decide = poses.copy()
+    for m in range(len(geometry.muscle_names)):
+        for row, c in enumerate(geometry.columns(m)):
+            decide[:, c] = np.clip(decide[:, c], *branch_ranges(geometry, m)[row])
+    exact = geometry.lengths(poses, active_at=decide)
+    assert np.abs(smooth.lengths(poses.T).T - exact).max() < 1e-3
+    knee = geometry.coordinate_names.index("knee_angle_r")
+    deep = poses[:, knee] < -1.5
+    assert deep.sum() >= 10                                   # poses beyond the switch
 
 
 def test_moment_arm_signs(smooth, reference):

@@ -128,6 +128,11 @@ class PathGeometry:
         """Columns of the coordinates a muscle spans."""
         return tuple(self.coordinate_names.index(n) for n in self.spans[muscle])
 
+    def decisions(self, muscle: int, poses: np.ndarray) -> np.ndarray:
+        """(N, n_conditional) whether each ConditionalPathPoint of a muscle is active."""
+        columns = [_active(p, poses) for p in self._paths[muscle] if p.condition is not None]
+        return np.stack(columns, axis=1) if columns else np.zeros((len(poses), 0), bool)
+
     def _placements(self, values: np.ndarray):
         """Rotations (N, F, 3, 3) and positions (N, F, 3) of the path frames in the lab."""
         model = self.built.model.pin_model
@@ -157,11 +162,7 @@ class PathGeometry:
                 local = self._local(p, values, clamp)
                 world = np.einsum("nij,nj->ni", rotations[:, p.frame], local) \
                     + positions[:, p.frame]
-                active = np.ones(len(values), bool)
-                if p.condition is not None:
-                    c, low, high = p.condition
-                    active = (active_at[:, c] >= low - CONDITIONAL_TOLERANCE) & \
-                        (active_at[:, c] <= high + CONDITIONAL_TOLERANCE)
+                active = _active(p, active_at)
                 segment = np.linalg.norm(world - last, axis=1)
                 lengths[:, m] += np.where(active & started, segment, 0.0)
                 last = np.where(active[:, None], world, last)
@@ -190,31 +191,35 @@ class PathGeometry:
         values = np.asarray(q_osim, float)
         return np.atleast_2d(values), values.ndim == 1
 
-    def lengths(self, q_osim) -> np.ndarray:
+    def lengths(self, q_osim, *, active_at=None) -> np.ndarray:
         """Muscle-tendon lengths, m: (n_muscles,) for one pose, (N, n_muscles) for N.
 
         Args:
             q_osim: OpenSim coordinate values, (n_coordinates,) or (N, n_coordinates) in
                 :attr:`coordinate_names` order, or a dict name -> value (missing ones 0).
+            active_at: Poses (same shape) at which the ConditionalPathPoints are decided
+                instead of ``q_osim`` (to follow one branch of a switching path).
         """
         values, single = self._values(q_osim)
-        lengths = self._lengths(values)
+        active = None if active_at is None else self._values(active_at)[0]
+        lengths = self._lengths(values, active_at=active)
         return lengths[0] if single else lengths
 
-    def moment_arms(self, q_osim, *, step: float = STEP) -> np.ndarray:
+    def moment_arms(self, q_osim, *, step: float = STEP, active_at=None) -> np.ndarray:
         """Moment arms -dl/dq, m (or m/m): (n_muscles, n_coordinates) or (N, ...) for N.
 
         Zero for coordinates a muscle does not span. The coordinates are perturbed in
         groups no muscle spans two of (a left and a right joint together), so a pose costs
-        2 x (number of groups) length evaluations.
+        2 x (number of groups) length evaluations. ``active_at``: as :meth:`lengths`.
         """
         values, single = self._values(q_osim)
+        active = values if active_at is None else self._values(active_at)[0]
         arms = np.zeros((len(values), len(self.muscle_names), len(self.coordinate_names)))
         for group in self._groups():
             delta = np.zeros(len(self.coordinate_names))
             delta[list(group)] = step
-            plus = self._lengths(values + delta, active_at=values, clamp=False)
-            minus = self._lengths(values - delta, active_at=values, clamp=False)
+            plus = self._lengths(values + delta, active_at=active, clamp=False)
+            minus = self._lengths(values - delta, active_at=active, clamp=False)
             for m in range(len(self.muscle_names)):
                 for c in set(group) & set(self.columns(m)):
                     arms[:, m, c] = -(plus[:, m] - minus[:, m]) / (2.0 * step)
@@ -234,15 +239,16 @@ class PathGeometry:
         return [tuple(g) for g in groups]
 
 
-def fitting_ranges(geometry: PathGeometry, muscle: int) -> np.ndarray:
-    """(n_spanned, 2) ranges over which a muscle's smooth length is fitted.
+def branch_ranges(geometry: PathGeometry, muscle: int) -> np.ndarray:
+    """(n_spanned, 2) ranges within which a muscle's smooth length follows OpenSim's.
 
     The spanned coordinates' ranges, each cut at a ConditionalPathPoint boundary inside it
     where the exact length jumps by more than :data:`JUMP_LIMIT` (no smooth function follows
-    such a jump): the side kept holds the coordinate's default value. In 2D_gait.osim this
-    cuts the knee at 81 deg of flexion for vasti (3.4 mm jump) and 84 deg for rect_fem
-    (2.5 mm); the iliopsoas (0.02 mm at 45 deg hip flexion) and gastroc (0.4 mm at 45 deg
-    knee flexion) switches are fitted through.
+    such a jump): the side kept holds the coordinate's default value. Beyond the cut the fit
+    follows the kept branch continued (the point's switch not made), smooth and bounded. In
+    2D_gait.osim this cuts the knee at 81 deg of flexion for vasti (3.4 mm jump) and 84 deg
+    for rect_fem (2.5 mm); the iliopsoas (0.02 mm at 45 deg hip flexion) and gastroc
+    (0.4 mm at 45 deg knee flexion) switches are fitted through.
     """
     osim = geometry.built.osim
     columns = geometry.columns(muscle)
@@ -271,7 +277,8 @@ def fit_smooth_paths(geometry: PathGeometry, *, n_samples: int = SAMPLES, seed: 
 
     The exact lengths and moment arms are sampled at ``n_samples`` poses drawn uniformly
     within the spanned coordinates' ranges (seeded: the same fit every time); each muscle is
-    fitted on the samples inside its :func:`fitting_ranges`.
+    fitted over the whole ranges, its conditional points decided within its
+    :func:`branch_ranges` (the poses clipped into them), which it then follows.
 
     Returns:
         :class:`~predgait.models.path_polynomials.SmoothPaths` on OpenSim coordinate values
@@ -284,16 +291,27 @@ def fit_smooth_paths(geometry: PathGeometry, *, n_samples: int = SAMPLES, seed: 
     values = np.tile([c.default_value for c in geometry.built.osim.coordinates], (n_samples, 1))
     for c in spanned:
         values[:, c] = rng.uniform(*geometry.ranges[c], n_samples)
-    lengths, arms = geometry.lengths(values), geometry.moment_arms(values)
+    branches = [branch_ranges(geometry, m) for m in range(len(geometry.muscle_names))]
+    decide = values.copy()
+    for m, ranges in enumerate(branches):
+        for row, c in enumerate(geometry.columns(m)):
+            # Coordinates are shared: a cut must be the same for every muscle it concerns,
+            # else those muscles are evaluated on their own clipped poses below.
+            decide[:, c] = np.clip(decide[:, c], *ranges[row])
+    lengths = geometry.lengths(values, active_at=decide)
+    arms = geometry.moment_arms(values, active_at=decide)
     polynomials = []
     for m, name in enumerate(geometry.muscle_names):
         columns = list(geometry.columns(m))
-        ranges = fitting_ranges(geometry, m)
-        inside = np.all((values[:, columns] >= ranges[:, 0]) &
-                        (values[:, columns] <= ranges[:, 1]), axis=1)
+        own = values.copy()
+        own[:, columns] = np.clip(values[:, columns], branches[m][:, 0], branches[m][:, 1])
+        if not np.array_equal(geometry.decisions(m, own), geometry.decisions(m, decide)):
+            lengths[:, m] = geometry.lengths(values, active_at=own)[:, m]
+            arms[:, m] = geometry.moment_arms(values, active_at=own)[:, m]
+        full = geometry.ranges[columns]
         polynomials.append(path_polynomials.fit(
-            name, tuple(columns), ranges, values[inside][:, columns], lengths[inside, m],
-            arms[inside][:, m][:, columns]))
+            name, tuple(columns), full, values[:, columns], lengths[:, m], arms[:, m][:, columns],
+            agrees=branches[m]))
     return path_polynomials.SmoothPaths(geometry.coordinate_names, geometry.muscle_names,
                                         tuple(polynomials))
 
@@ -308,6 +326,15 @@ def smooth_paths(built, *, on_model_q: bool = False):
     """
     paths = fit_smooth_paths(PathGeometry(built))
     return paths.reordered(built.osim_coordinates, built.signs) if on_model_q else paths
+
+
+def _active(point: _Point, poses: np.ndarray) -> np.ndarray:
+    """(N,) whether a point counts at each pose (OpenSim ConditionalPathPoint::isActive)."""
+    if point.condition is None:
+        return np.ones(len(poses), bool)
+    c, low, high = point.condition
+    return (poses[:, c] >= low - CONDITIONAL_TOLERANCE) & \
+        (poses[:, c] <= high + CONDITIONAL_TOLERANCE)
 
 
 def _replace(point: _Point, **changes) -> _Point:

@@ -26,7 +26,7 @@ from predgait.dynamics.muscle_curves import lib
 LENGTH_GOAL = 0.1e-3
 ARM_GOAL = 0.4e-3
 #: Highest total degree tried, by number of spanned coordinates (more: the last).
-MAX_DEGREE = (20, 16, 10)
+MAX_DEGREE = (20, 20, 10)
 
 
 def exponents(n_variables: int, degree: int) -> np.ndarray:
@@ -52,6 +52,9 @@ class PathPolynomial:
         coefficients: (n_terms,) m.
         length_error: Max |l - exact| on the fitting samples, m.
         arm_error: Max |moment arm - exact| on the fitting samples, m.
+        agrees: (n_spanned, 2) ranges where the exact data followed OpenSim's switching
+            conditional points (None: the whole fitting range); see
+            :func:`predgait.models.muscle_paths.branch_ranges`.
     """
 
     muscle: str
@@ -62,6 +65,12 @@ class PathPolynomial:
     coefficients: tuple[float, ...]
     length_error: float = 0.0
     arm_error: float = 0.0
+    agrees: tuple[tuple[float, float], ...] | None = None
+
+    @property
+    def opensim_ranges(self) -> np.ndarray:
+        """(n_spanned, 2): where the polynomial approximates OpenSim's own path."""
+        return self.ranges if self.agrees is None else np.array(self.agrees, float)
 
     @property
     def degree(self) -> int:
@@ -131,7 +140,8 @@ def _design(x: np.ndarray, powers: np.ndarray, half_range: np.ndarray):
 
 def fit(muscle: str, columns: tuple[int, ...], ranges: np.ndarray, samples: np.ndarray,
         lengths: np.ndarray, arms: np.ndarray, *, length_goal: float = LENGTH_GOAL,
-        arm_goal: float = ARM_GOAL, max_degree: int | None = None) -> PathPolynomial:
+        arm_goal: float = ARM_GOAL, max_degree: int | None = None,
+        agrees=None) -> PathPolynomial:
     """Fit one muscle's polynomial to exact lengths and moment arms.
 
     One least-squares system for all degrees: the normal equations of the highest degree,
@@ -147,6 +157,7 @@ def fit(muscle: str, columns: tuple[int, ...], ranges: np.ndarray, samples: np.n
         length_goal: Goal of the max length error, m.
         arm_goal: Goal of the max moment-arm error, m.
         max_degree: Highest degree tried (default :data:`MAX_DEGREE`).
+        agrees: Stored as :attr:`PathPolynomial.agrees` ((n_spanned, 2) or None).
 
     Returns:
         The lowest-degree polynomial meeting both goals, else the one whose larger error
@@ -173,7 +184,8 @@ def fit(muscle: str, columns: tuple[int, ...], ranges: np.ndarray, samples: np.n
             best_score = score
             best = PathPolynomial(muscle, tuple(columns), tuple(centre), tuple(half),
                                   tuple(map(tuple, powers[:n])), tuple(coef), length_error,
-                                  arm_error)
+                                  arm_error,
+                                  None if agrees is None else tuple(map(tuple, agrees)))
         if score <= 1.0:
             break
     return best
@@ -238,14 +250,15 @@ class SmoothPaths:
                 casadi.Function("moment_arms", [q], [self.moment_arms(q)], ["q"], ["d"]))
 
     def valid_ranges(self) -> dict[str, tuple[float, float]]:
-        """Per spanned coordinate, where every muscle's fit holds (this vector's values).
+        """Per spanned coordinate, where every muscle's fit approximates OpenSim's path.
 
-        Bound the optimiser's coordinates within it: polynomials of high degree grow fast
-        outside their fitting range.
+        In this vector's values. Outside it (e.g. knee flexion beyond 81 deg in
+        2D_gait.osim) the fits follow the branch of the path continued, not OpenSim's
+        switched one (a few mm apart); beyond the model's coordinate ranges they extrapolate.
         """
         out: dict[str, tuple[float, float]] = {}
         for p in self.polynomials:
-            for c, (a, b) in zip(p.columns, p.ranges, strict=True):
+            for c, (a, b) in zip(p.columns, p.opensim_ranges, strict=True):
                 lo, hi = min(a, b), max(a, b)
                 name = self.coordinate_names[c]
                 old = out.get(name, (-np.inf, np.inf))
@@ -274,8 +287,10 @@ class SmoothPaths:
             columns = tuple(names.index(n) for n in spanned)
             sign = signs[list(columns)]
             # x = (s q' - c) / h = (q' - s c) / (s h) for q' = s q.
+            agrees = None if p.agrees is None else tuple(
+                tuple(sorted(s * np.array(r))) for s, r in zip(sign, p.agrees, strict=True))
             polynomials.append(PathPolynomial(
                 p.muscle, columns, tuple(sign * np.array(p.centre)),
                 tuple(sign * np.array(p.half_range)), p.powers, p.coefficients,
-                p.length_error, p.arm_error))
+                p.length_error, p.arm_error, agrees))
         return SmoothPaths(names, self.muscle_names, tuple(polynomials))
