@@ -20,7 +20,8 @@ from predgait.dynamics.muscles import MuscleParameters, MuscleSet
 from predgait.errors import InputError
 from predgait.models.osim import bundled_2d_gait
 
-TABLE = Path(__file__).resolve().parent / "reference" / "osim2d" / "muscle_force.csv"
+REFERENCE = Path(__file__).resolve().parent / "reference" / "osim2d"
+TABLE = REFERENCE / "muscle_force.csv"
 
 #: OpenSim 4.6's activation derivative of iliopsoas_r in 2D_gait.osim, (excitation,
 #: activation, da/dt in 1/s), printed once with the peer Python: controls set with
@@ -82,6 +83,45 @@ def test_curves_known_answers():
     forces = np.linspace(0.0, 2.0, 9)
     assert np.allclose(curves.tendon_force_length(curves.tendon_force_length_inverse(forces)),
                        forces, atol=1e-13)
+
+
+def _rows(name: str) -> list[dict]:
+    with (REFERENCE / name).open() as handle:
+        return list(csv.DictReader(handle))
+
+
+def test_curves_match_opensim_for_other_parameters():
+    """muscle_curves.csv (make_muscle_curves.py): three parameter sets, x in [0.3, 1.9]."""
+    rows = _rows("muscle_curves.csv")
+    assert len({r["set"] for r in rows}) == 3
+    for r in rows:
+        x = float(r["x"])
+        width, passive, tendon = (float(r[k]) for k in (
+            "active_force_width_scale", "passive_fiber_strain_at_one_norm_force",
+            "tendon_strain_at_one_norm_force"))
+        assert curves.active_force_length(x, width) == pytest.approx(float(r["active"]),
+                                                                      rel=1e-10, abs=1e-12)
+        assert curves.passive_force_length(x, passive) == pytest.approx(float(r["passive"]),
+                                                                         rel=1e-10, abs=1e-12)
+        assert curves.tendon_force_length(x, tendon) == pytest.approx(float(r["tendon"]),
+                                                                       rel=1e-10, abs=1e-12)
+        assert curves.force_velocity(x - 1.0) == pytest.approx(float(r["velocity"]),
+                                                                rel=1e-10, abs=1e-12)
+
+
+def test_compliant_residual_matches_opensim(muscles):
+    """compliant_residual.csv: OpenSim 4.6's calcEquilibriumResidual (implicit mode) of the
+    18 muscles at 12 random states each (normalized by the max isometric force)."""
+    rows = _rows("compliant_residual.csv")
+    index = np.array([muscles.index(r["muscle"]) for r in rows])
+    values = {k: np.array([float(r[k]) for r in rows]) for k in rows[0] if k != "muscle"}
+    for i in range(len(muscles)):
+        pick = index == i
+        one = MuscleSet((muscles.muscles[i],))
+        state = one.compliant_tendon(*(values[k][pick][None, :] for k in (
+            "length", "speed", "activation", "norm_tendon_force", "norm_tendon_force_rate")))
+        assert np.allclose(state.residual[0], values["residual"][pick], rtol=1e-9, atol=1e-11)
+    assert np.abs(values["residual"]).max() > 0.5
 
 
 def test_activation_rate_as_opensim_and_its_sign():
@@ -161,8 +201,8 @@ def test_compliant_residual_is_tendon_minus_fibre_force(muscles):
                                      np.full(len(muscles), 0.5), f_t, rate)
     f_max = muscles.parameter("max_isometric_force")
     assert np.allclose(state.tendon_force, f_max * f_t)
-    assert np.allclose(state.residual, state.tendon_force
-                       - state.fiber_force * state.cos_pennation)
+    assert np.allclose(state.residual, (state.tendon_force
+                       - state.fiber_force * state.cos_pennation) / f_max)
     # The tendon takes the strain of f_T = 0.4, the fibre the rest of the length.
     strain = muscles.parameter("tendon_strain_at_one_norm_force")
     assert np.allclose(curves.tendon_force_length(state.norm_tendon_length, strain), 0.4)

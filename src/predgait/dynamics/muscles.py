@@ -11,8 +11,8 @@ OpenSim's ``calcMuscleLengthInfoHelper`` / ``calcFiberVelocityInfoHelper`` /
   (:meth:`MuscleSet.rigid_tendon`);
 - compliant tendon in De Groote et al.'s (2016) implicit form (formulation 3): the normalized
   tendon force f_T is a state, its derivative a control, and the muscle-tendon equilibrium
-  residual F_max f_T - F_fibre cos(alpha) (N, OpenSim's ``calcEquilibriumResidual``) a path
-  constraint (:meth:`MuscleSet.compliant_tendon`);
+  residual (F_max f_T - F_fibre cos(alpha)) / F_max (OpenSim 4.6's ``calcEquilibriumResidual``,
+  normalized by the max isometric force) a path constraint (:meth:`MuscleSet.compliant_tendon`);
 - pennation by the constant-height model: fibre width w = l_opt sin(alpha_opt), fibre length
   sqrt(l_along_tendon^2 + w^2), cos(alpha) = l_along_tendon / l_fibre;
 - fibre force F_max (a f_L f_V + f_P + fiber_damping * v_norm), along the tendon times
@@ -133,7 +133,8 @@ class MuscleState:
         passive_force_length: f_P.
         force_velocity: f_V.
         norm_tendon_length: Tendon length / slack length (1 for a rigid tendon).
-        residual: Equilibrium residual F_max f_T - F_fibre cos(alpha), N (compliant; 0 rigid).
+        residual: Equilibrium residual (F_max f_T - F_fibre cos(alpha)) / F_max,
+            dimensionless (compliant; 0 rigid), as OpenSim 4.6's calcEquilibriumResidual.
     """
 
     tendon_force: Any
@@ -276,7 +277,8 @@ class MuscleSet:
         fiber_force = active + passive + damping
         along = fiber_force * cos_pennation
         if compliant:
-            force, residual = f_max * tendon_force, f_max * tendon_force - along
+            force = f_max * tendon_force
+            residual = tendon_force - along / f_max
         else:
             force, residual = along, 0.0 * along
         return MuscleState(force, fiber_force, active, passive, damping, fiber_length,
@@ -312,8 +314,8 @@ class MuscleSet:
             norm_tendon_force_rate: Control d(f_T)/dt, 1/s.
 
         Returns:
-            The :class:`MuscleState`: ``tendon_force`` = F_max f_T and ``residual`` (N), which a
-            solution must drive to zero.
+            The :class:`MuscleState`: ``tendon_force`` = F_max f_T and ``residual``
+            (normalized by F_max), which a solution must drive to zero.
         """
         like = _like(length, speed, activation, norm_tendon_force, norm_tendon_force_rate)
         strain = self.parameter("tendon_strain_at_one_norm_force", like)
