@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from predgait.errors import InputError
-from predgait.models.muscle_paths import PathGeometry, branch_ranges, fit_smooth_paths
+from predgait.models.muscle_paths import PathGeometry, branch_ranges, fit_smooth_paths, smooth_paths
 from predgait.models.osim import bundled_2d_gait
 from predgait.models.osim_model import build_model
 
@@ -182,5 +182,8 @@ def test_model_q_order(smooth, geometry, reference):
     pose = reference[0][11]
     q = built.q_from_osim(dict(zip(geometry.coordinate_names, pose, strict=True)))
     assert np.allclose(on_q.lengths(q), smooth.lengths(pose), atol=1e-14)
+    assert np.allclose(smooth_paths(built, on_model_q=True).lengths(q), on_q.lengths(q),
+                       atol=1e-14)                      # the same seeded fit
+    assert smooth_paths(built) is smooth_paths(built)    # fitted once per model
     with pytest.raises(InputError, match="spans hip_flexion_r"):
         smooth.reordered(("knee_angle_r",))

@@ -28,6 +28,7 @@ Coordinates are given as OpenSim values in :attr:`PathGeometry.coordinate_names`
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -317,15 +318,21 @@ def fit_smooth_paths(geometry: PathGeometry, *, n_samples: int = SAMPLES, seed: 
 
 
 def smooth_paths(built, *, on_model_q: bool = False):
-    """The fitted smooth paths of a built model (:func:`fit_smooth_paths`), ~1 s.
+    """The fitted smooth paths of a built model (:func:`fit_smooth_paths`), ~1 s once.
 
     Args:
         built: :class:`~predgait.models.osim_model.OsimPlanarModel`.
         on_model_q: Take the model's q (``built.osim_coordinates`` order and signs) instead
             of OpenSim values in the file's coordinate order.
     """
-    paths = fit_smooth_paths(PathGeometry(built))
+    paths = _fitted(built)
     return paths.reordered(built.osim_coordinates, built.signs) if on_model_q else paths
+
+
+@functools.lru_cache(maxsize=8)
+def _fitted(built):
+    """One fit per built model object (kept while the process runs)."""
+    return fit_smooth_paths(PathGeometry(built))
 
 
 def _active(point: _Point, poses: np.ndarray) -> np.ndarray:

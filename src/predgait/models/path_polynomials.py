@@ -183,7 +183,8 @@ def fit(muscle: str, columns: tuple[int, ...], ranges: np.ndarray, samples: np.n
         if score < best_score:
             best_score = score
             best = PathPolynomial(muscle, tuple(columns), tuple(centre), tuple(half),
-                                  tuple(map(tuple, powers[:n])), tuple(coef), length_error,
+                                  tuple(tuple(int(v) for v in row) for row in powers[:n]),
+                                  tuple(float(v) for v in coef), length_error,
                                   arm_error,
                                   None if agrees is None else tuple(map(tuple, agrees)))
         if score <= 1.0:
