@@ -215,10 +215,13 @@ def test_scenario_edits(muscles):
     lengths = np.array([m.tendon_slack_length + 1.1 * m.optimal_fiber_length
                         for m in muscles.muscles])
     zero, half = np.zeros(len(muscles)), np.full(len(muscles), 0.5)
-    before = muscles.rigid_tendon(lengths, zero, half).tendon_force
+    original = muscles.rigid_tendon(lengths, zero, half)
+    before = original.tendon_force
     after = weak.rigid_tendon(lengths, zero, half).tendon_force
     assert after[i] == pytest.approx(0.5 * before[i], rel=1e-14)
     assert after[muscles.index("tib_ant_r")] == before[muscles.index("tib_ant_r")]
+    off = muscles.edited("soleus_r", applies_force=False).rigid_tendon(lengths, zero, half)
+    assert off.tendon_force[i] == 0.0 and off.fiber_force[i] == original.fiber_force[i]
     longer = muscles.edited("hamstrings_r", tendon_slack_length_scale=1.1)
     assert longer.muscles[0].tendon_slack_length == pytest.approx(
         1.1 * muscles.muscles[0].tendon_slack_length)

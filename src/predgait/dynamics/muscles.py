@@ -55,6 +55,7 @@ class MuscleParameters:
         ignore_passive_fiber_force: f_P = 0.
         ignore_tendon_compliance: Rigid tendon.
         ignore_activation_dynamics: Activation = excitation.
+        applies_force: False: the muscle exerts no force (OpenSim ``appliesForce``).
         default_activation: Initial activation.
         default_normalized_tendon_force: Initial f_T (compliant tendon).
         min_control: Lower bound of the excitation.
@@ -78,6 +79,7 @@ class MuscleParameters:
     ignore_passive_fiber_force: bool = False
     ignore_tendon_compliance: bool = False
     ignore_activation_dynamics: bool = False
+    applies_force: bool = True
     default_activation: float = 0.5
     default_normalized_tendon_force: float = 0.5
     min_control: float = 0.0
@@ -154,9 +156,9 @@ class MuscleState:
     residual: Any
 
 
+_FLAGS = tuple(f.name for f in fields(MuscleParameters) if f.type == "bool")
 _NUMBERS = tuple(f.name for f in fields(MuscleParameters)
-                 if f.name not in ("name", "where") and not f.name.startswith("ignore_"))
-_FLAGS = tuple(f.name for f in fields(MuscleParameters) if f.name.startswith("ignore_"))
+                 if f.name not in ("name", "where") and f.name not in _FLAGS)
 
 
 @dataclass(frozen=True)
@@ -281,6 +283,7 @@ class MuscleSet:
             residual = tendon_force - along / f_max
         else:
             force, residual = along, 0.0 * along
+        force = force * p("applies_force")
         return MuscleState(force, fiber_force, active, passive, damping, fiber_length,
                            norm_length, fiber_velocity, norm_velocity, cos_pennation, f_l, f_p,
                            f_v, norm_tendon_length, residual)
