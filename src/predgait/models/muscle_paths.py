@@ -20,8 +20,9 @@ them through ``getdPointdQ``, which does not clamp).
 The geometry is the model's as it is, errors included. OpenSim's own example2DWalking
 notes that "the path of the gastroc muscle contains an error -- the path does not cross the
 knee joint"; whatever that path does in the file, it does here too (in 2D_gait.osim its
-points lie on femur_r and calcn_r, so it spans knee and ankle, and OpenSim 4.6 gives it a
-knee-flexor moment arm of 12-26 mm, as this module does).
+points lie on femur_r and calcn_r, so it spans knee and ankle; at OpenSim's 200 reference
+poses its knee moment arm runs from -26 mm (a flexor) to +6 mm in deep flexion, in OpenSim
+4.6 and here alike).
 
 For the optimiser, :func:`smooth_paths` (:func:`fit_smooth_paths`) fits each muscle a
 polynomial of its spanned coordinates (:mod:`predgait.models.path_polynomials`) to this
