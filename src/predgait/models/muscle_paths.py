@@ -282,8 +282,9 @@ def branch_ranges(geometry: PathGeometry, muscle: int) -> np.ndarray:
 def fit_smooth_paths(geometry: PathGeometry, *, n_samples: int = SAMPLES, seed: int = 0):
     """Fit every muscle's polynomial (:mod:`predgait.models.path_polynomials`).
 
-    The exact lengths and moment arms are sampled at ``n_samples`` poses drawn uniformly
-    within the spanned coordinates' ranges (seeded: the same fit every time); each muscle is
+    The exact lengths and moment arms are sampled at ``n_samples`` poses within the spanned
+    coordinates' ranges, half drawn uniformly, half with the arcsine density of Chebyshev
+    nodes (seeded: the same fit every time); each muscle is
     fitted over the whole ranges, its conditional points decided within its
     :func:`branch_ranges` (the poses clipped into them), which it then follows.
 
@@ -297,7 +298,12 @@ def fit_smooth_paths(geometry: PathGeometry, *, n_samples: int = SAMPLES, seed: 
     spanned = sorted({c for m in range(len(geometry.muscle_names)) for c in geometry.columns(m)})
     values = np.tile([c.default_value for c in geometry.built.osim.coordinates], (n_samples, 1))
     for c in spanned:
-        values[:, c] = rng.uniform(*geometry.ranges[c], n_samples)
+        # Arcsine (Chebyshev) density: as many samples near the range ends, where a
+        # polynomial's derivative errs most, as in the middle.
+        low, high = geometry.ranges[c]
+        unit = np.where(np.arange(n_samples) % 2 == 0, rng.uniform(-1.0, 1.0, n_samples),
+                        np.cos(np.pi * rng.uniform(0.0, 1.0, n_samples)))
+        values[:, c] = 0.5 * (low + high) + 0.5 * (high - low) * unit
     branches = [branch_ranges(geometry, m) for m in range(len(geometry.muscle_names))]
     decide = values.copy()
     for m, ranges in enumerate(branches):

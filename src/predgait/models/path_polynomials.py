@@ -25,6 +25,8 @@ from predgait.dynamics.muscle_curves import lib
 #: Fit goals on the samples, m: max length error and max moment-arm error.
 LENGTH_GOAL = 0.1e-3
 ARM_GOAL = 0.4e-3
+#: Every HOLD_OUT-th sample validates the degree instead of entering the fit.
+HOLD_OUT = 4
 #: Highest total degree tried, by number of spanned coordinates (more: the last).
 MAX_DEGREE = (20, 20, 10)
 
@@ -50,8 +52,8 @@ class PathPolynomial:
         half_range: Half-width of each fitting range (rad or m).
         powers: (n_terms, n_spanned) Chebyshev degrees.
         coefficients: (n_terms,) m.
-        length_error: Max |l - exact| on the fitting samples, m.
-        arm_error: Max |moment arm - exact| on the fitting samples, m.
+        length_error: Max |l - exact| on all the samples, m.
+        arm_error: Max |moment arm - exact| on all the samples, m.
         agrees: (n_spanned, 2) ranges where the exact data followed OpenSim's switching
             conditional points (None: the whole fitting range); see
             :func:`predgait.models.muscle_paths.branch_ranges`.
@@ -146,6 +148,9 @@ def fit(muscle: str, columns: tuple[int, ...], ranges: np.ndarray, samples: np.n
 
     One least-squares system for all degrees: the normal equations of the highest degree,
     of which each lower degree solves the leading block (the basis is ordered by degree).
+    The degree is chosen on held-out samples (every :data:`HOLD_OUT`-th), so that a high
+    degree fitting the samples but waving between them is not taken; the polynomial of that
+    degree is then fitted to all samples.
 
     Args:
         muscle: Name.
@@ -160,8 +165,8 @@ def fit(muscle: str, columns: tuple[int, ...], ranges: np.ndarray, samples: np.n
         agrees: Stored as :attr:`PathPolynomial.agrees` ((n_spanned, 2) or None).
 
     Returns:
-        The lowest-degree polynomial meeting both goals, else the one whose larger error
-        ratio to its goal is smallest.
+        The polynomial of the lowest degree meeting both goals on the held-out samples,
+        else of the degree whose larger error ratio to its goal is smallest there.
     """
     k = len(columns)
     max_degree = max_degree or MAX_DEGREE[min(k, len(MAX_DEGREE)) - 1]
@@ -171,25 +176,34 @@ def fit(muscle: str, columns: tuple[int, ...], ranges: np.ndarray, samples: np.n
     values, derivs = _design((samples - centre) / half, powers, half)
     a = np.vstack([values, *(-d for d in derivs)])
     b = np.concatenate([lengths, *arms.T])
-    gram, rhs = a.T @ a, a.T @ b
-    best, best_score = None, np.inf
+    held = np.arange(len(samples)) % HOLD_OUT == 0           # validation samples
+    rows = np.tile(~held, k + 1)
+    gram, rhs = a[rows].T @ a[rows], a[rows].T @ b[rows]
+    chosen, best_score = max_degree, np.inf
     for degree in range(1, max_degree + 1):
         n = int(np.sum(powers.sum(axis=1) <= degree))
         coef = np.linalg.lstsq(gram[:n, :n], rhs[:n], rcond=None)[0]
-        length_error = float(np.abs(values[:, :n] @ coef - lengths).max())
-        arm_error = float(max(np.abs(-d[:, :n] @ coef - arms[:, j]).max()
-                              for j, d in enumerate(derivs)))
-        score = max(length_error / length_goal, arm_error / arm_goal)
+        errors = _errors(values[held], derivs[:, held], lengths[held], arms[held], coef, n)
+        score = max(errors[0] / length_goal, errors[1] / arm_goal)
         if score < best_score:
-            best_score = score
-            best = PathPolynomial(muscle, tuple(columns), tuple(centre), tuple(half),
-                                  tuple(tuple(int(v) for v in row) for row in powers[:n]),
-                                  tuple(float(v) for v in coef), length_error,
-                                  arm_error,
-                                  None if agrees is None else tuple(map(tuple, agrees)))
+            chosen, best_score = degree, score
         if score <= 1.0:
             break
-    return best
+    n = int(np.sum(powers.sum(axis=1) <= chosen))
+    coef = np.linalg.lstsq((a.T @ a)[:n, :n], (a.T @ b)[:n], rcond=None)[0]
+    length_error, arm_error = _errors(values, derivs, lengths, arms, coef, n)
+    return PathPolynomial(muscle, tuple(columns), tuple(centre), tuple(half),
+                          tuple(tuple(int(v) for v in row) for row in powers[:n]),
+                          tuple(float(v) for v in coef), length_error, arm_error,
+                          None if agrees is None else tuple(map(tuple, agrees)))
+
+
+def _errors(values, derivs, lengths, arms, coef, n) -> tuple[float, float]:
+    """Max length and moment-arm errors, m, of the first ``n`` basis terms."""
+    length_error = float(np.abs(values[:, :n] @ coef - lengths).max())
+    arm_error = float(max(np.abs(-d[:, :n] @ coef - arms[:, j]).max()
+                          for j, d in enumerate(derivs)))
+    return length_error, arm_error
 
 
 @dataclass(frozen=True)
