@@ -6,6 +6,8 @@ Reference: tests/reference/osim2d/metabolics.csv, written by OpenSim 4.6 itself
 activations set as states and excitations through the model's controls, OpenSim's default
 (0.5) and literature slow-twitch ratios. Each muscle's state is rebuilt here from OpenSim's
 muscle-tendon length and lengthening speed, so metabolics are checked apart from the paths.
+metabolics_gait.csv: OpenSim's rates along Moco's own example2DWalking tracking solution
+(full cycle), for the cost of transport of a whole stride.
 """
 
 import csv
@@ -21,7 +23,10 @@ from predgait.dynamics.muscles import MuscleSet
 from predgait.errors import InputError
 from predgait.models.osim import bundled_2d_gait
 
-TABLE = Path(__file__).resolve().parent / "reference" / "osim2d" / "metabolics.csv"
+REFERENCE = Path(__file__).resolve().parent / "reference" / "osim2d"
+TABLE = REFERENCE / "metabolics.csv"
+#: OpenSim's rates along Moco's example2DWalking tracking solution (make_metabolics.py).
+GAIT = REFERENCE / "metabolics_gait.csv"
 TERMS = {"activation_rate": "activation", "maintenance_rate": "maintenance",
          "shortening_rate": "shortening", "mechanical_work_rate": "mechanical_work",
          "metabolic_rate": "muscle"}
@@ -155,3 +160,43 @@ def test_stride_rates_from_paths(muscles):
 def test_bad_slow_twitch_table(muscles):
     with pytest.raises(InputError, match="soleus_r"):
         mb.slow_twitch_ratios(muscles, {**mb.SLOW_TWITCH_LITERATURE, "soleus": 1.5})
+
+
+def test_stride_cost_of_transport_along_moco_gait(muscles):
+    """Moco's example2DWalking tracking solution (full cycle): OpenSim's rates at every
+    state, and the cost of transport from q, v through predgait's smooth paths."""
+    from types import SimpleNamespace
+
+    from predgait.models.muscle_paths import smooth_paths
+    from predgait.models.osim_model import build_model
+
+    rows = list(csv.DictReader(GAIT.open()))
+
+    def column(key):
+        return np.array([float(r[key]) for r in rows])
+
+    def per_muscle(key):
+        return np.array([column(f"{m}.{key}") for m in muscles.names])
+
+    t, mass = column("time"), float(column("model_mass")[0])
+    state = muscles.rigid_tendon(per_muscle("length"), per_muscle("lengthening_speed"),
+                                 per_muscle("activation"))
+    rates = mb.metabolic_rates(muscles, state, per_muscle("excitation"),
+                               per_muscle("activation"), body_mass=mass)
+    reference = per_muscle("metabolic_rate")
+    assert np.max(np.abs(rates.muscle - reference)) < RTOL * np.max(np.abs(reference))
+    total = column("total_metabolic_rate")
+    np.testing.assert_allclose(rates.total, total, rtol=RTOL)
+    distance = column("pelvis_tx")[-1] - column("pelvis_tx")[0]
+    opensim_cot = mb.cost_of_transport(t, total, mass=mass, distance=distance)
+    assert 3.0 < opensim_cot < 6.0          # J/kg/m, gross (basal included)
+    built = build_model(bundled_2d_gait())
+    q = built.q_from_osim({n: column(n) for n in built.osim_coordinates})
+    v = built.q_from_osim({n: column(f"{n}.speed") for n in built.osim_coordinates})
+    stride = SimpleNamespace(t=t, q=q, v=v, act=per_muscle("activation").T,
+                             exc=per_muscle("excitation").T, distance=distance)
+    cot, along = mb.stride_cost_of_transport(stride, muscles,
+                                             smooth_paths(built, on_model_q=True),
+                                             body_mass=mass)
+    assert cot == pytest.approx(opensim_cot, rel=1e-3)   # path fits: 0.2 mm, 1.3 mm/s
+    assert along.total.shape == t.shape

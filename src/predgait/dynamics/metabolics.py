@@ -32,6 +32,10 @@ fit an optimiser. Inputs are a rigid-tendon :class:`~predgait.dynamics.muscles.M
 getPassiveFiberForce, ``norm_fiber_length``, ``fiber_velocity``) with the excitations and
 activations, numpy (muscles in rows, samples in columns) or CasADi columns.
 
+The muscle mass follows the edited parameters: a weakness edit (F_max scaled) or a shorter
+optimal fibre length makes a lighter muscle with proportionally less heat per excitation,
+as OpenSim computes it when the muscle mass is not given.
+
 Slow-twitch ratios: OpenSim's default 0.5 for every muscle unless a table is given;
 :data:`SLOW_TWITCH_LITERATURE` holds per-muscle values (Uchida et al. 2016 PLoS ONE
 11:e0150378, from Johnson et al. 1973; the 2D model's lumped muscles as plain means of the
@@ -247,6 +251,29 @@ def stride_rates(muscles, paths, q, v, excitation, activation, *, body_mass: flo
     state = muscles.rigid_tendon(length, speed, act)
     return metabolic_rates(muscles, state, np.asarray(excitation, float).T, act,
                            body_mass=body_mass, options=options)
+
+
+def stride_cost_of_transport(stride, muscles, paths, *, body_mass: float,
+                             options: BhargavaOptions = BhargavaOptions()
+                             ) -> tuple[float, MetabolicRates]:
+    """Cost of transport of a stride (or half stride), J/kg/m, and the rates along it.
+
+    Args:
+        stride: Anything with ``t`` (N,) s, ``q``, ``v`` (N, n) in ``paths``' coordinate
+            order, ``act``, ``exc`` (N, n_muscles) and ``distance`` m, e.g. the muscle-driven
+            prediction's :class:`~predgait.problems.muscle_gait_stride.Stride`.
+        muscles: :class:`~predgait.dynamics.muscles.MuscleSet` (the scenario's, if edited).
+        paths: Smooth paths on model q (``smooth_paths(built, on_model_q=True)``).
+        body_mass: kg (rates are divided by it; basal rate from it).
+        options: :class:`BhargavaOptions`.
+
+    Returns:
+        (integral of the whole-body rate over the stride / (body_mass * distance), rates).
+    """
+    rates = stride_rates(muscles, paths, stride.q, stride.v, stride.exc, stride.act,
+                         body_mass=body_mass, options=options)
+    return cost_of_transport(stride.t, rates.total, mass=body_mass,
+                             distance=float(stride.distance)), rates
 
 
 def cost_of_transport(time, total_rate, *, mass: float, distance: float) -> float:

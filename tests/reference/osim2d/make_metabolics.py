@@ -3,7 +3,7 @@
 Run with the OpenSim 4.6 Python (the peer; predgait never imports opensim), from anywhere:
 
     OMP_NUM_THREADS=1 /work/osimenv/bin/python tests/reference/osim2d/make_metabolics.py \
-        [--model PATH/2D_gait.osim]
+        [--model PATH/2D_gait.osim] [--moco-solution gaitTracking_solution_fullcycle.sto]
 
 It loads ``2D_gait.osim`` (default: ``../shared/data/opensim_moco_2d_walking/`` beside the
 repository) and adds Bhargava2004SmoothedMuscleMetabolics components with ``use_smoothing``
@@ -32,8 +32,16 @@ Table ``metabolics.csv``, one row per (state, ratio set, muscle): ``state``, ``r
 ``passive_fiber_force`` (getPassiveFiberForce, N), ``slow_twitch_ratio``,
 ``activation_rate``, ``maintenance_rate``, ``shortening_rate``, ``mechanical_work_rate``,
 ``metabolic_rate`` (W, the muscle's total) and ``total_metabolic_rate`` (W, all muscles plus
-basal) and ``model_mass`` (kg). Written whole (temporary file, then renamed), 12 significant
-digits.
+basal) and ``model_mass`` (kg).
+
+With ``--moco-solution`` (Moco's example2DWalking tracking solution, full cycle, as
+benchmarks/peer/moco_2d_walking.py writes it), also ``metabolics_gait.csv``: every state of
+that trajectory (states and controls as Moco solved them, through ``StatesTrajectory`` and
+``Model.setControls``), one row per time: ``time``, the 10 coordinate values and
+``<coordinate>.speed``, per muscle ``<muscle>.activation``, ``.excitation``, ``.length``,
+``.lengthening_speed``, ``.metabolic_rate`` (W, ``all_default``), then
+``total_metabolic_rate`` (W, basal included) and ``model_mass``. Tables are written whole
+(temporary file, then renamed), 12 significant digits.
 """
 
 from __future__ import annotations
@@ -77,6 +85,7 @@ def _metabolics(name: str, muscles, ratios: dict | None):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, default=DEFAULT_MODEL)
+    parser.add_argument("--moco-solution", type=Path, default=None)
     args = parser.parse_args()
     model = osim.Model(str(args.model))
 
@@ -85,7 +94,6 @@ def main() -> None:
                 if c.getConcreteClassName() == "DeGrooteFregly2016Muscle"]
 
     muscles = find_muscles()
-    names = [m.getName() for m in muscles]
     sets = {"default": None, "literature": SLOW_TWITCH}
     for label, ratios in sets.items():
         model.addComponent(_metabolics(f"all_{label}", muscles, ratios))
@@ -139,7 +147,55 @@ def main() -> None:
                     one.getTotalShorteningRate(state), one.getTotalMechanicalWorkRate(state),
                     whole.getMuscleMetabolicRate(state, muscle.getAbsolutePathString()),
                     whole.getTotalMetabolicRate(state), mass])
-    path = HERE / "metabolics.csv"
+    _write(HERE / "metabolics.csv", header, rows)
+    if args.moco_solution is not None:
+        header, rows = _gait(model, state, muscles, coords, parts["all_default"],
+                             args.moco_solution)
+        _write(HERE / "metabolics_gait.csv", header, rows)
+
+
+def _gait(model, state, muscles, coords, whole, solution: Path):
+    """Rows of metabolics_gait.csv along a Moco solution."""
+    table = osim.TimeSeriesTable(str(solution))
+    labels = list(table.getColumnLabels())
+    times = list(table.getIndependentColumn())
+    names = list(coords)
+    header = ["time", *names, *[f"{n}.speed" for n in names]]
+    for m in muscles:
+        header += [f"{m.getName()}.{k}" for k in ("activation", "excitation", "length",
+                                                 "lengthening_speed", "metabolic_rate")]
+    header += ["total_metabolic_rate", "model_mass"]
+
+    def value(label, row):
+        return table.getDependentColumnAtIndex(labels.index(label))[row]
+
+    rows = []
+    for k, t in enumerate(times):
+        state.setTime(t)
+        for name, coord in coords.items():
+            joint = coord.getJoint().getName()
+            coord.setValue(state, value(f"/jointset/{joint}/{name}/value", k), False)
+            coord.setSpeedValue(state, value(f"/jointset/{joint}/{name}/speed", k))
+        model.realizeVelocity(state)
+        for muscle in muscles:
+            muscle.setActivation(state, value(f"/{muscle.getName()}/activation", k))
+        controls = model.updControls(state)
+        controls.set(0, value("/lumbarAct", k))
+        for i, muscle in enumerate(muscles):
+            controls.set(i + 1, value(f"/{muscle.getName()}", k))
+        model.setControls(state, controls)
+        model.realizeDynamics(state)
+        row = [t, *[coords[n].getValue(state) for n in names],
+               *[coords[n].getSpeedValue(state) for n in names]]
+        for muscle in muscles:
+            row += [muscle.getActivation(state), muscle.getControl(state),
+                    muscle.getLength(state), muscle.getLengtheningSpeed(state),
+                    whole.getMuscleMetabolicRate(state, muscle.getAbsolutePathString())]
+        rows.append(row + [whole.getTotalMetabolicRate(state), model.getTotalMass(state)])
+    return header, rows
+
+
+def _write(path: Path, header: list[str], rows: list[list]) -> None:
     tmp = path.with_suffix(".csv.tmp")
     with tmp.open("w", newline="") as handle:
         writer = csv.writer(handle, lineterminator="\n")
@@ -147,7 +203,7 @@ def main() -> None:
         for row in rows:
             writer.writerow([_fmt(v) for v in row])
     os.replace(tmp, path)
-    print(f"metabolics.csv: {len(rows)} rows x {len(header)} columns ({len(names)} muscles)")
+    print(f"{path.name}: {len(rows)} rows x {len(header)} columns")
 
 
 if __name__ == "__main__":
