@@ -103,6 +103,23 @@ def test_knee_fusion_bounds(tmp_path, built, muscles):
     np.testing.assert_allclose(q_bounds[row], [-10 * DEG, -10 * DEG])
 
 
+def test_edited_plant(tmp_path, built, muscles):
+    from predgait.problems.muscle_gait_setup import plant_2d_gait
+
+    plant, planar = plant_2d_gait(built.osim)
+    scenario = _scenario(tmp_path, planar, plant.muscle_set, '[[muscle_edit]]\nkind = '
+                         '"transfer"\nmuscle = "rect_fem"\ndonor = "bifemsh"\n')
+    edited = scenario.edited_plant(plant)
+    assert edited.muscle_set is scenario.muscles and edited.paths is scenario.paths
+    assert edited.contacts is plant.contacts and edited.model is plant.model
+    assert scenario.symmetric
+    row = plant.muscle_names.index("rect_fem_l")
+    knee = planar.osim_coordinates.index("knee_angle_l")
+    q = planar.default_q()
+    assert plant.paths.moment_arms(q)[row, knee] > 0.02        # extensor
+    assert edited.paths.moment_arms(q)[row, knee] < -0.02      # flexor
+
+
 def test_afo_spring_torque(tmp_path, built, muscles):
     scenario = _scenario(tmp_path, built, muscles, '[[muscle_edit]]\nkind = "spring"\n'
                          'coordinate = "ankle_angle"\nstiffness = 286.5\nneutral_deg = 5.0\n'

@@ -193,6 +193,18 @@ class MuscleScenario:
             rows[row] = rows[row] + sign * spring.torque(sign * q[row], sign * v[row])
         return np.stack(rows) if m is np else m.vertcat(*rows)
 
+    def edited_plant(self, plant):
+        """The baseline MusclePlant with this scenario's muscles, paths and model record.
+
+        A new :class:`~predgait.problems.muscle_gait_dynamics.MusclePlant` (its node
+        function is built anew). The springs are not in it: add :meth:`passive_forces` to
+        the node's applied generalised forces.
+        """
+        from dataclasses import replace as copy
+
+        return copy(plant, osim=self.built.osim, muscle_set=self.muscles,
+                    paths=plant.paths if self.paths is None else self.paths)
+
 
 def _sides(name: str, known: tuple[str, ...]) -> tuple[str, ...]:
     """``name`` if known, else its ``_r`` and ``_l`` versions that are (empty: none)."""
