@@ -217,3 +217,10 @@ def test_shipped_scenarios_parse(built, muscles):
         assert spec.edits and spec.baseline == PROBLEMS / "predict_2d_muscles.toml"
         text = path.read_text()
         assert text.startswith("#") and "Compare with" in text or "Compare:" in text
+
+
+def test_transfer_needs_a_proximal_point(built):
+    from predgait.scenarios.muscle_transfer import transferred_osim
+
+    with pytest.raises(InputError, match="no point proximal"):
+        transferred_osim(built.osim, "soleus_r", "bifemsh_r")   # soleus starts on the tibia

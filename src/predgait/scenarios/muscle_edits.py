@@ -27,21 +27,7 @@ Kinds (``kind = ...``):
   (it is not a control and costs nothing in the effort), so a stiff orthosis changes the
   gait and the muscles' metabolic cost, not the objective's bookkeeping.
 
-Muscle transfer (rectus femoris transfer, Gage et al. 1987; Delp SL, Ringwelski DA,
-Carroll NC 1994, J Biomech 27:1201-1211, moment arms after transfer to the semitendinosus,
-gracilis, sartorius or iliotibial band): the muscle keeps its proximal points and loses
-its points on the donor's insertion body and its conditional and moving points, which
-belong to the old route (for rect_fem: the femoral-condyle ConditionalPathPoint standing in
-for the wrap over the patella, and the patellar-tendon MovingPathPoint on the tibia); the
-donor's points on its insertion body (bifemsh_r / hamstrings_r: the two posterior tibia
-points near the semitendinosus insertion) are appended as fixed points. The tendon slack
-length is then set so that the fibre length at the model's default pose is unchanged
-(the transfer sutured at its pre-operative tension). Straight-line segments, as the rest
-of the model: the transferred path runs behind the knee axis, a knee flexor at every knee
-angle, as Delp et al. (1994) computed for posterior transfer sites; Asakawa et al. (2002,
-J Biomech 35:1029-1037; 2004, J Bone Joint Surg Am 86:348) measured by MRI that transferred
-rectus femoris fibres still shorten with knee extension (scar connections to the vasti), so
-the full flexor conversion is the model's best case.
+Muscle transfer: :mod:`predgait.scenarios.muscle_transfer`.
 
 :class:`MuscleScenario` is what the muscle-driven problem builder consumes (see its
 attributes).
@@ -52,13 +38,12 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from predgait.errors import InputError
-from predgait.models.osim import PointKind
 from predgait.problemfile import Table
+from predgait.scenarios.muscle_transfer import transferred_model, transferred_osim
 
 DEG = math.pi / 180.0
 
@@ -352,33 +337,6 @@ def parse_muscle_scenario(table: Table, muscles,
                               table.path)
 
 
-def transferred_osim(osim, muscle: str, donor: str):
-    """An OsimModel whose ``muscle`` ends on ``donor``'s distal points (module docstring).
-
-    Returns:
-        (OsimModel, tuple of the bodies whose points were replaced).
-    """
-    record, source = osim.muscle(muscle), osim.muscle(donor)
-    parent = {j.child.body: j.parent.body for j in osim.joints}
-
-    def depth(body: str) -> int:
-        return 0 if body not in parent else 1 + depth(parent[body])
-
-    distal = max(depth(p.body) for p in source.path)
-    bodies = tuple(dict.fromkeys(p.body for p in source.path if depth(p.body) == distal))
-    kept = tuple(p for p in record.path
-                 if depth(p.body) < distal and p.kind is PointKind.FIXED)
-    if not kept:
-        raise InputError(f"{osim.source}, line {record.line}: muscle {muscle!r} has no point "
-                         f"proximal to {donor!r}'s insertion on {', '.join(bodies)}; it "
-                         "cannot be transferred there.")
-    moved = tuple(replace(p, name=f"{muscle}-transfer-{p.name}") for p in source.path
-                  if p.body in bodies)
-    muscles = tuple(replace(m, path=kept + moved) if m.name == muscle else m
-                    for m in osim.muscles)
-    return replace(osim, muscles=muscles), bodies
-
-
 def muscle_scenario(edits, built, muscles=None) -> MuscleScenario:
     """Apply parsed edits to a built model (:func:`parse_muscle_edits`).
 
@@ -406,7 +364,7 @@ def muscle_scenario(edits, built, muscles=None) -> MuscleScenario:
                     new = old + edit.change if edit.change is not None else edit.value
                     muscles = muscles.edited(name, **{key: new})
         elif isinstance(edit, Transfer):
-            osim, _ = transferred_osim(osim, edit.muscle, edit.donor)
+            osim = transferred_osim(osim, edit.muscle, edit.donor)
             transfers.append(edit)
         elif isinstance(edit, CoordinateLimit):
             bounds[edit.coordinate] = (edit.lower, edit.upper)
@@ -416,17 +374,8 @@ def muscle_scenario(edits, built, muscles=None) -> MuscleScenario:
             springs.append(edit)
     paths, edited_built = None, built
     if transfers:
-        from predgait.models.muscle_paths import PathGeometry, smooth_paths
-
-        edited_built = replace(built, osim=osim)
-        before, after = PathGeometry(built), PathGeometry(edited_built)
-        default = [c.default_value for c in osim.coordinates]
-        change = after.lengths(default) - before.lengths(default)
-        for edit in transfers:
-            row = before.muscle_names.index(edit.muscle)
-            old = muscles.muscles[muscles.index(edit.muscle)].tendon_slack_length
-            muscles = muscles.edited(edit.muscle, tendon_slack_length=old + change[row])
-        paths = smooth_paths(edited_built, on_model_q=True)
+        edited_built, muscles, paths = transferred_model(
+            built, osim, muscles, tuple(e.muscle for e in transfers))
     return MuscleScenario(muscles=muscles, coordinate_bounds=bounds, speed_bounds=speeds,
                           passive_torques=tuple(springs), paths=paths, built=edited_built,
                           edits=tuple(edits), symmetric=_symmetric(edits))
