@@ -6,15 +6,16 @@ semitendinosus, gracilis, sartorius or iliotibial band): the muscle keeps its pr
 points and loses its points on the donor's insertion body and its conditional and moving
 points, which belong to the old route (for rect_fem: the femoral-condyle
 ConditionalPathPoint standing in for the wrap over the patella, and the patellar-tendon
-MovingPathPoint on the tibia); the donor's points on its insertion body (bifemsh_r /
-hamstrings_r: the two posterior tibia points near the semitendinosus insertion) are appended
-as fixed points. The tendon slack length is then set so that the fibre length at the model's
-default pose is unchanged (the transfer sutured at its pre-operative tension). Straight-line
-segments, as the rest of the model: the transferred path runs behind the knee axis, a knee
-flexor at every knee angle, as Delp et al. (1994) computed for posterior transfer sites;
-Asakawa et al. (2002, J Biomech 35:1029-1037; 2004, J Bone Joint Surg Am 86:348) measured by
-MRI that transferred rectus femoris fibres still shorten with knee extension (scar
-connections to the vasti), so the full flexor conversion is the model's best case.
+MovingPathPoint on the tibia); the donor's points on its insertion body (bifemsh_r or
+hamstrings_r: the two posterior tibia points they share in this planar model, whose
+hamstrings lump the semitendinosus, the usual transfer site) are appended as fixed points.
+The tendon slack length is then set so that the fibre length at the model's default pose is
+unchanged (the transfer sutured at its pre-operative tension). Straight-line segments, as
+the rest of the model: the transferred path runs behind the knee axis, a knee flexor at
+every knee angle, as Delp et al. (1994) computed for posterior transfer sites; Asakawa et
+al. (2002, J Biomech 35:1029-1037; 2004, J Bone Joint Surg Am 86:348) measured by MRI that
+transferred rectus femoris fibres still shorten with knee extension (scar connections to the
+vasti), so the full flexor conversion is the model's best case.
 
 Lengths and moment arms of the transferred path come from the exact geometry
 (:class:`predgait.models.muscle_paths.PathGeometry` on the edited model record) and a new
