@@ -94,6 +94,7 @@ def test_knee_fusion_bounds(tmp_path, built, muscles):
                          'coordinate = "knee_angle_r"\nangle_deg = -10.0\n')
     assert scenario.coordinate_bounds == {"knee_angle_r": (-10 * DEG, -10 * DEG)}
     assert scenario.speed_bounds == {"knee_angle_r": (0.0, 0.0)}
+    assert scenario.fused == ("knee_angle_r",)
     assert _changes(muscles, scenario.muscles) == {}
     # the problem builder's bounds (muscle_gait_setup.coordinate_bounds) take it as is
     from predgait.problems.muscle_gait_setup import MOCO_BOUNDS, coordinate_bounds

@@ -140,7 +140,8 @@ class MuscleScenario:
         muscles: The edited :class:`~predgait.dynamics.muscles.MuscleSet` (same order).
         coordinate_bounds: OpenSim coordinate -> (low, high), rad, overriding the baseline
             problem's bounds (``{**baseline_bounds, **coordinate_bounds}``).
-        speed_bounds: OpenSim coordinate -> (low, high), rad/s (0, 0 for a fused one).
+        speed_bounds: OpenSim coordinate -> (low, high), rad/s and rad/s^2, for the
+            speeds and the accelerations: (0, 0) for a fused one.
         passive_torques: :class:`JointSpring` elements whose torques add to the applied
             generalised forces (:meth:`passive_forces`).
         paths: Smooth paths (:func:`predgait.models.muscle_paths.smooth_paths`, model q)
@@ -150,6 +151,11 @@ class MuscleScenario:
         edits: The edits applied, in file order.
         symmetric: Every edit acts on both sides alike (a half-stride problem with
             left/right symmetry stays valid); False: solve a full stride.
+
+    A fused coordinate is a weld: its joint reaction torque holds it, so the problem must
+    drop that coordinate's row of the inverse-dynamics residual (or give it a free,
+    cost-free torque); keeping the row would make the muscles hold the joint, a
+    muscle-braced knee rather than an arthrodesis. :attr:`fused` lists them.
     """
 
     muscles: object
@@ -160,6 +166,11 @@ class MuscleScenario:
     built: object
     edits: tuple[MuscleEdit, ...]
     symmetric: bool
+
+    @property
+    def fused(self) -> tuple[str, ...]:
+        """OpenSim coordinates held at one value (their residual rows are reactions)."""
+        return tuple(n for n, (low, high) in self.coordinate_bounds.items() if low == high)
 
     def passive_forces(self, planar, q, v):
         """(nq,) generalised forces of the springs on model q/v (numpy or CasADi column).
