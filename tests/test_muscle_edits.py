@@ -217,7 +217,7 @@ def test_shipped_scenarios_parse(built, muscles):
         spec = me.parse_muscle_scenario(load_problem(path), muscles, _coordinates(built))
         assert spec.edits and spec.baseline == PROBLEMS / "predict_2d_muscles.toml"
         text = path.read_text()
-        assert text.startswith("#") and "Compare with" in text or "Compare:" in text
+        assert text.startswith("#") and ("Compare with" in text or "Compare:" in text)
 
 
 def test_transfer_needs_a_proximal_point(built):
