@@ -73,8 +73,9 @@ def slip_per_stride(t: np.ndarray, normal: np.ndarray, speed: np.ndarray,
 
     Args:
         t: (n,) s of a whole stride (first and last node the same instant of the cycle).
-        normal: (n, n_spheres) N vertical forces. speed: (n, n_spheres) m/s horizontal
-            contact point speeds. body_weight: N.
+        normal: (n, n_spheres) N vertical forces.
+        speed: (n, n_spheres) m/s horizontal contact point speeds.
+        body_weight: N.
     """
     loaded = normal > LOADED_FRACTION * body_weight
     both = loaded[1:] & loaded[:-1]

@@ -59,7 +59,10 @@ def plant_2d_gait(osim):
     planar = build_model(osim)
     model = planar.model
     muscles = MuscleSet.from_osim(osim)
-    paths = smooth_paths(osim, planar)
+    paths = smooth_paths(planar, on_model_q=True)
+    if tuple(paths.muscle_names) != tuple(muscles.names):
+        raise InputError(f"{osim.source}: the path fits' muscles {paths.muscle_names} are not "
+                         f"the muscle set's {muscles.names}.")
     if len(osim.actuators) != 1:
         raise InputError(f"{osim.source}: expected one CoordinateActuator (the lumbar), "
                          f"found {len(osim.actuators)}.")
