@@ -6,8 +6,10 @@ Comput Biol 16:e1008493), written with exact CasADi derivatives (Ipopt, exact He
 * half a stride from right heel strike; periodicity with left/right symmetry as Moco's
   MocoPeriodicityGoal pairs it: every coordinate but pelvis_tx, every speed (pelvis_tx's
   with itself), the activations (left <-> right) and the lumbar control;
-* cost = w_speed (d / T - v_desired)^2 (MocoAverageSpeedGoal, weight 1)
-  + w_effort / d * integral sum_i |u_i|^3 dt (MocoControlGoal, weight 10, exponent 3,
+* average speed d / T = v_desired as a constraint (OpenSim 4.6's MocoAverageSpeedGoal
+  is an endpoint constraint by default: Moco's log says "mode: endpoint_constraint"), or
+  the cost w_speed (d / T - v_desired)^2 (its cost mode);
+* cost = w_effort / d * integral sum_i |u_i|^3 dt (MocoControlGoal, weight 10, exponent 3,
   divided by displacement), over the 18 excitations and the lumbar control, with d the
   pelvis_tx displacement (the symmetric states put the centre of mass at the same height
   at both ends, so d is also Moco's centre-of-mass displacement) and T the free duration;
@@ -70,7 +72,8 @@ class Goal:
     """Objective weights and targets (see the module docstring)."""
 
     speed: float = 1.2            # m/s, desired average speed
-    speed_weight: float = 1.0     # per (m/s)^2
+    speed_constraint: bool = True  # OpenSim 4.6's MocoAverageSpeedGoal: endpoint constraint
+    speed_weight: float = 0.0     # per (m/s)^2, when a cost (the goal's "cost" mode)
     effort_weight: float = 10.0   # per (unit control)^3 s / m
     tracking_weight: float = 0.0  # per rad^2 (m^2)
 
@@ -202,8 +205,10 @@ class MuscleGaitProblem:
              q[keep, -1] - q[mq[keep], 0], v[:, -1] - v[mq, 0],
              act[:, -1] - act[mm, 0], u[:, -1] - u[:, 0],
              cs.vec(h[:, 1:] - h[:, :-1]) * scale,
+             q[tx_row, -1] - goal[0] * intervals * h[0, -1],
              defect(running, cs.sum1(exc ** 3) + cs.fabs(u) ** 3) / SCALES["E"]]
         self.ng = sum(e.shape[0] for e in g)
+        self.speed_row = sum(e.shape[0] for e in g[:-1])    # distance - speed * duration
         quad = np.full((n1, 1), 1.0)
         quad[[0, -1]] = 0.5
         # pelvis_tx(0) = 0 (a bound) and E(0) = 0: the distance and the effort integral are
@@ -278,10 +283,13 @@ class MuscleGaitProblem:
         lbx, ubx = self.box(bounds)
         w0 = np.clip(self.pack(guess), lbx, ubx)
         clock = time.perf_counter()
-        out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
+        lbg, ubg = np.zeros(self.ng), np.zeros(self.ng)
+        if not goal.speed_constraint:
+            lbg[self.speed_row], ubg[self.speed_row] = -np.inf, np.inf
+        out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         seconds = time.perf_counter() - clock
         stats = self.solver.stats()
-        g = np.array(out["g"]).ravel()
+        g = np.clip(np.array(out["g"]).ravel(), lbg, ubg) - np.array(out["g"]).ravel()
         w = np.array(out["x"]).ravel()
         solved = Solved(w=w, status=stats["return_status"], success=bool(stats["success"]),
                         iterations=int(stats["iter_count"]), seconds=seconds,

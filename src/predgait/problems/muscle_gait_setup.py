@@ -125,7 +125,9 @@ def reference_guess(planar, storage, plant: MusclePlant, intervals: int,
     """(guess, q_ref (N+1, nq)) from a storage of OpenSim coordinate values.
 
     Columns are matched by coordinate name (``/jointset/hip_r/hip_flexion_r/value`` or
-    ``hip_flexion_r``); pelvis_tx starts at 0.
+    ``hip_flexion_r``); pelvis_tx starts at 0. A MocoTrajectory (e.g. Moco's own
+    solution) also gives the activations (``/<muscle>/activation``), excitations
+    (``/<muscle>``) and the lumbar control; it is not low-passed.
     """
     from scipy.interpolate import CubicSpline
 
@@ -144,14 +146,25 @@ def reference_guess(planar, storage, plant: MusclePlant, intervals: int,
     t = storage.time - storage.time[0]
     rate = (t.size - 1) / t[-1]
     values = np.column_stack([columns[n] for n in names])
-    values = lowpass(values, rate, cutoff) if cutoff else values
+    muscles = [f"/{m}/activation" for m in plant.muscle_names]
+    trajectory = all(m in storage.columns for m in muscles)
+    values = lowpass(values, rate, cutoff) if cutoff and not trajectory else values
     q_rows = np.array([planar.q_from_osim(row) for row in values])
     q_rows[:, 0] -= q_rows[0, 0]
     spline = CubicSpline(t, q_rows, axis=0)
     nodes = np.linspace(0.0, t[-1], intervals + 1)
     m = plant.n_muscles
+    act = exc = np.full((intervals + 1, m), GUESS_ACTIVATION)
+    lumbar = np.zeros(intervals + 1)
+    if trajectory:
+        def at_nodes(label):
+            return np.interp(nodes, t, storage.columns[label])
+
+        act = np.column_stack([at_nodes(c) for c in muscles])
+        exc = np.column_stack([at_nodes(f"/{m}") if f"/{m}" in storage.columns
+                               else act[:, i] for i, m in enumerate(plant.muscle_names)])
+        name = f"/{plant.osim.actuators[0].name}"
+        lumbar = at_nodes(name) if name in storage.columns else lumbar
     guess = Trajectory(float(t[-1]), spline(nodes), spline(nodes, 1), spline(nodes, 2),
-                       np.full((intervals + 1, m), GUESS_ACTIVATION),
-                       np.full((intervals + 1, m), GUESS_ACTIVATION),
-                       np.zeros(intervals + 1))
+                       act, exc, lumbar)
     return guess, guess.q.copy()

@@ -77,7 +77,8 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     model.check_keys(("osim",))
     guess.check_keys(("reference", "tracking_stage", "tracking_weight"))
     grid.check_keys(("nodes",))
-    goal.check_keys(("speed", "speed_weight", "effort_weight", "duration"))
+    goal.check_keys(("speed", "speed_constraint", "speed_weight", "effort_weight",
+                     "duration"))
     solver.check_keys(("max_iter",))
     compare.check_keys(("moco_solution",))
     check.check_keys(("human_likeness",))
@@ -106,6 +107,7 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
         source=table.path, osim=osim_path, reference=reference,
         nodes=int(grid.number("nodes", 50, low=4, high=400)),
         goal=Goal(speed=goal.number("speed", d.speed, low=0.05, high=10.0, unit="m/s"),
+                  speed_constraint=goal.get("speed_constraint", bool, d.speed_constraint),
                   speed_weight=goal.number("speed_weight", d.speed_weight, low=0.0, high=1e9),
                   effort_weight=goal.number("effort_weight", d.effort_weight, low=0.0,
                                             high=1e9)),
