@@ -51,7 +51,7 @@ import casadi as cs
 import numpy as np
 
 from predgait.errors import InputError
-from predgait.problems.collocation import Solved, _history
+from predgait.problems.collocation import Solved, Transcription, _history
 from predgait.problems.muscle_gait_dynamics import MusclePlant, node_function
 
 #: Scale of each block of the decision vector (physical = scale * scaled).
@@ -169,11 +169,14 @@ class MuscleGaitProblem:
         max_iter: Ipopt's iteration limit.
     """
 
-    def __init__(self, plant: MusclePlant, intervals: int, *, tx_row: int,
+    def __init__(self, plant: MusclePlant, mesh: int, *, tx_row: int,
+                 transcription: Transcription = Transcription.TRAPEZOIDAL,
                  max_iter: int = 2000, print_level: int = 0, symbol=cs.SX):
-        if not 4 <= intervals <= 400:
-            raise InputError(f"nodes = {intervals}: give 4..400 collocation intervals.")
+        if not 4 <= mesh <= 400:
+            raise InputError(f"nodes = {mesh}: give 4..400 collocation intervals.")
+        intervals = transcription.grid_intervals(mesh)     # grid steps (HS: + midpoints)
         self.plant, self.n, self.tx_row = plant, intervals, tx_row
+        self.mesh, self.transcription = mesh, transcription
         nq, m, n1 = plant.model.nq, plant.n_muscles, intervals + 1
         self.sizes = (("h", 1, intervals), ("q", nq, n1), ("v", nq, n1), ("a", nq, n1),
                       ("act", m, n1), ("exc", m, n1), ("u", 1, n1), ("E", 1, n1))
@@ -194,8 +197,17 @@ class MuscleGaitProblem:
         scale = intervals / NOMINAL_DURATION       # 1 / h_0
 
         def defect(y, ydot):
-            return cs.vec(y[:, 1:] - y[:, :-1]
-                          - 0.5 * cs.repmat(h, y.shape[0], 1) * (ydot[:, 1:] + ydot[:, :-1]))
+            step = cs.repmat(h, y.shape[0], 1)
+            if transcription is Transcription.TRAPEZOIDAL:
+                return cs.vec(y[:, 1:] - y[:, :-1] - 0.5 * step * (ydot[:, 1:] + ydot[:, :-1]))
+            # separated Hermite-Simpson: (a, m, b) = (2j, 2j+1, 2j+2), interval H = 2 h
+            # (index lists: CasADi 3.8 slices a one-row matrix y[:, 0:-1:2] to y[0])
+            first, middle, last = (list(range(k, intervals + k - 1, 2)) for k in (0, 1, 2))
+            ya, ym, yb = y[:, first], y[:, middle], y[:, last]
+            fa, fm, fb = ydot[:, first], ydot[:, middle], ydot[:, last]
+            big = 2.0 * step[:, first]
+            return cs.vertcat(cs.vec(ym - 0.5 * (ya + yb) - big / 8.0 * (fa - fb)),
+                              cs.vec(yb - ya - big / 6.0 * (fa + 4.0 * fm + fb)))
 
         mq = mirror_rows(plant.model.coordinate_names)
         mm = mirror_rows(plant.muscle_names)

@@ -23,6 +23,7 @@ import numpy as np
 
 from predgait.errors import SolveFailed
 from predgait.problemfile import Table
+from predgait.problems.collocation import Transcription
 from predgait.problems.muscle_gait import Goal
 from predgait.textfile import source_name
 
@@ -48,6 +49,7 @@ class MusclePredictSpec:
     osim: Path | None = None               # None: the bundled 2D_gait.osim
     reference: Path | None = None          # None: the bundled referenceCoordinates.sto
     nodes: int = 50
+    transcription: Transcription = Transcription.TRAPEZOIDAL
     goal: Goal = Goal()
     duration: tuple[float, float] = (0.4, 0.6)
     preset: Preset = Preset.MOCO
@@ -76,7 +78,7 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     compare, check = table.table("compare"), table.table("check")
     model.check_keys(("osim",))
     guess.check_keys(("reference", "tracking_stage", "tracking_weight"))
-    grid.check_keys(("nodes",))
+    grid.check_keys(("nodes", "transcription"))
     goal.check_keys(("speed", "speed_constraint", "speed_weight", "effort_weight",
                      "duration"))
     solver.check_keys(("max_iter",))
@@ -106,6 +108,8 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     return MusclePredictSpec(
         source=table.path, osim=osim_path, reference=reference,
         nodes=int(grid.number("nodes", 50, low=4, high=400)),
+        transcription=grid.choice("transcription", Transcription,
+                                  Transcription.TRAPEZOIDAL.value),
         goal=Goal(speed=goal.number("speed", d.speed, low=0.05, high=10.0, unit="m/s"),
                   speed_constraint=goal.get("speed_constraint", bool, d.speed_constraint),
                   speed_weight=goal.number("speed_weight", d.speed_weight, low=0.0, high=1e9),
@@ -153,9 +157,10 @@ def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
 
     clock = time.perf_counter()
     plant, planar = plant_2d_gait(read_osim(spec.osim or _bundled("2D_gait.osim")))
-    problem = MuscleGaitProblem(plant, spec.nodes, tx_row=0, max_iter=spec.max_iter)
+    problem = MuscleGaitProblem(plant, spec.nodes, tx_row=0, max_iter=spec.max_iter,
+                                transcription=spec.transcription)
     storage = read_storage(spec.reference or _bundled("referenceCoordinates.sto"))
-    guess, reference = reference_guess(planar, storage, plant, spec.nodes)
+    guess, reference = reference_guess(planar, storage, plant, problem.n)
     bounds = bounds_for(plant, planar, _ranges(spec), spec.duration)
     build_s = time.perf_counter() - clock
     stages = []
@@ -256,7 +261,7 @@ def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
         "build_s": pred.build_s, "total_s": total,
         "objective": s.objective, "objective_terms": gait.terms,
         "goal": vars(spec.goal), "nodes": spec.nodes, "bounds": spec.preset.value,
-        "transcription": "trapezoidal", "dynamics": "implicit (M a + h = tau residual)",
+        "transcription": spec.transcription.value, "dynamics": "implicit (M a + h = tau residual)",
         "duration_s": gait.path.duration, "gait": measures,
         "pinocchio_check": {k: v for k, v in pred.check.items()
                             if k not in ("residual", "contact_point_speed")},
