@@ -167,11 +167,20 @@ class MuscleGaitProblem:
         coordinate_names: model coordinates (for the left/right pairs).
         tx_row: model row of pelvis_tx (excluded from the position periodicity).
         max_iter: Ipopt's iteration limit.
+        node: the node function (default :func:`node_function` of ``plant``; a scenario's
+            adds its passive torques to the residual).
+        residual_rows: coordinates whose dynamics residual rows are constraints (default
+            all; a fused coordinate's row is the weld's reaction torque, left free).
+        symmetric: the periodicity pairs left and right (a half stride); False: every row
+            with itself (a whole stride, for a one-sided edit).
+        ipopt_options: more Ipopt options (e.g. a warm start's).
     """
 
     def __init__(self, plant: MusclePlant, mesh: int, *, tx_row: int,
                  transcription: Transcription = Transcription.TRAPEZOIDAL,
-                 max_iter: int = 2000, print_level: int = 0, symbol=cs.SX):
+                 max_iter: int = 2000, print_level: int = 0, symbol=cs.SX,
+                 node: cs.Function | None = None, residual_rows=None,
+                 symmetric: bool = True, ipopt_options: dict | None = None):
         if not 4 <= mesh <= 400:
             raise InputError(f"nodes = {mesh}: give 4..400 collocation intervals.")
         intervals = transcription.grid_intervals(mesh)     # grid steps (HS: + midpoints)
@@ -187,7 +196,7 @@ class MuscleGaitProblem:
         self.p_sizes = (("goal", 4), ("q_ref", nq * n1))
         self.p = symbol.sym("p", 4 + nq * n1)
         goal, q_ref = self.p[:4], cs.reshape(self.p[4:], nq, n1)
-        node = node_function(plant)
+        node = node_function(plant) if node is None else node
         # one call per node (not a map): MX differentiates each call through the node's
         # own symbolic SX derivatives, as fast as an SX graph and built in ~1 s
         calls = [node.call([q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k]],
@@ -211,8 +220,11 @@ class MuscleGaitProblem:
 
         mq = mirror_rows(plant.model.coordinate_names)
         mm = mirror_rows(plant.muscle_names)
+        if not symmetric:
+            mq, mm = np.arange(nq), np.arange(m)
+        rows = list(range(nq)) if residual_rows is None else list(residual_rows)
         keep = [i for i in range(nq) if i != tx_row]
-        g = [cs.vec(r) / RESIDUAL_SCALE, defect(q, v) * scale,
+        g = [cs.vec(r[rows, :]) / RESIDUAL_SCALE, defect(q, v) * scale,
              defect(v, a) * scale / 10.0, defect(act, act_dot) * scale / 10.0,
              q[keep, -1] - q[mq[keep], 0], v[:, -1] - v[mq, 0],
              act[:, -1] - act[mm, 0], u[:, -1] - u[:, 0],
@@ -236,7 +248,7 @@ class MuscleGaitProblem:
         self.outputs = cs.Function("outputs", [self.w, self.p],
                                    [r, grf, points, force, fibre, muscle_tau, *terms.values()])
         opts = {"ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
-                          **IPOPT_OPTIONS}, "print_time": False}
+                          **IPOPT_OPTIONS, **(ipopt_options or {})}, "print_time": False}
         self.nlp = {"x": self.w, "p": self.p, "f": objective, "g": cs.vertcat(*g)}
         self.solver = cs.nlpsol("muscle_gait", "ipopt", self.nlp, opts)
 
