@@ -25,6 +25,7 @@ from predgait.errors import SolveFailed
 from predgait.problemfile import Table
 from predgait.problems.collocation import Transcription
 from predgait.problems.muscle_gait import Goal
+from predgait.problems.muscle_multistart import MultiStartOptions, parse_multistart
 from predgait.textfile import source_name
 
 DEG = np.pi / 180.0
@@ -59,6 +60,7 @@ class MusclePredictSpec:
     max_iter: int = 3000
     moco_solution: Path | None = None
     human_checks: bool = True
+    multistart: MultiStartOptions = MultiStartOptions()   # [multistart]: issue 26 item 6
 
 
 def _bundled(name: str) -> Path:
@@ -72,7 +74,7 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     from predgait.models.osim import read_osim
 
     table.check_keys(("kind", "model", "guess", "grid", "goal", "bounds", "solver",
-                      "compare", "check"))
+                      "compare", "check", "multistart"))
     model, guess, grid = table.table("model"), table.table("guess"), table.table("grid")
     goal, bounds, solver = table.table("goal"), table.table("bounds"), table.table("solver")
     compare, check = table.table("compare"), table.table("check")
@@ -120,7 +122,8 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
         tracking_stage=guess.get("tracking_stage", bool, False),
         tracking_weight=guess.number("tracking_weight", TRACKING_WEIGHT, low=0.0, high=1e9),
         max_iter=int(solver.number("max_iter", 3000, low=1, high=100000)),
-        moco_solution=moco, human_checks=check.get("human_likeness", bool, True))
+        moco_solution=moco, human_checks=check.get("human_likeness", bool, True),
+        multistart=parse_multistart(table.table("multistart")))
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,6 +137,7 @@ class MusclePrediction:
     check: dict
     stride: object            # Stride from right heel strike
     build_s: float
+    multistart: dict | None = None   # the spread of a [multistart] (muscle_multistart)
 
 
 def _ranges(spec: MusclePredictSpec) -> dict:
@@ -173,10 +177,19 @@ def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
         if tracked.solved.success:
             start = tracked.path
     gait = problem.solve(start, bounds, spec.goal)
+    spread = None
+    if spec.multistart.starts > 1:
+        from predgait.problems.muscle_multistart import StartRun, multistart
+
+        first = "tracking stage solution" if start is not guess else "reference coordinates"
+        result = multistart(problem, plant, planar, storage, bounds, spec.goal,
+                            spec.multistart, StartRun(first, gait), max_iter=spec.max_iter)
+        gait, spread = result.gait, result.spread
     check = node_check(plant, gait)
     stride = from_right_heel_strike(full_stride(plant, gait, check["contact_point_speed"]),
                                     plant)
-    return MusclePrediction(plant, planar, gait, tuple(stages), check, stride, build_s)
+    return MusclePrediction(plant, planar, gait, tuple(stages), check, stride, build_s,
+                            spread)
 
 
 def moco_comparison(path: Path | None, planar, stride) -> dict:
@@ -268,6 +281,7 @@ def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
         "human_likeness": [vars(c) for c in checks], "warnings": failed,
         "right_leg_deg": {k: v[::10].tolist() for k, v in curves.items()},
         "moco": moco_comparison(spec.moco_solution, pred.planar, stride),
+        "multistart": pred.multistart,
         "provenance": {"problem": source_name(spec.source) if spec.source else None,
                        "model": source_name(pred.planar.osim.source)},
     }
@@ -328,6 +342,14 @@ def summary_lines(summary: dict) -> list[str]:
     if moco["available"]:
         lines.append(f"  Moco's solution: objective {moco['objective']}, kinematics RMS up to "
                      f"{moco['max_kinematics_rms_deg']:.1f} deg")
+    ms = summary.get("multistart")
+    if ms:
+        lines.append(f"  multi-start: {ms['converged']} of {ms['starts']} converged, objective "
+                     f"{ms['objective_min']:.5g} / {ms['objective_median']:.5g} / "
+                     f"{ms['objective_max']:.5g} (min / median / max), kinematics up to "
+                     f"{ms['max_kinematics_rms_deg_vs_best']:.1f} deg RMS from the best "
+                     f"({ms['best']})" if ms["converged"] else
+                     f"  multi-start: none of {ms['starts']} starts converged")
     for w in summary["warnings"]:
         lines.append(f"  warning: {w['name']} = {w['value']:.3g} (bound {w['bound']}, "
                      f"{w['source']})")

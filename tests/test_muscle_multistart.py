@@ -1,0 +1,161 @@
+"""One answer, not one of many (issue 26 item 6): heel-strike alignment, grids, multi-start.
+
+* The heel strike is found between nodes (a known answer on a piecewise-linear force);
+  Moco's own solution (tests/reference/osim2d/moco_prediction, OpenSim 4.6) read from it
+  has its right heel strike where its force table says, and our model's dynamics at
+  Moco's trajectory nearly vanish (Moco's solution is a solution of our model too).
+* Two small grids (16 and 20 intervals; the product grids 30/50/75 are in
+  benchmarks/bench_predict_grids.py) agree from heel strike within a loose bound.
+* A multi-start on 16 intervals: the best is the least objective of the converged, the
+  spread is reported as summary.json has it, the perturbed starts are seeded.
+
+The comparison of our 50-interval solution with Moco's (issue: within 5 deg RMS,
+objective equal or lower) is a ~30-60 s solve on the loaded 2-core machine plus the
+build: it is in the benchmark, not here.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from predgait.analysis.gait_agreement import (
+    agreement_table,
+    gait_curves,
+    heel_strike_curves,
+    heel_strike_time,
+    moco_curves,
+)
+from predgait.data.bundled import bundled_path
+from predgait.data.storage import read_storage
+from predgait.errors import InputError
+from predgait.models.osim import bundled_2d_gait
+from predgait.problems.muscle_gait import Goal, MuscleGaitProblem
+from predgait.problems.muscle_gait_setup import (
+    MOCO_BOUNDS,
+    bounds_for,
+    plant_2d_gait,
+    reference_guess,
+)
+from predgait.problems.muscle_multistart import (
+    MultiStartOptions,
+    StartRun,
+    multistart,
+    perturbed,
+)
+
+MOCO = Path(__file__).resolve().parent / "reference" / "osim2d" / "moco_prediction"
+SOLUTION = MOCO / "gaitPrediction_solution.sto"
+GRF = MOCO / "gaitPrediction_solution_fullcycle_grf.sto"
+#: Loose bound for 16 vs 20 intervals (the issue's 3 deg is for 30/50/75).
+SMALL_GRID_RMS_DEG = 6.0
+
+
+@pytest.fixture(scope="module")
+def setup():
+    plant, planar = plant_2d_gait(bundled_2d_gait())
+    storage = read_storage(bundled_path("moco_2d_walking/referenceCoordinates.sto"))
+    bounds = bounds_for(plant, planar, MOCO_BOUNDS, (0.4, 0.6))
+    return plant, planar, storage, bounds
+
+
+def _solve(setup, n):
+    plant, planar, storage, bounds = setup
+    problem = MuscleGaitProblem(plant, n, tx_row=0, max_iter=3000)
+    guess, _ = reference_guess(planar, storage, plant, problem.n)
+    return problem, problem.solve(guess, bounds, Goal())
+
+
+@pytest.fixture(scope="module")
+def grid16(setup):
+    return _solve(setup, 16)
+
+
+def test_heel_strike_between_nodes_known_answer():
+    t = np.linspace(0.0, 1.0, 33)                      # a stride of 1 s, 32 intervals
+    fz = np.clip(1000.0 * (t - 0.3), 0.0, 500.0) * (t < 0.8)
+    assert heel_strike_time(t, fz, 20.0) == pytest.approx(0.32, abs=1e-12)
+    curves = heel_strike_curves(t, {"hip": np.sin(2 * np.pi * t)}, fz, 20.0)
+    expected = np.sin(2 * np.pi * (0.32 + np.linspace(0.0, 1.0, 101)))
+    np.testing.assert_allclose(curves["hip"], expected, atol=0.01)
+    # the first node above the threshold (0.34375 s) would be 0.15 away somewhere
+    node = np.sin(2 * np.pi * (0.34375 + np.linspace(0.0, 1.0, 101)))
+    assert np.abs(node - expected).max() > 0.1
+    with pytest.raises(InputError, match="never touches down"):
+        heel_strike_time(t, np.full_like(t, 100.0))
+
+
+def test_moco_reference_heel_strike_and_our_dynamics_on_it(setup):
+    plant, planar, _, _ = setup
+    curves = moco_curves(SOLUTION, GRF)
+    half = read_storage(SOLUTION)
+    assert float(half.header["objective"]) == pytest.approx(0.021924, rel=1e-4)
+    forces = read_storage(GRF)
+    fz = forces.column("ground_force_r_vy")
+    t_hs = heel_strike_time(forces.time, fz)
+    assert fz[np.searchsorted(forces.time, t_hs)] > 20.0 > fz[np.searchsorted(forces.time,
+                                                                              t_hs) - 1]
+    assert -1.0 < curves["knee"].min() and curves["knee"].max() < 50.0 + 1e-6  # Moco's bound
+    # Moco's trajectory in our model: the skeletal residual (M a + h - tau) is small
+    from predgait.problems.muscle_gait_dynamics import node_function
+
+    path, _ = reference_guess(planar, half, plant, half.time.size - 1)
+    node = node_function(plant)
+    residual = np.array([np.array(node(path.q[k], path.v[k], path.a[k], path.act[k],
+                                       path.exc[k], path.u[k])[0]).ravel()
+                         for k in range(path.q.shape[0])])
+    weight = plant.model.total_mass() * plant.model.gravity
+    assert np.median(np.abs(residual)) < 0.02 * weight
+    # and the effort, Moco's objective, by Simpson's rule on its Hermite-Simpson points
+    controls = np.column_stack([half.columns[f"/{m}"] for m in plant.muscle_names]
+                               + [half.columns["/lumbarAct"]])
+    f = (np.abs(controls) ** 3).sum(axis=1)
+    h = half.time[-1] - half.time[0]
+    simpson = h / 6.0 / 50 * (f[0:-1:2] + 4 * f[1::2] + f[2::2]).sum()
+    distance = path.q[-1, 0] - path.q[0, 0]
+    assert 10.0 * simpson / distance == pytest.approx(0.021924, rel=2e-3)
+
+
+def test_small_grids_agree_from_heel_strike(setup, grid16):
+    plant, planar, _, _ = setup
+    _, coarse = grid16
+    _, fine = _solve(setup, 20)
+    assert coarse.solved.success and fine.solved.success
+    curves = {"16": gait_curves(plant, planar, coarse), "20": gait_curves(plant, planar, fine)}
+    (row,) = agreement_table(curves)
+    assert row["max"] < SMALL_GRID_RMS_DEG, row
+    assert row["max"] > 0.0                                  # two different solutions
+    objectives = coarse.solved.objective, fine.solved.objective
+    assert abs(objectives[0] / objectives[1] - 1.0) < 0.2, objectives
+
+
+def test_multistart_picks_the_least_objective_and_reports_the_spread(setup, grid16):
+    plant, planar, storage, bounds = setup
+    problem, gait = grid16
+    options = MultiStartOptions(starts=3, seed=7, perturbation_deg=3.0)
+    result = multistart(problem, plant, planar, storage, bounds, Goal(), options,
+                        StartRun("reference", gait), max_iter=3000)
+    sp = result.spread
+    assert sp["starts"] == 3 and len(result.runs) == 3
+    ok = [r.gait.solved.objective for r in result.runs if r.gait.solved.success]
+    assert sp["converged"] == len(ok) >= 1
+    assert result.gait.solved.objective == min(ok) == sp["objective_min"]
+    assert sp["objective_min"] <= sp["objective_median"] <= sp["objective_max"]
+    assert sp["runs"][result.best]["kinematics_rms_deg_vs_best"]["knee"] == 0.0
+    assert [r["start"] for r in sp["runs"]][1:] == [
+        "perturbed reference 1 (seed 7)", "perturbed reference 2 (seed 7)"]
+
+
+def test_perturbed_starts_are_seeded_and_smooth(setup):
+    plant, planar, storage, _ = setup
+    path, _ = reference_guess(planar, storage, plant, 16)
+    rows = list(range(2, plant.model.nq))
+    a = perturbed(path, np.random.default_rng(3), np.radians(5.0), rows)
+    b = perturbed(path, np.random.default_rng(3), np.radians(5.0), rows)
+    c = perturbed(path, np.random.default_rng(4), np.radians(5.0), rows)
+    np.testing.assert_array_equal(a.q, b.q)
+    assert np.abs(a.q - c.q).max() > 1e-3
+    np.testing.assert_array_equal(a.q[:, :2], path.q[:, :2])   # pelvis x, z untouched
+    # speeds are the time derivative of the perturbed angles (duration rescaled too)
+    dq = np.gradient(a.q[:, 5], a.t)
+    assert np.abs(dq - a.v[:, 5])[2:-2].max() < 0.1 * np.abs(a.v[:, 5]).max()
