@@ -159,3 +159,43 @@ def test_perturbed_starts_are_seeded_and_smooth(setup):
     # speeds are the time derivative of the perturbed angles (duration rescaled too)
     dq = np.gradient(a.q[:, 5], a.t)
     assert np.abs(dq - a.v[:, 5])[2:-2].max() < 0.1 * np.abs(a.v[:, 5]).max()
+
+
+def _problem(tmp_path, text):
+    from predgait.problemfile import load_problem
+    from predgait.workflows.predict_muscles import parse_muscle_predict
+
+    path = tmp_path / "p.toml"
+    path.write_text('kind = "predict_muscles_2d"\n' + text)
+    return parse_muscle_predict(load_problem(path))
+
+
+def test_multistart_table_parses_and_refuses_bad_input(tmp_path):
+    spec = _problem(tmp_path, "[multistart]\nstarts = 4\nseed = 2\ngrids = [30, 75]\n")
+    assert spec.multistart == MultiStartOptions(starts=4, seed=2, grids=(30, 75))
+    assert _problem(tmp_path, "").multistart.starts == 1            # off by default
+    for text, what in (("starts = 0", "multistart.starts"), ("grids = [30.5]", "grids"),
+                       ("grid = [30]", "unknown key"),
+                       ('tracking_solution = "missing.sto"', "is not a file")):
+        with pytest.raises(InputError, match=what) as err:
+            _problem(tmp_path, f"[multistart]\n{text}\n")
+        assert "p.toml" in str(err.value) and "line 3" in str(err.value)
+
+
+def test_summary_headline_names_the_spread():
+    from predgait.workflows.predict_muscles import summary_lines
+
+    spread = {"starts": 3, "converged": 2, "best": "perturbed reference 1 (seed 0)",
+              "objective_min": 0.12, "objective_median": 0.125, "objective_max": 0.13,
+              "max_kinematics_rms_deg_vs_best": 1.5}
+    vg = {"peak_bw": 1.2, "loading_peak_bw": 1.2, "valley_bw": 0.8, "push_off_peak_bw": 1.1}
+    summary = {"gait": {"right": {"vertical_grf": vg, "slip_m": 0.0, "stance_percent": 60},
+                        "left": {"slip_m": 0.0}, "speed_m_s": 1.2, "stride_length_m": 1.2,
+                        "stride_time_s": 1.0, "cadence_steps_min": 120.0},
+               "ipopt": {"status": "Solve_Succeeded", "iterations": 10, "solve_time_s": 1.0},
+               "status": "completed", "build_s": 1.0, "total_s": 2.0, "nodes": 16,
+               "stages_before": [], "objective": 0.12, "objective_terms": {"effort": 0.012},
+               "pinocchio_check": {"max_residual": 0.0, "max_acceleration_error": 0.0},
+               "moco": {"available": False}, "warnings": [], "multistart": spread}
+    line = next(x for x in summary_lines(summary) if "multi-start" in x)
+    assert "2 of 3 converged" in line and "0.12 / 0.125 / 0.13" in line and "1.5 deg" in line

@@ -50,13 +50,18 @@ def parse_multistart(table) -> MultiStartOptions:
     grids = table.numbers("grids", [], low=4, high=400)
     if any(g != int(g) for g in grids):
         raise table.error("grids", "give whole numbers of intervals, e.g. [30, 75].")
+    tracking = table.path_value("tracking_solution", None)
+    if tracking is not None and not tracking.is_file():
+        raise table.error("tracking_solution", f"{tracking} is not a file; give a "
+                                               "MocoTrajectory .sto (e.g. Moco's "
+                                               "gaitTracking_solution.sto) or remove the key.")
     return MultiStartOptions(
         starts=int(table.number("starts", d.starts, low=1, high=50)),
         seed=int(table.number("seed", d.seed, low=0, high=2**31 - 1)),
         perturbation_deg=table.number("perturbation_deg", d.perturbation_deg, low=0.0,
                                       high=45.0, unit="deg"),
         grids=tuple(int(g) for g in grids),
-        tracking_solution=table.path_value("tracking_solution", None))
+        tracking_solution=tracking)
 
 
 @dataclass(frozen=True, eq=False)
