@@ -297,8 +297,8 @@ def run_muscle_predict(spec: MusclePredictSpec, out: Path, *, force: bool = Fals
     pred = solve_prediction(spec)
     summary = prediction_summary(spec, pred)
     ok = pred.gait.solved.success
-    with staged_output(out, force=force, inputs=[spec.source, spec.osim, spec.reference]) \
-            as stage:
+    inputs = [spec.source, spec.osim, spec.reference, spec.multistart.tracking_solution]
+    with staged_output(out, force=force, inputs=inputs) as stage:
         write_gait_files(stage, pred.planar, pred.plant, pred.gait, pred.stride,
                          status=pred.gait.solved.status, prefix="" if ok else "partial_")
         summary = write_summary(stage / "summary.json", summary)
