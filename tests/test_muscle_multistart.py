@@ -47,8 +47,9 @@ from predgait.problems.muscle_multistart import (
 MOCO = Path(__file__).resolve().parent / "reference" / "osim2d" / "moco_prediction"
 SOLUTION = MOCO / "gaitPrediction_solution.sto"
 GRF = MOCO / "gaitPrediction_solution_fullcycle_grf.sto"
-#: Loose bound for 16 vs 20 intervals (the issue's 3 deg is for 30/50/75).
-SMALL_GRID_RMS_DEG = 6.0
+#: Looser bound for 16 vs 20 intervals (the issue's 3 deg is for 30/50/75). Measured:
+#: 16 vs 20 hip 1.5, knee 2.8, ankle 2.3 deg; 12 vs 16 up to 6.5 deg (would fail).
+SMALL_GRID_RMS_DEG = 4.0
 
 
 @pytest.fixture(scope="module")
@@ -126,24 +127,23 @@ def test_small_grids_agree_from_heel_strike(setup, grid16):
     assert row["max"] < SMALL_GRID_RMS_DEG, row
     assert row["max"] > 0.0                                  # two different solutions
     objectives = coarse.solved.objective, fine.solved.objective
-    assert abs(objectives[0] / objectives[1] - 1.0) < 0.2, objectives
+    assert abs(objectives[0] / objectives[1] - 1.0) < 0.1, objectives   # measured 4 %
 
 
 def test_multistart_picks_the_least_objective_and_reports_the_spread(setup, grid16):
     plant, planar, storage, bounds = setup
     problem, gait = grid16
-    options = MultiStartOptions(starts=3, seed=7, perturbation_deg=3.0)
+    options = MultiStartOptions(starts=2, seed=7, perturbation_deg=3.0)
     result = multistart(problem, plant, planar, storage, bounds, Goal(), options,
                         StartRun("reference", gait), max_iter=3000)
     sp = result.spread
-    assert sp["starts"] == 3 and len(result.runs) == 3
+    assert sp["starts"] == 2 and len(result.runs) == 2
     ok = [r.gait.solved.objective for r in result.runs if r.gait.solved.success]
     assert sp["converged"] == len(ok) >= 1
     assert result.gait.solved.objective == min(ok) == sp["objective_min"]
     assert sp["objective_min"] <= sp["objective_median"] <= sp["objective_max"]
     assert sp["runs"][result.best]["kinematics_rms_deg_vs_best"]["knee"] == 0.0
-    assert [r["start"] for r in sp["runs"]][1:] == [
-        "perturbed reference 1 (seed 7)", "perturbed reference 2 (seed 7)"]
+    assert [r["start"] for r in sp["runs"]] == ["reference", "perturbed reference 1 (seed 7)"]
 
 
 def test_perturbed_starts_are_seeded_and_smooth(setup):
