@@ -40,6 +40,15 @@ little there; trapezoidal keeps every point one where the dynamics hold exactly,
 Refining the trapezoidal grid to 100 intervals changed the objective by < 0.01 %
 (0.13353 vs 0.13352) from Moco's solution as the guess.
 
+Against Moco's own solution (OpenSim 4.6, Hermite-Simpson, 50 intervals, 274 iterations,
+1955 s; objective 0.0219, half stride 0.400 s on its lower bound): our trapezoidal optimum
+is 0.1335 (0.500 s), 6.1x higher, and stays there from Moco's solution as the guess, on 100
+intervals (0.13353) and with the acceleration bound raised to 1e4 (0.13355, |a| <= 530).
+Moco's trajectory satisfies this NLP's dynamics to a median 0.03 N (residual rows) but not
+at the heel-strike impact (746 N at the third point of 101): the two transcriptions treat
+the impact on the stiff spheres differently, which is where the effort gap comes from;
+the cause on either side is not settled.
+
 Decision vector (scaled; :meth:`MuscleGaitProblem.unpack` is the only place that slices
 it): w = [h, vec(Q), vec(V), vec(A)/10, vec(ACT), vec(EXC), vec(U)/10, E/0.01], each block
 (rows, N+1) column-major (node by node); h (1, N) is one step per interval, chained
