@@ -190,9 +190,9 @@ def finding(kind: str | None, c: dict) -> str:
         return (f"Initial contact on the {right['initial_contact']['edited']}, push-off "
                 "vertical GRF "
                 f"{right['push_off_peak_bw']['baseline']:.2f} -> "
-                f"{right['push_off_peak_bw']['edited']:.2f} BW, peak plantarflexion "
-                f"{-right['min_ankle_deg']['baseline']:.1f} -> "
-                f"{-right['min_ankle_deg']['edited']:.1f} deg: {verdict} Ong et al. 2019's "
+                f"{right['push_off_peak_bw']['edited']:.2f} BW, least ankle angle "
+                f"{right['min_ankle_deg']['baseline']:+.1f} -> "
+                f"{right['min_ankle_deg']['edited']:+.1f} deg: {verdict} Ong et al. 2019's "
                 "heel walking without push-off under severe plantarflexor weakness (their "
                 "slower speed is not testable here: the speed is imposed at "
                 f"{c['speed_m_s']['edited']:.2f} m/s).")
@@ -216,7 +216,12 @@ def finding(kind: str | None, c: dict) -> str:
         swing = right["swing_knee_flexion_peak_deg"]
         up = swing["edited"] - swing["baseline"]
         verdict = "reproduces" if up > 1.0 else "contradicts"
+        limit = c.get("knee_flexion_limit_deg")
+        bound = ("" if limit is None or swing["edited"] < limit - 0.5 else
+                 f", both on the problem's {limit:.0f} deg knee bound (with "
+                 "baseline.bounds.preset=physiological the knee may flex further)")
         return (f"Peak swing knee flexion {swing['baseline']:.1f} -> {swing['edited']:.1f} "
-                f"deg ({up:+.1f}): {verdict} the aim of the distal rectus femoris transfer "
-                "(more swing knee flexion; Delp 1994's flexor moment arm, Asakawa 2002/2004).")
+                f"deg ({up:+.1f}{bound}): {verdict} the aim of the distal rectus femoris "
+                "transfer (more swing knee flexion; Delp 1994's flexor moment arm, Asakawa "
+                "2002/2004).")
     return "No published finding is attached to these edits."

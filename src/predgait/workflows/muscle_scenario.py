@@ -21,6 +21,8 @@ import dataclasses
 import enum
 from pathlib import Path
 
+import numpy as np
+
 from predgait.errors import SolveFailed
 
 
@@ -35,7 +37,7 @@ def scenario_summary(result) -> dict:
     """summary.json of a solved (or failed) scenario."""
     from predgait.analysis.muscle_scenario_compare import compare, finding, scenario_kind
     from predgait.textfile import source_name
-    from predgait.workflows.predict_muscles import prediction_summary
+    from predgait.workflows.predict_muscles import _ranges, prediction_summary
 
     run, sc = result.run, result.scenario
     ok = result.edited.gait.solved.success
@@ -54,6 +56,8 @@ def scenario_summary(result) -> dict:
     if ok:
         kind = scenario_kind(run.spec.edits)
         comparison = compare(result.baseline, result.edited)
+        low = {**_ranges(run.baseline), **sc.coordinate_bounds}["knee_angle_r"][0]
+        comparison["knee_flexion_limit_deg"] = float(-np.degrees(low))
         out |= {"finding_kind": kind, "finding": finding(kind, comparison),
                 "comparison": comparison}
     out["baseline"] = prediction_summary(quiet, result.baseline)
