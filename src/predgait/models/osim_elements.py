@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 import re
 
-from predgait.models.osim import (
+from predgait.models.osim_functions import Constant, read_function_holder
+from predgait.models.osim_records import (
     Body,
     ContactHalfSpace,
     ContactSphere,
@@ -24,7 +25,6 @@ from predgait.models.osim import (
     PointKind,
     SmoothContact,
 )
-from predgait.models.osim_functions import Constant, read_function_holder
 from predgait.models.osim_xml import Node, OsimFile, properties
 
 _BODY_PATH = re.compile(r"/bodyset/([^/]+)")
