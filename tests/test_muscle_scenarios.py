@@ -157,3 +157,19 @@ def test_fused_knee_residual_row_is_dropped():
     assert bounds.duration == pytest.approx((0.8, 1.2))        # a whole stride
     left = planar.osim_coordinates.index("knee_angle_l")
     assert bounds.q[left, 0] < -0.5                           # the sound knee still bends
+
+
+def test_fused_knee_stays_at_its_angle():
+    """Right knee fused (a whole stride): held at 0, the weld's reaction holds it."""
+    r = scenario("knee_fusion_2d")
+    e = r.edited
+    assert e.gait.solved.success, e.gait.solved.status
+    p = e.gait.path
+    assert p.q.shape[0] == 2 * NODES + 1                       # a whole stride, not mirrored
+    row = e.planar.osim_coordinates.index("knee_angle_r")
+    left = e.planar.osim_coordinates.index("knee_angle_l")
+    np.testing.assert_allclose(p.q[:, row], 0.0, atol=1e-9)
+    np.testing.assert_allclose(p.v[:, row], 0.0, atol=1e-9)
+    assert e.check["max_residual"] < 0.05                     # every other row is dynamics
+    assert e.check["fused_reaction_peak_n_m"]["knee_angle_r"] > 5.0   # N m, the weld's
+    assert -p.q[:, left].min() > np.radians(30.0)             # the sound knee swings
