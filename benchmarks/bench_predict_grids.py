@@ -24,6 +24,29 @@ Run:  OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench
       [--grids 30 50 75] [--nodes 50] [--starts 4] [--moco DIR] [--tracking FILE]
       [--coretypes default Haswell]
 The load average is printed: the figures are from a shared 2-core machine.
+
+Measured (2026-12-04, commit 11db466 of branch muscles, load average 2-5 on 2 cores;
+solve times are wall under that load):
+
+    intervals | iterations | solve s | objective | half stride s
+    30        | 93         | 13.4    | 0.137695  | 0.5058
+    50        | 87         | 26.8    | 0.133524  | 0.4999
+    75        | 114        | 23.5    | 0.133589  | 0.4998
+    RMS from heel strike (hip, knee, ankle deg): 30-50 0.56, 0.61, 0.85; 30-75 0.55,
+    0.57, 0.89; 50-75 0.11, 0.12, 0.10 (goal 3 deg: met).
+    vs Moco's solution (objective 0.021924, 274 iterations, 1956 s): objective 6.09x
+    (50), RMS hip 25.0, knee 35.4, ankle 9.3 deg (goal equal or lower, 5 deg: NOT met;
+    same at 30 and 75, so not a grid effect).
+    multi-start, 50 intervals, 4 starts, 4 converged: reference 0.133524 (best),
+    Moco's tracking solution 0.133566, perturbed (seed 0) 0.133535, both within 0.02 deg
+    of the best; the 30-interval solution resampled converged to another optimum,
+    0.167195 (+25 %), up to 8.2 deg (ankle) away: median 0.13355, max 0.167195.
+    OPENBLAS_CORETYPE default (NumPy/SciPy: SkylakeX) vs Haswell: CasADi's own OpenBLAS
+    0.3.24, the one MUMPS calls, is built for CORE2 without DYNAMIC_ARCH and reports CORE2
+    under both, so the solver's kernel does not change; NumPy's does, and its rounding
+    (the reference guess differs by up to 2e-12) moves Ipopt's path: 50 intervals
+    +0.012 % objective, 87 vs 91 iterations, RMS <= 0.014 deg; 30 intervals -1.66 %,
+    93 vs 110 iterations, RMS <= 0.27 deg.
 """
 
 from __future__ import annotations

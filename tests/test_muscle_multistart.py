@@ -10,8 +10,10 @@
   spread is reported as summary.json has it, the perturbed starts are seeded.
 
 The comparison of our 50-interval solution with Moco's (issue: within 5 deg RMS,
-objective equal or lower) is a ~30-60 s solve on the loaded 2-core machine plus the
-build: it is in the benchmark, not here.
+objective equal or lower) is a 40-50 s process (build + solve) on the loaded 2-core
+machine: it is in benchmarks/bench_predict_grids.py, not here (measured there: objective
+6.09x Moco's, knee 35 deg RMS: the goal is not met). This file takes 129 s under a load
+average of ~5 on 2 cores (the multi-start's perturbed start alone 68 s).
 """
 
 from pathlib import Path
