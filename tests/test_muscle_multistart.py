@@ -140,6 +140,7 @@ def test_multistart_picks_the_least_objective_and_reports_the_spread(setup, grid
                         StartRun("reference", gait), max_iter=3000)
     sp = result.spread
     assert sp["starts"] == 2 and len(result.runs) == 2
+    assert sp["seconds"] >= sum(r.gait.solved.seconds for r in result.runs)
     ok = [r.gait.solved.objective for r in result.runs if r.gait.solved.success]
     assert sp["converged"] == len(ok) >= 1
     assert result.gait.solved.objective == min(ok) == sp["objective_min"]
@@ -189,7 +190,7 @@ def test_summary_headline_names_the_spread():
 
     spread = {"starts": 3, "converged": 2, "best": "perturbed reference 1 (seed 0)",
               "objective_min": 0.12, "objective_median": 0.125, "objective_max": 0.13,
-              "max_kinematics_rms_deg_vs_best": 1.5}
+              "max_kinematics_rms_deg_vs_best": 1.5, "seconds": 12.0}
     vg = {"peak_bw": 1.2, "loading_peak_bw": 1.2, "valley_bw": 0.8, "push_off_peak_bw": 1.1}
     summary = {"gait": {"right": {"vertical_grf": vg, "slip_m": 0.0, "stance_percent": 60},
                         "left": {"slip_m": 0.0}, "speed_m_s": 1.2, "stride_length_m": 1.2,
@@ -201,3 +202,4 @@ def test_summary_headline_names_the_spread():
                "moco": {"available": False}, "warnings": [], "multistart": spread}
     line = next(x for x in summary_lines(summary) if "multi-start" in x)
     assert "2 of 3 converged" in line and "0.12 / 0.125 / 0.13" in line and "1.5 deg" in line
+    assert "all starts 12.0 s" in line

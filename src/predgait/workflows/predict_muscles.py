@@ -267,7 +267,8 @@ def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
     s = gait.solved
     status = ("not converged" if not s.success
               else "completed with warnings" if failed else "completed")
-    total = pred.build_s + sum(g.solved.seconds for _, g in pred.stages) + s.seconds
+    total = pred.build_s + sum(g.solved.seconds for _, g in pred.stages) + (
+        pred.multistart["seconds"] if pred.multistart else s.seconds)
     return {
         "status": status, "kind": "predict_muscles_2d", "ipopt": _solved(s),
         "stages_before": [{"what": what, **_solved(g.solved)} for what, g in pred.stages],
@@ -348,7 +349,7 @@ def summary_lines(summary: dict) -> list[str]:
                      f"{ms['objective_min']:.5g} / {ms['objective_median']:.5g} / "
                      f"{ms['objective_max']:.5g} (min / median / max), kinematics up to "
                      f"{ms['max_kinematics_rms_deg_vs_best']:.1f} deg RMS from the best "
-                     f"({ms['best']})" if ms["converged"] else
+                     f"({ms['best']}); all starts {ms['seconds']:.1f} s" if ms["converged"] else
                      f"  multi-start: none of {ms['starts']} starts converged")
     for w in summary["warnings"]:
         lines.append(f"  warning: {w['name']} = {w['value']:.3g} (bound {w['bound']}, "
