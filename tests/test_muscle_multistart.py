@@ -49,7 +49,7 @@ MOCO = Path(__file__).resolve().parent / "reference" / "osim2d" / "moco_predicti
 SOLUTION = MOCO / "gaitPrediction_solution.sto"
 GRF = MOCO / "gaitPrediction_solution_fullcycle_grf.sto"
 #: Looser bound for 16 vs 20 intervals (the issue's 3 deg is for 30/50/75). Measured:
-#: 16 vs 20 hip 1.5, knee 2.8, ankle 2.3 deg; 12 vs 16 up to 6.5 deg (would fail).
+#: 16 vs 20 hip 1.5, knee 2.7, ankle 2.3 deg; 12 vs 16 up to 6.3 deg (would fail).
 SMALL_GRID_RMS_DEG = 4.0
 
 
@@ -128,7 +128,7 @@ def test_small_grids_agree_from_heel_strike(setup, grid16):
     assert row["max"] < SMALL_GRID_RMS_DEG, row
     assert row["max"] > 0.0                                  # two different solutions
     objectives = coarse.solved.objective, fine.solved.objective
-    assert abs(objectives[0] / objectives[1] - 1.0) < 0.1, objectives   # measured 4 %
+    assert abs(objectives[0] / objectives[1] - 1.0) < 0.1, objectives   # measured 3.2 %
 
 
 def test_multistart_picks_the_least_objective_and_reports_the_spread():
