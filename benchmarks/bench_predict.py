@@ -24,8 +24,19 @@ problems differ (model, actuators, grid, objective): both sides' nodes, degrees 
 and iterations are printed beside the ratio, which compares the two recipes (Moco: set-up
 and both solves; predgait: build + predictive recipe, min wall of each), not equal work.
 
+Muscle case (issue 26, ``--case muscles`` or ``both``): ``predgait solve
+problems/predict_2d_muscles.toml`` (Moco's example2DWalking prediction on 2D_gait.osim,
+50 intervals) cold, each repeat a fresh process (model read, path fit, NLP and Ipopt
+built, solved, checked, written): wall time, build time, Ipopt iterations, objective; with
+``--moco-solution`` (Moco's gaitPrediction_solution.sto, e.g. from
+benchmarks/peer/moco_2d_walking.py) its objective, iterations and solver time beside
+ours; with ``--coretypes`` one run per OPENBLAS_CORETYPE and the spread of the objective
+and kinematics between them; the human-likeness run (problems/
+predict_2d_muscles_physiological.toml) with its failed checks.
+
 Run:  [OPENSIM_PYTHON=... MOCO_2D_GAIT_DIR=...] .venv/bin/python benchmarks/bench_predict.py
-      [--repeat 3] [--nodes 40 50] [--peer-minutes 30]
+      [--repeat 3] [--nodes 40 50] [--peer-minutes 30] [--case gait7|muscles|both]
+      [--moco-solution FILE] [--coretypes Haswell SkylakeX]
 """
 
 from __future__ import annotations
@@ -163,15 +174,87 @@ def bench(nodes: int, repeat: int) -> tuple[Timing, Timing]:
     return built, recipe
 
 
+def solve_muscles(problem: str, extra: tuple[str, ...] = (), env: dict | None = None
+                  ) -> tuple[float, dict]:
+    """One cold ``predgait solve`` of a muscle problem in a fresh process: (wall s, summary)."""
+    import sys
+    import tempfile
+    import time
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out"
+        start = time.perf_counter()
+        done = subprocess.run([sys.executable, "-m", "predgait", "solve",
+                               str(HERE.parent / "problems" / problem), "--out", str(out),
+                               "--no-plots", *extra], capture_output=True, text=True,
+                              env={**os.environ, **(env or {})})
+        wall = time.perf_counter() - start
+        if not (out / "summary.json").is_file():
+            raise SystemExit(f"{problem}: {done.stderr.strip()[-400:]}")
+        return wall, json.loads((out / "summary.json").read_text())
+
+
+def bench_muscles(repeat: int, moco_solution: str | None, coretypes: list[str]) -> None:
+    """The muscle-driven prediction cold (fresh processes), Moco's solution, BLAS kernels."""
+    extra = ("--set", f"compare.moco_solution={moco_solution}") if moco_solution else ()
+    load = os.getloadavg()[0]
+    runs = [solve_muscles("predict_2d_muscles.toml", extra) for _ in range(repeat)]
+    walls = sorted(w for w, _ in runs)
+    s = runs[0][1]
+    ip = s["ipopt"]
+    print(f"muscles (2D_gait.osim, {s['nodes']} intervals, {s['transcription']}), cold "
+          f"predgait solve incl. reading, fitting, building, checking, writing: min "
+          f"{walls[0]:.1f} s, median {walls[len(walls) // 2]:.1f} s (load average "
+          f"{load:.1f} on {os.cpu_count()} cores); build {s['build_s']:.1f} s, Ipopt "
+          f"{ip['iterations']} iterations {ip['solve_time_s']:.1f} s, {ip['status']}, "
+          f"objective {s['objective']:.5g}")
+    moco = s["moco"]
+    if moco["available"]:
+        print(f"  Moco's solution: objective {moco['objective']:.5g}, {moco['iterations']} "
+              f"iterations, solver {moco['solver_duration_s']:.0f} s; ours/Moco objective "
+              f"{s['objective'] / moco['objective']:.2f}; kinematics RMS "
+              + ", ".join(f"{k} {v:.1f}" for k, v in moco["kinematics_rms_deg"].items())
+              + " deg; Moco solver time / our cold wall "
+              f"{moco['solver_duration_s'] / walls[0]:.0f}x")
+    else:
+        print(f"  Moco's solution: {NOT_AVAILABLE} ({moco['why']})")
+    kernels = {}
+    for kind in coretypes:
+        kernels[kind] = solve_muscles("predict_2d_muscles.toml",
+                                      env={"OPENBLAS_CORETYPE": kind})[1]
+    if kernels:
+        objectives = {k: v["objective"] for k, v in kernels.items()}
+        curves = [v["right_leg_deg"] for v in kernels.values()]
+        import numpy as np
+
+        spread = max(float(np.max(np.abs(np.subtract(curves[0][j], c[j]))))
+                     for c in curves for j in c)
+        print(f"  OPENBLAS_CORETYPE: objectives {objectives}; right-leg angles differ by "
+              f"up to {spread:.2f} deg between kernels")
+    _, phys = solve_muscles("predict_2d_muscles_physiological.toml")
+    print(f"  physiological bounds: {phys['status']}, objective {phys['objective']:.5g}; "
+          f"{len(phys['warnings'])} of {len(phys['human_likeness'])} checks fail: "
+          + "; ".join(f"{w['name']} {w['value']:.3g} ({w['bound']})"
+                      for w in phys["warnings"]))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--nodes", type=int, nargs="+", default=[40, 50])
     parser.add_argument("--peer-minutes", type=float, default=30.0,
                         help="stop each Moco run after this many minutes (default 30)")
+    parser.add_argument("--case", choices=("gait7", "muscles", "both"), default="both")
+    parser.add_argument("--moco-solution", help="Moco's gaitPrediction_solution.sto")
+    parser.add_argument("--coretypes", nargs="*", default=[],
+                        help="OPENBLAS_CORETYPE values to compare (e.g. Haswell SkylakeX)")
     args = parser.parse_args()
-    ours = {nodes: bench(nodes, args.repeat) for nodes in args.nodes}
-    report_peer(args.repeat, args.peer_minutes, ours, fresh_model().nq)
+    if args.case in ("gait7", "both"):
+        ours = {nodes: bench(nodes, args.repeat) for nodes in args.nodes}
+        report_peer(args.repeat, args.peer_minutes, ours, fresh_model().nq)
+    if args.case in ("muscles", "both"):
+        bench_muscles(args.repeat, args.moco_solution, args.coretypes)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ def test_bundled_files_and_bad_name():
             "README.md"} <= names
     assert not list(folder.parent.rglob("*.c3d"))  # the 1.1 MB C3D is not shipped
     assert bundled_path("winter_a1/BSP_DempsterWinter.txt").is_file()
-    with pytest.raises(InputError, match="datasets: subject01_walk1, winter_a1"):
+    with pytest.raises(InputError, match="datasets: moco_2d_walking, subject01_walk1, winter_a1"):
         bundled_path("nope")
 
 

@@ -17,6 +17,12 @@ With predicts = true (problems/scenario_*_predict.toml) the edited and the unedi
 are given new gaits by predictive collocation instead (predgait solve predict_gait7):
 summary.json, states/torques/grf_{baseline,edited}.sto, edited_gait7.urdf, plots; an
 Ipopt failure exits 3 and writes nothing.
+With kind = "muscle_scenario" (problems/scenario_muscle_*.toml: [[muscle_edit]] tables on
+the muscle-driven 2D_gait.osim, baseline = a predict_muscles_2d file) the baseline and the
+edited model are predicted (the edited one from the baseline's solution): baseline_*.sto,
+edited_*.sto, summary.json (kinematics from heel strike, cost of transport, GRF, the
+published finding reproduced or contradicted), scenario.png; --set baseline.KEY=VALUE
+overrides the baseline file (baseline.grid.nodes=20). An Ipopt failure exits 3.
 """
 
 
@@ -65,6 +71,8 @@ def run(args: argparse.Namespace) -> int:
     from predgait.workflows.output import check_out
 
     check_out(args.out, force=args.force, inputs=[args.scenario])  # before any computation
+    if _kind(args.scenario) == "muscle_scenario":
+        return _run_muscle(args)
     spec = load_scenario(args.scenario, args.set)
     if spec.predicts:
         return _run_predicted(spec, args)
@@ -82,6 +90,33 @@ def run(args: argparse.Namespace) -> int:
           f"{m['knee_max_change_deg']:.1f}); ankle {m['ankle_rms_change_deg']:.1f} deg")
     print(f"  extra feedback torque RMS: knee {m['knee_extra_feedback_rms_n_m']:.1f} N m, "
           f"ankle {m['ankle_extra_feedback_rms_n_m']:.1f} N m")
+    return 0
+
+
+def _kind(path: Path) -> str | None:
+    """The file's top-level ``kind`` (None when absent; syntax errors surface later)."""
+    from predgait.problemfile import load_problem
+
+    return load_problem(path).data.get("kind")
+
+
+def _run_muscle(args) -> int:
+    """A muscle-driven scenario (problems/scenario_muscle_*.toml): baseline and edited."""
+    import sys
+
+    from predgait.errors import SolveFailed
+    from predgait.scenarios.muscle_predict import load_muscle_scenario
+    from predgait.workflows.muscle_scenario import run_muscle_scenario, summary_lines
+
+    run = load_muscle_scenario(args.scenario, args.set)
+    try:
+        summary = run_muscle_scenario(run, args.out, force=args.force)
+    except SolveFailed as exc:
+        print(f"predgait: solve failed: {exc}", file=sys.stderr)
+        return 3
+    for line in summary_lines(summary):
+        print(line)
+    print(f"  wrote {args.out}/ (summary.json, baseline_*.sto, edited_*.sto, scenario.png)")
     return 0
 
 

@@ -26,6 +26,10 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
                      7-link model on smooth heel/toe contact (problems/
                      predict_gait7.toml), checked by Pinocchio at every node and
                      re-simulated by the engine with TVLQR feedback
+  predict_muscles_2d  OpenSim Moco's example2DWalking prediction on 2D_gait.osim (18
+                     DeGrooteFregly2016 muscles, smooth sphere contacts; problems/
+                     predict_2d_muscles.toml): half a stride, symmetry, 1.2 m/s, effort
+                     per distance; states/controls as OpenSim STO, human-likeness checks
   fullbody_tracking  the 35-DOF body with its pelvis free made dynamically consistent:
                      corrected kinematics, joint torques, sole contact forces; then
                      re-simulated on the contact springs with and without time-varying
@@ -86,6 +90,10 @@ _WORKFLOWS = {
     "predict_gait7": _Workflow(
         "predgait.workflows.predict", "parse_predict", "run_predict",
         "solution.json, states.sto, torques.sto, grf.sto, plots"),
+    "predict_muscles_2d": _Workflow(
+        "predgait.workflows.predict_muscles", "parse_muscle_predict", "run_muscle_predict",
+        "summary.json, solution.sto, states.sto, controls.sto, muscle_forces.sto, grf.sto, "
+        "prediction.png"),
     "fullbody_tracking": _Workflow(
         "predgait.workflows.fullbody_tracking_run", "parse_tracking", "run_tracking",
         "kinematics3d.sto, corrected_moments3d.sto, contact_forces.sto, feedback_gains.npz, "

@@ -296,6 +296,27 @@ def _predict(s: dict) -> Headline:
                     numbers, sentence + ".")
 
 
+def _predict_muscles(s: dict) -> Headline:
+    g, ip, chk = s["gait"], s["ipopt"], s["pinocchio_check"]
+    vg = g["right"]["vertical_grf"]
+    numbers = [("speed, stride", f"{g['speed_m_s']:.2f} m/s, {g['stride_length_m']:.3f} m in "
+                f"{_t(g['stride_time_s'])}"),
+               ("cadence, right stance", f"{g['cadence_steps_min']:.0f} steps/min, "
+                f"{g['right']['stance_percent']:.0f} %"),
+               ("vertical GRF peak, trough", f"{vg['peak_bw']:.2f}, {vg['valley_bw']:.2f} BW"),
+               ("objective", f"{s['objective']:.4g}"),
+               ("Pinocchio residual", f"{chk['max_residual']:.1e} N"),
+               ("solve", f"{ip['iterations']} iterations, {ip['solve_time_s']:.1f} s")]
+    if s["moco"]["available"]:
+        numbers.append(("Moco's objective", f"{s['moco']['objective']:.4g}"))
+    failed = len(s["warnings"])
+    sentence = (f"Ipopt ({ip['status']}) found a muscle-driven half stride over {s['nodes']} "
+                f"intervals at {g['speed_m_s']:.2f} m/s; {failed} of "
+                f"{len(s['human_likeness'])} human-likeness checks fail")
+    return Headline("Predicted gait (18 muscles, 2D_gait.osim)", s["provenance"]["model"],
+                    s["status"], numbers, sentence + ".")
+
+
 def _parameter_numbers(fitted: dict, suffix: str = "") -> list[tuple[str, str]]:
     """The first four fitted parameters: value, interval or "not identifiable"."""
     numbers = []
@@ -441,7 +462,7 @@ BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynt
             "passive_decomposition": _decomposition, "torque_feedback": _torque_feedback,
             "passive_shooting": _shooting, "passive_swing": _swing,
             "fullbody_tracking": _fullbody_tracking,
-            "predict_gait7": _predict}
+            "predict_gait7": _predict, "predict_muscles_2d": _predict_muscles}
 
 
 def summary_file(folder: Path) -> Path | None:

@@ -1,0 +1,356 @@
+"""Muscle-driven predictive gait of OpenSim's 2D_gait.osim by direct collocation (NLP).
+
+The predictive problem of OpenSim Moco's ``example2DWalking`` (Dembia et al. 2020, PLoS
+Comput Biol 16:e1008493), written with exact CasADi derivatives (Ipopt, exact Hessian):
+
+* half a stride from right heel strike; periodicity with left/right symmetry as Moco's
+  MocoPeriodicityGoal pairs it: every coordinate but pelvis_tx, every speed (pelvis_tx's
+  with itself), the activations (left <-> right) and the lumbar control;
+* average speed d / T = v_desired as a constraint (OpenSim 4.6's MocoAverageSpeedGoal
+  is an endpoint constraint by default: Moco's log says "mode: endpoint_constraint"), or
+  the cost w_speed (d / T - v_desired)^2 (its cost mode);
+* cost = w_effort / d * integral sum_i |u_i|^3 dt (MocoControlGoal, weight 10, exponent 3,
+  divided by displacement), over the 18 excitations and the lumbar control, with d the
+  pelvis_tx displacement (the symmetric states put the centre of mass at the same height
+  at both ends, so d is also Moco's centre-of-mass displacement) and T the free duration;
+* optionally (the tracking stage that starts a prediction, as Moco's example starts
+  from a MocoTrack solution) w_track times the mean squared coordinate error to a
+  reference, rad^2 (m^2 for the pelvis translations).
+
+Dynamics: implicit, :mod:`predgait.problems.muscle_gait_dynamics` (accelerations as
+controls, the inverse-dynamics residual as constraints; Falisse et al. 2019): no symbolic
+inverse of the 10x10 mass matrix, the residual is linear in the accelerations, so the
+constraint Jacobian and the exact Hessian stay sparse.
+
+Transcription (:class:`~predgait.problems.collocation.Transcription`): trapezoidal on N
+uniform intervals of h = T/N (T free), the default,
+
+    x_{k+1} - x_k - h/2 (xdot_k + xdot_{k+1}) = 0   for x = q (xdot = v), v (a), act, E,
+
+or separated Hermite-Simpson (Moco's default; N intervals with their midpoints, 2N+1
+points), with the residual and every bound at each point. Measured on this 2-core machine
+(50 intervals, from referenceCoordinates.sto): trapezoidal builds in 14 s and converges in
+87 iterations, 10 s (objective 0.134); Hermite-Simpson on the same mesh doubles the points
+(build 75 s) and had not converged after 8 min of CPU. With implicit dynamics every
+higher-order scheme adds points holding their own accelerations, residuals, muscle and
+contact evaluations (HS 2N+1, Radau-3 3N+1), and the heel-strike transient of the stiff
+sphere contacts (3 MN/m^1.5) is shorter than any affordable interval, so the order buys
+little there; trapezoidal keeps every point one where the dynamics hold exactly, which
+:func:`predgait.problems.muscle_gait_check.node_check` re-evaluates with Pinocchio.
+Refining the trapezoidal grid to 100 intervals changed the objective by < 0.01 %
+(0.13353 vs 0.13352) from Moco's solution as the guess.
+
+Against Moco's own solution (OpenSim 4.6, Hermite-Simpson, 50 intervals, 274 iterations,
+1955 s; objective 0.0219, half stride 0.400 s on its lower bound): our trapezoidal optimum
+is 0.1335 (0.500 s), 6.1x higher, and stays there from Moco's solution as the guess, on 100
+intervals (0.13353) and with the acceleration bound raised to 1e4 (0.13355, |a| <= 530).
+Moco's trajectory satisfies this NLP's dynamics to a median 0.03 N (residual rows) but not
+at the heel-strike impact (746 N at the third point of 101): the two transcriptions treat
+the impact on the stiff spheres differently, which is where the effort gap comes from;
+the cause on either side is not settled.
+
+Decision vector (scaled; :meth:`MuscleGaitProblem.unpack` is the only place that slices
+it): w = [h, vec(Q), vec(V), vec(A)/10, vec(ACT), vec(EXC), vec(U)/10, E/0.01], each block
+(rows, N+1) column-major (node by node); h (1, N) is one step per interval, chained
+equal, and E the running effort integral (E_0 = 0): the distance q_tx(N), the duration
+N h_N and the effort E_N are last-point values, so no term couples every node (a dense
+row made MUMPS 4x slower: 0.35 s per factorisation at 50 intervals). Constraints:
+residuals / 100, defects / h_0, periodicity, the average speed; box bounds on everything
+(Moco's coordinate bounds).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as cs
+import numpy as np
+
+from predgait.errors import InputError
+from predgait.problems.collocation import Solved, Transcription, _history
+from predgait.problems.muscle_gait_dynamics import MusclePlant, node_function
+
+#: Scale of each block of the decision vector (physical = scale * scaled).
+SCALES = {"h": 0.01, "q": 1.0, "v": 1.0, "a": 10.0, "act": 1.0, "exc": 1.0, "u": 10.0,
+          "E": 0.01}
+NEVER_INLINE = False
+#: Residual scale (N, N m per unit of the scaled constraint).
+RESIDUAL_SCALE = 100.0
+#: Nominal duration used to scale the defects, s.
+NOMINAL_DURATION = 0.5
+#: Ipopt's tolerances: Moco's example (convergence and constraint tolerance 1e-4).
+IPOPT_OPTIONS = {"tol": 1e-4, "constr_viol_tol": 1e-4, "mu_strategy": "adaptive",
+                 "linear_solver": "mumps", "hessian_approximation": "exact"}
+
+
+@dataclass(frozen=True)
+class Goal:
+    """Objective weights and targets (see the module docstring)."""
+
+    speed: float = 1.2            # m/s, desired average speed
+    speed_constraint: bool = True  # OpenSim 4.6's MocoAverageSpeedGoal: endpoint constraint
+    speed_weight: float = 0.0     # per (m/s)^2, when a cost (the goal's "cost" mode)
+    effort_weight: float = 10.0   # per (unit control)^3 s / m
+    tracking_weight: float = 0.0  # per rad^2 (m^2)
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Box bounds (physical units): name -> (low, high) of every block.
+
+    Attributes:
+        q, v, a: (nq, 2) per coordinate (m, rad; /s; /s^2).
+        duration: (low, high) s.
+        activation, excitation: (low, high); lumbar: (low, high) control.
+    """
+
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    duration: tuple[float, float]
+    activation: tuple[float, float]
+    excitation: tuple[float, float]
+    lumbar: tuple[float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A point of the NLP at the nodes (guess or solution), physical units.
+
+    Attributes: duration (s); q, v, a (N+1, nq); act, exc (N+1, m); u (N+1,) lumbar.
+    """
+
+    duration: float
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    act: np.ndarray
+    exc: np.ndarray
+    u: np.ndarray
+
+    @property
+    def t(self) -> np.ndarray:
+        """(N+1,) s from the first node."""
+        return np.linspace(0.0, self.duration, self.q.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
+class MuscleGait:
+    """A solved half stride: the trajectory, forces and Ipopt's outcome.
+
+    Attributes:
+        path: the :class:`Trajectory`.
+        grf: (N+1, n_spheres, 3) N, contact forces on the spheres (lab frame).
+        points: (N+1, n_spheres, 3) m, where the contact forces act.
+        force: (N+1, m) N, muscle-tendon forces. fibre: normalised fibre velocities.
+        residual: (N+1, nq) N, N m, the NLP's own dynamics residual.
+        muscle_tau: (N+1, nq) N m, the muscles' generalised forces.
+        terms: unweighted objective terms; solved: status, iterations, time, history.
+    """
+
+    path: Trajectory
+    grf: np.ndarray
+    points: np.ndarray
+    force: np.ndarray
+    fibre: np.ndarray
+    residual: np.ndarray
+    muscle_tau: np.ndarray
+    terms: dict
+    objective: float
+    solved: Solved
+
+
+def mirror_rows(names: tuple[str, ...]) -> np.ndarray:
+    """Index i -> the row of the other side's ``names[i]`` (itself when unsided).
+
+    Names ending in ``_r``/``_l`` pair (model coordinates ``hip_r``, OpenSim
+    ``hip_flexion_r``, muscles ``soleus_r``).
+    """
+    out = []
+    for name in names:
+        side = name[-2:]
+        other = name[:-2] + {"_r": "_l", "_l": "_r"}.get(side, side)
+        out.append(names.index(other) if other in names else names.index(name))
+    return np.array(out)
+
+
+class MuscleGaitProblem:
+    """The NLP of one grid; goal weights and the reference are parameters.
+
+    Args:
+        plant: the model, muscles and contacts (:class:`MusclePlant`).
+        intervals: N.
+        coordinate_names: model coordinates (for the left/right pairs).
+        tx_row: model row of pelvis_tx (excluded from the position periodicity).
+        max_iter: Ipopt's iteration limit.
+        node: the node function (default :func:`node_function` of ``plant``; a scenario's
+            adds its passive torques to the residual).
+        residual_rows: coordinates whose dynamics residual rows are constraints (default
+            all; a fused coordinate's row is the weld's reaction torque, left free).
+        symmetric: the periodicity pairs left and right (a half stride); False: every row
+            with itself (a whole stride, for a one-sided edit).
+        ipopt_options: more Ipopt options (e.g. a warm start's).
+    """
+
+    def __init__(self, plant: MusclePlant, mesh: int, *, tx_row: int,
+                 transcription: Transcription = Transcription.TRAPEZOIDAL,
+                 max_iter: int = 2000, print_level: int = 0, symbol=cs.SX,
+                 node: cs.Function | None = None, residual_rows=None,
+                 symmetric: bool = True, ipopt_options: dict | None = None):
+        if not 4 <= mesh <= 400:
+            raise InputError(f"nodes = {mesh}: give 4..400 collocation intervals.")
+        intervals = transcription.grid_intervals(mesh)     # grid steps (HS: + midpoints)
+        self.plant, self.n, self.tx_row = plant, intervals, tx_row
+        self.mesh, self.transcription = mesh, transcription
+        nq, m, n1 = plant.model.nq, plant.n_muscles, intervals + 1
+        self.sizes = (("h", 1, intervals), ("q", nq, n1), ("v", nq, n1), ("a", nq, n1),
+                      ("act", m, n1), ("exc", m, n1), ("u", 1, n1), ("E", 1, n1))
+        self.w = symbol.sym("w", sum(r * c for _, r, c in self.sizes))
+        x = self.unpack(self.w)
+        h, q, v, a, act, exc, u, running = (x[k] for k in ("h", "q", "v", "a", "act", "exc",
+                                                           "u", "E"))
+        self.p_sizes = (("goal", 4), ("q_ref", nq * n1))
+        self.p = symbol.sym("p", 4 + nq * n1)
+        goal, q_ref = self.p[:4], cs.reshape(self.p[4:], nq, n1)
+        node = node_function(plant) if node is None else node
+        # one call per node (not a map): MX differentiates each call through the node's
+        # own symbolic SX derivatives, as fast as an SX graph and built in ~1 s
+        calls = [node.call([q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k]],
+                           False, NEVER_INLINE) for k in range(n1)]
+        r, act_dot, grf, points, force, fibre, muscle_tau = (
+            cs.horzcat(*(c[i] for c in calls)) for i in range(7))
+        scale = intervals / NOMINAL_DURATION       # 1 / h_0
+
+        def defect(y, ydot):
+            step = cs.repmat(h, y.shape[0], 1)
+            if transcription is Transcription.TRAPEZOIDAL:
+                return cs.vec(y[:, 1:] - y[:, :-1] - 0.5 * step * (ydot[:, 1:] + ydot[:, :-1]))
+            # separated Hermite-Simpson: (a, m, b) = (2j, 2j+1, 2j+2), interval H = 2 h
+            # (index lists: CasADi 3.8 slices a one-row matrix y[:, 0:-1:2] to y[0])
+            first, middle, last = (list(range(k, intervals + k - 1, 2)) for k in (0, 1, 2))
+            ya, ym, yb = y[:, first], y[:, middle], y[:, last]
+            fa, fm, fb = ydot[:, first], ydot[:, middle], ydot[:, last]
+            big = 2.0 * step[:, first]
+            return cs.vertcat(cs.vec(ym - 0.5 * (ya + yb) - big / 8.0 * (fa - fb)),
+                              cs.vec(yb - ya - big / 6.0 * (fa + 4.0 * fm + fb)))
+
+        mq = mirror_rows(plant.model.coordinate_names)
+        mm = mirror_rows(plant.muscle_names)
+        if not symmetric:
+            mq, mm = np.arange(nq), np.arange(m)
+        rows = list(range(nq)) if residual_rows is None else list(residual_rows)
+        keep = [i for i in range(nq) if i != tx_row]
+        g = [cs.vec(r[rows, :]) / RESIDUAL_SCALE, defect(q, v) * scale,
+             defect(v, a) * scale / 10.0, defect(act, act_dot) * scale / 10.0,
+             q[keep, -1] - q[mq[keep], 0], v[:, -1] - v[mq, 0],
+             act[:, -1] - act[mm, 0], u[:, -1] - u[:, 0],
+             cs.vec(h[:, 1:] - h[:, :-1]) * scale,
+             q[tx_row, -1] - goal[0] * intervals * h[0, -1],
+             defect(running, cs.sum1(exc ** 3) + cs.fabs(u) ** 3) / SCALES["E"]]
+        self.ng = sum(e.shape[0] for e in g)
+        self.speed_row = sum(e.shape[0] for e in g[:-1])    # distance - speed * duration
+        quad = np.full((n1, 1), 1.0)
+        quad[[0, -1]] = 0.5
+        # pelvis_tx(0) = 0 (a bound) and E(0) = 0: the distance and the effort integral are
+        # last-node values, so no objective term couples all nodes (a sparse KKT system)
+        distance, duration = q[tx_row, -1], intervals * h[0, -1]
+        tracking = cs.sum2(cs.sum1((q - q_ref) ** 2) @ quad) / intervals / nq
+        terms = {"speed": (distance / duration - goal[0]) ** 2,
+                 "effort": running[0, -1] / distance,
+                 "tracking": tracking}
+        objective = (goal[1] * terms["speed"] + goal[2] * terms["effort"]
+                     + goal[3] * terms["tracking"])
+        self.term_names = tuple(terms)
+        self.outputs = cs.Function("outputs", [self.w, self.p],
+                                   [r, grf, points, force, fibre, muscle_tau, *terms.values()])
+        opts = {"ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
+                          **IPOPT_OPTIONS, **(ipopt_options or {})}, "print_time": False}
+        self.nlp = {"x": self.w, "p": self.p, "f": objective, "g": cs.vertcat(*g)}
+        self.solver = cs.nlpsol("muscle_gait", "ipopt", self.nlp, opts)
+
+    def unpack(self, w) -> dict:
+        """Block name -> (rows, N+1) physical values (symbolic or numeric)."""
+        out, offset = {}, 0
+        symbolic = isinstance(w, cs.SX | cs.MX)
+        if not symbolic:
+            w = np.asarray(w, dtype=float).ravel()
+        for name, rows, cols in self.sizes:
+            part = w[offset:offset + rows * cols] * SCALES[name]
+            offset += rows * cols
+            out[name] = (cs.reshape(part, rows, cols) if symbolic
+                         else np.reshape(part, (cols, rows)).T)
+        return out
+
+    def pack(self, path: Trajectory) -> np.ndarray:
+        """The scaled decision vector of a trajectory."""
+        n = self.n
+        f = (path.exc ** 3).sum(axis=1) + np.abs(path.u) ** 3
+        running = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]))]) \
+            * path.duration / n
+        blocks = {"h": np.full((1, n), path.duration / n), "q": path.q.T, "v": path.v.T,
+                  "a": path.a.T, "act": path.act.T, "exc": path.exc.T,
+                  "u": np.reshape(path.u, (1, -1)), "E": running[None, :]}
+        return np.concatenate([blocks[name].T.ravel() / SCALES[name]
+                               for name, _, _ in self.sizes])
+
+    def box(self, bounds: Bounds) -> tuple[np.ndarray, np.ndarray]:
+        """(lbx, ubx), scaled, with pelvis_tx fixed to 0 at the first node."""
+        n1, m = self.n + 1, self.plant.n_muscles
+        low = Trajectory(bounds.duration[0], *(np.tile(b[:, 0], (n1, 1))
+                                               for b in (bounds.q, bounds.v, bounds.a)),
+                         np.full((n1, m), bounds.activation[0]),
+                         np.full((n1, m), bounds.excitation[0]),
+                         np.full(n1, bounds.lumbar[0]))
+        high = Trajectory(bounds.duration[1], *(np.tile(b[:, 1], (n1, 1))
+                                                for b in (bounds.q, bounds.v, bounds.a)),
+                          np.full((n1, m), bounds.activation[1]),
+                          np.full((n1, m), bounds.excitation[1]),
+                          np.full(n1, bounds.lumbar[1]))
+        low.q[0, self.tx_row] = high.q[0, self.tx_row] = 0.0
+        lbx, ubx = self.pack(low), self.pack(high)
+        e = slice(lbx.size - n1, lbx.size)       # the effort integral: 0 at the start
+        lbx[e], ubx[e] = 0.0, np.inf
+        ubx[e.start] = 0.0
+        return lbx, ubx
+
+    def solve(self, guess: Trajectory, bounds: Bounds, goal: Goal,
+              reference: np.ndarray | None = None) -> MuscleGait:
+        """Solve from ``guess``; ``reference`` (N+1, nq) for a tracking goal."""
+        n1, nq = self.n + 1, self.plant.model.nq
+        ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
+        p = np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,
+                             goal.tracking_weight], ref.ravel()])
+        lbx, ubx = self.box(bounds)
+        w0 = np.clip(self.pack(guess), lbx, ubx)
+        clock = time.perf_counter()
+        lbg, ubg = np.zeros(self.ng), np.zeros(self.ng)
+        if not goal.speed_constraint:
+            lbg[self.speed_row], ubg[self.speed_row] = -np.inf, np.inf
+        out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        seconds = time.perf_counter() - clock
+        stats = self.solver.stats()
+        g = np.clip(np.array(out["g"]).ravel(), lbg, ubg) - np.array(out["g"]).ravel()
+        w = np.array(out["x"]).ravel()
+        solved = Solved(w=w, status=stats["return_status"], success=bool(stats["success"]),
+                        iterations=int(stats["iter_count"]), seconds=seconds,
+                        objective=float(out["f"]),
+                        constraint_violation=float(np.abs(g).max()),
+                        history=_history(stats))
+        return self.evaluate(w, p, solved)
+
+    def evaluate(self, w: np.ndarray, p: np.ndarray, solved: Solved) -> MuscleGait:
+        """The gait of a (scaled) decision vector."""
+        x = self.unpack(w)
+        n1 = self.n + 1
+        path = Trajectory(float(x["h"].sum()), x["q"].T, x["v"].T, x["a"].T, x["act"].T,
+                          x["exc"].T, x["u"].ravel())
+        r, grf, points, force, fibre, muscle_tau, *terms = self.outputs(w, p)
+        k = len(self.plant.spheres)
+        return MuscleGait(
+            path=path, grf=np.array(grf).T.reshape(n1, k, 3),
+            points=np.array(points).T.reshape(n1, k, 3), force=np.array(force).T,
+            fibre=np.array(fibre).T, residual=np.array(r).T,
+            muscle_tau=np.array(muscle_tau).T,
+            terms={name: float(t) for name, t in zip(self.term_names, terms, strict=True)},
+            objective=solved.objective, solved=solved)

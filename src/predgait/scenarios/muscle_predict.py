@@ -1,0 +1,247 @@
+"""Predicted gait of a muscle-driven scenario: the baseline prediction, then the edited one.
+
+A ``kind = "muscle_scenario"`` file (problems/scenario_muscle_*.toml) names its baseline
+problem (``predict_2d_muscles.toml``, kind ``predict_muscles_2d``) and holds
+``[[muscle_edit]]`` tables (:mod:`predgait.scenarios.muscle_edits`). The baseline is
+solved as ``predgait solve`` does (:func:`predgait.workflows.predict_muscles.solve_prediction`,
+cached per process), then the edited model's problem is built on the same grid and goal
+(:class:`predgait.problems.muscle_gait.MuscleGaitProblem`) with
+
+* the edited plant (:meth:`MuscleScenario.edited_plant`: muscle parameters, transferred
+  paths);
+* the baseline's bounds merged with the scenario's coordinate bounds, and its speed and
+  acceleration bounds (0 for a fused coordinate);
+* the springs' generalised forces (an orthosis) added to the applied forces of every node,
+  so the residual is M a + h - tau_muscles - tau_lumbar - J^T F - tau_springs;
+* no dynamics residual row for a fused coordinate (the weld's reaction torque holds it:
+  an arthrodesis, not a muscle-braced knee);
+* a whole stride with plain periodicity when an edit acts on one side only
+  (:attr:`MuscleScenario.symmetric` false), the half stride with left/right symmetry
+  otherwise;
+
+and solved from the baseline solution (mirrored into a whole stride when needed) with a
+warm-started Ipopt. Pinocchio re-evaluates the edited gait at every node, springs included.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from predgait.errors import InputError, SolveFailed
+from predgait.problemfile import load_problem
+
+#: Ipopt options of a solve started from the baseline optimum: a small initial barrier
+#: keeps Ipopt near the start (the default mu 0.1 pushes it back to the middle of the box).
+WARM_START = {"mu_init": 1e-3}
+#: Baseline predictions solved in this process, by (problem file, overrides, spec).
+_BASELINES: dict = {}
+
+
+@dataclass(frozen=True, eq=False)
+class MuscleScenarioRun:
+    """What a muscle scenario needs before solving: the parsed files and the edited model.
+
+    Attributes:
+        spec: :class:`~predgait.scenarios.muscle_edits.MuscleScenarioSpec`.
+        baseline: The baseline's :class:`~predgait.workflows.predict_muscles.MusclePredictSpec`.
+        overrides: ``--set`` overrides applied to the baseline file.
+    """
+
+    spec: object
+    baseline: object
+    overrides: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class MuscleScenarioResult:
+    """The baseline and edited predictions (MusclePrediction each) and the scenario."""
+
+    run: MuscleScenarioRun
+    scenario: object          # MuscleScenario
+    baseline: object          # MusclePrediction of the unedited model
+    edited: object            # MusclePrediction of the edited model (plant, planar edited)
+
+
+def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
+    """Read a muscle scenario file and its baseline problem file.
+
+    ``--set`` overrides starting with ``baseline.`` apply to the baseline problem file
+    (``baseline.grid.nodes=20``), the others to the scenario file.
+
+    Raises:
+        InputError: A missing baseline file, a baseline that is not a
+            ``predict_muscles_2d`` problem, any edit error (file, key, line).
+    """
+    from predgait.dynamics.muscles import MuscleSet
+    from predgait.models.osim import read_osim
+    from predgait.scenarios.muscle_edits import parse_muscle_scenario
+    from predgait.workflows.predict_muscles import _bundled, parse_muscle_predict
+
+    own = [o for o in overrides if not o.startswith("baseline.")]
+    theirs = tuple(o[len("baseline."):] for o in overrides if o.startswith("baseline."))
+    table = load_problem(path, own)
+    base_path = table.path_value("baseline")
+    if not base_path.is_file():
+        raise table.error("baseline", f"{base_path} not found; give the baseline problem "
+                                      "file (e.g. \"predict_2d_muscles.toml\") from this "
+                                      "file's folder.")
+    base_table = load_problem(base_path, theirs)
+    if base_table.data.get("kind") != "predict_muscles_2d":
+        raise table.error("baseline", f"{base_path.name} is kind "
+                                      f"{base_table.data.get('kind')!r}; a muscle scenario's "
+                                      "baseline is a 'predict_muscles_2d' problem.")
+    base = parse_muscle_predict(base_table)
+    osim = read_osim(base.osim or _bundled("2D_gait.osim"))
+    spec = parse_muscle_scenario(table, MuscleSet.from_osim(osim),
+                                 tuple(c.name for c in osim.coordinates))
+    return MuscleScenarioRun(spec, base, theirs)
+
+
+def baseline_prediction(run: MuscleScenarioRun):
+    """The baseline MusclePrediction (solved once per process and problem)."""
+    from predgait.workflows.predict_muscles import solve_prediction
+
+    key = (str(run.baseline.source), run.overrides, repr(run.baseline))
+    if key not in _BASELINES:
+        _BASELINES[key] = solve_prediction(run.baseline)
+    return _BASELINES[key]
+
+
+def scenario_node(plant, planar, scenario):
+    """The node function of ``plant`` with the scenario's spring forces in its residual."""
+    import casadi as cs
+
+    from predgait.problems.muscle_gait_dynamics import node_function
+
+    base = node_function(plant)
+    nq, m = plant.model.nq, plant.n_muscles
+    q, v, a = (cs.SX.sym(n, nq) for n in ("q", "v", "a"))
+    act, exc, u = cs.SX.sym("act", m), cs.SX.sym("exc", m), cs.SX.sym("u", 1)
+    out = base(q, v, a, act, exc, u)
+    r = out[0] - scenario.passive_forces(planar, q, v)
+    return cs.Function("muscle_scenario_node", [q, v, a, act, exc, u], [r, *out[1:]],
+                       base.name_in(), base.name_out())
+
+
+def whole_stride_guess(plant, path):
+    """A whole-stride Trajectory from a symmetric half stride (the second half mirrored)."""
+    from predgait.problems.muscle_gait import Trajectory, mirror_rows
+
+    mq = mirror_rows(plant.model.coordinate_names)
+    mm = mirror_rows(plant.muscle_names)
+    second_q = path.q[1:][:, mq]
+    second_q[:, 0] += path.q[-1, 0] - path.q[0, 0]
+    return Trajectory(2.0 * path.duration, np.concatenate([path.q, second_q]),
+                      np.concatenate([path.v, path.v[1:][:, mq]]),
+                      np.concatenate([path.a, path.a[1:][:, mq]]),
+                      np.concatenate([path.act, path.act[1:][:, mm]]),
+                      np.concatenate([path.exc, path.exc[1:][:, mm]]),
+                      np.concatenate([path.u, path.u[1:]]))
+
+
+def scenario_bounds(plant, planar, base_spec, scenario, *, whole: bool):
+    """The baseline's box bounds with the scenario's coordinate, speed and acceleration ones."""
+    from predgait.problems.muscle_gait_setup import bounds_for
+    from predgait.workflows.predict_muscles import _ranges
+
+    ranges = {**_ranges(base_spec), **scenario.coordinate_bounds}
+    low, high = base_spec.duration
+    duration = (2.0 * low, 2.0 * high) if whole else (low, high)
+    bounds = bounds_for(plant, planar, ranges, duration)
+    v, a = bounds.v.copy(), bounds.a.copy()
+    for name, (lo, hi) in scenario.speed_bounds.items():
+        row = planar.osim_coordinates.index(name)
+        sign = float(planar.signs[row])
+        v[row] = a[row] = sorted((sign * lo, sign * hi))
+    return replace(bounds, v=v, a=a)
+
+
+def scenario_check(plant, planar, scenario, gait) -> dict:
+    """Pinocchio's residual at every node with the springs' forces, per :func:`node_check`.
+
+    ``residual`` = RNEA - muscles - lumbar - contacts - springs; ``max_residual`` over the
+    rows that are dynamics (a fused coordinate's row is the weld's reaction torque,
+    ``fused_reaction_peak_n_m``); ``max_residual_without_springs``: the same leaving the
+    springs out (an orthosis' torque shows there); ``spring_torque_peak_n_m``.
+    """
+    from predgait.problems.muscle_gait_check import node_check
+
+    raw = node_check(plant, gait)
+    p = gait.path
+    springs = np.array([np.asarray(scenario.passive_forces(planar, q, v), float)
+                        for q, v in zip(p.q, p.v, strict=True)])
+    fused = [planar.osim_coordinates.index(n) for n in scenario.fused]
+    free = [i for i in range(plant.model.nq) if i not in fused]
+    residual = raw["residual"] - springs
+    return {**raw, "residual": residual,
+            "max_residual": float(np.abs(residual[:, free]).max()),
+            "max_residual_without_springs": float(np.abs(raw["residual"][:, free]).max()),
+            "nlp_residual_max": float(np.abs(gait.residual[:, free]).max()),
+            "spring_torque_peak_n_m": float(np.abs(springs).max()),
+            "fused_reaction_peak_n_m": {planar.osim_coordinates[i]:
+                                        float(np.abs(residual[:, i]).max()) for i in fused},
+            "max_acceleration_error": None}
+
+
+def edited_stride(plant, gait, check, *, whole: bool):
+    """The edited gait's stride from right heel strike."""
+    from predgait.problems.muscle_gait_stride import (
+        Stride,
+        from_right_heel_strike,
+        full_stride,
+    )
+
+    speed = check["contact_point_speed"]
+    if not whole:
+        return from_right_heel_strike(full_stride(plant, gait, speed), plant)
+    p = gait.path
+    stride = Stride(t=p.t, q=p.q, v=p.v, act=p.act, exc=p.exc, u=p.u, force=gait.force,
+                    grf=gait.grf, points=gait.points, speed=speed,
+                    distance=float(p.q[-1, 0] - p.q[0, 0]), duration=p.duration)
+    return from_right_heel_strike(stride, plant)
+
+
+def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
+    """Baseline, then the edited prediction from it; SolveFailed if the baseline fails.
+
+    An edited solve that does not converge is returned (``edited.gait.solved.success``
+    false): the caller writes its best point as partial and exits 3.
+    """
+    import time
+
+    from predgait.problems.muscle_gait import MuscleGaitProblem
+    from predgait.scenarios.muscle_edits import muscle_scenario
+    from predgait.workflows.predict_muscles import MusclePrediction
+
+    base = baseline_prediction(run)
+    s = base.gait.solved
+    if not s.success:
+        raise SolveFailed(f"Ipopt (baseline {Path(str(run.baseline.source)).name}): "
+                          f"{s.status} after {s.iterations} iterations; no scenario is "
+                          "solved without a baseline gait", best=base.gait)
+    clock = time.perf_counter()
+    scenario = muscle_scenario(run.spec.edits, base.planar, base.plant.muscle_set)
+    plant = scenario.edited_plant(base.plant)
+    planar = scenario.built
+    unknown = [n for n in scenario.coordinate_bounds if n not in planar.osim_coordinates]
+    if unknown:
+        raise InputError(f"{run.spec.source}: coordinates {unknown} are not in the model.")
+    whole = not scenario.symmetric
+    fused = {planar.osim_coordinates.index(n) for n in scenario.fused}
+    spec = run.baseline
+    problem = MuscleGaitProblem(
+        plant, 2 * spec.nodes if whole else spec.nodes, tx_row=0, max_iter=spec.max_iter,
+        transcription=spec.transcription, node=scenario_node(plant, planar, scenario),
+        residual_rows=[i for i in range(plant.model.nq) if i not in fused],
+        symmetric=not whole, ipopt_options=WARM_START)
+    bounds = scenario_bounds(plant, planar, spec, scenario, whole=whole)
+    guess = whole_stride_guess(base.plant, base.gait.path) if whole else base.gait.path
+    build_s = time.perf_counter() - clock
+    gait = problem.solve(guess, bounds, spec.goal)
+    check = scenario_check(plant, planar, scenario, gait)
+    stride = edited_stride(plant, gait, check, whole=whole)
+    edited = MusclePrediction(plant, planar, gait, (), check, stride, build_s)
+    return MuscleScenarioResult(run, scenario, base, edited)

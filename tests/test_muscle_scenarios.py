@@ -1,0 +1,175 @@
+"""Muscle-driven scenarios solved (issue 26 item 7) on a small grid.
+
+The baseline (problems/predict_2d_muscles.toml on NODES intervals) is solved once; each
+shipped scenario's edited model is solved from it, and each edit must change the solved
+gait where physics says it must: an ankle spring's torque is in the dynamics (Pinocchio's
+residual vanishes with it and equals the spring's torque without it); a weakened muscle
+delivers less force than before and never more than its new maximum; a fused knee stays
+at its angle with the weld's reaction holding it. The published-finding sentence follows
+the numbers; bad input exits 2 with one message, a failed baseline exits 3.
+"""
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from predgait.analysis.muscle_scenario_compare import finding
+from predgait.scenarios.muscle_predict import load_muscle_scenario, solve_muscle_scenario
+
+REPO = Path(__file__).resolve().parents[1]
+NODES = 20
+SET = (f"baseline.grid.nodes={NODES}", "baseline.check.human_likeness=false")
+
+
+def scenario(name: str):
+    run = load_muscle_scenario(REPO / "problems" / f"scenario_muscle_{name}.toml", SET)
+    return solve_muscle_scenario(run)
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "predgait", *args], capture_output=True,
+                          text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def weakness():
+    return scenario("plantarflexor_weakness")
+
+
+def test_afo_spring_torque_is_in_the_dynamics(weakness):
+    """The scenario's node residual and Pinocchio's check both carry the spring torque."""
+    from predgait.scenarios.muscle_edits import muscle_scenario
+    from predgait.scenarios.muscle_predict import scenario_check, scenario_node
+
+    base = weakness.baseline                       # the unedited gait (cached baseline)
+    run = load_muscle_scenario(REPO / "problems" / "scenario_muscle_afo_2d.toml", SET)
+    sc = muscle_scenario(run.spec.edits, base.planar, base.plant.muscle_set)
+    plant = sc.edited_plant(base.plant)
+    node = scenario_node(plant, sc.built, sc)
+    p = base.gait.path
+    rows = [sc.built.osim_coordinates.index(f"ankle_angle_{s}") for s in "rl"]
+    k = int(np.argmax(np.abs(p.q[:, rows[0]])))    # the node of the largest ankle angle
+    r = np.array(node(p.q[k], p.v[k], p.a[k], p.act[k], p.exc[k], p.u[k:k + 1])[0]).ravel()
+    spring = -286.5 * p.q[k, rows] - 0.5 * p.v[k, rows]          # N m, the file's AFO
+    assert abs(spring[0]) > 5.0
+    np.testing.assert_allclose(r[rows] - base.gait.residual[k, rows], -spring, atol=1e-6)
+    others = [i for i in range(plant.model.nq) if i not in rows]
+    np.testing.assert_allclose(r[others], base.gait.residual[k, others], atol=1e-6)
+    # Pinocchio: the baseline gait violates the AFO model's dynamics by the spring torque
+    check = scenario_check(plant, sc.built, sc, base.gait)
+    assert check["max_residual_without_springs"] < 0.05
+    assert check["max_residual"] == pytest.approx(check["spring_torque_peak_n_m"], rel=0.02)
+
+
+def test_weakness_lowers_plantarflexor_force(weakness):
+    e, b = weakness.edited, weakness.baseline
+    assert e.gait.solved.success, e.gait.solved.status
+    assert e.check["max_residual"] < 0.05
+    for side in "rl":
+        for name in (f"soleus_{side}", f"gastroc_{side}"):
+            i = e.plant.muscle_names.index(name)
+            fmax = e.plant.muscle_set.muscles[i].max_isometric_force
+            assert fmax == pytest.approx(0.2 * b.plant.muscle_set.muscles[i].max_isometric_force)
+            assert e.stride.force[:, i].max() < b.stride.force[:, i].max()
+            assert e.stride.force[:, i].max() <= 1.05 * fmax        # active + passive
+
+
+def test_scenario_writes_both_gaits_and_a_finding(weakness, tmp_path, monkeypatch):
+    import predgait.workflows.muscle_scenario as ws
+
+    monkeypatch.setattr("predgait.scenarios.muscle_predict.solve_muscle_scenario",
+                        lambda run: weakness)
+    out = tmp_path / "out"
+    summary = ws.run_muscle_scenario(weakness.run, out)
+    written = json.loads((out / "summary.json").read_text())
+    assert written["status"] == "completed" and "Ong et al. 2019" in written["finding"]
+    assert not re.search(r"\.\s+[A-Z]", written["finding"])      # one sentence
+    for name in ("baseline", "edited"):
+        assert (out / f"{name}_states.sto").is_file()
+    c = summary["comparison"]
+    assert c["speed_m_s"]["edited"] == pytest.approx(1.2, abs=1e-4)
+    assert c["edited"]["cost_of_transport_j_kg_m"] > 0
+    assert set(c["legs"]["r"]["rms_change_deg"]) == {"hip", "knee", "ankle"}
+
+
+def _comparison(cost=0.0, ankle=(20.0, 20.0), swing=(50.0, 50.0)):
+    leg = {"range_deg": {"ankle": {"baseline": ankle[0], "edited": ankle[1]}},
+           "swing_knee_flexion_peak_deg": {"baseline": swing[0], "edited": swing[1]}}
+    return {"cost_of_transport_change_percent": cost, "legs": {"r": leg}}
+
+
+def test_finding_follows_the_numbers():
+    assert "reproduces Hanada" in finding("knee_fusion", _comparison(cost=22.0))
+    assert "contradicts Hanada" in finding("knee_fusion", _comparison(cost=-3.0))
+    assert "direction, not the size" in finding("knee_fusion", _comparison(cost=80.0))
+    afo = finding("afo", _comparison(cost=-2.0, ankle=(25.0, 18.0)))
+    assert "(reproduces Ploeger" in afo and "(contradicts the rise" in afo
+    assert "contradicts the aim" in finding("rectus_transfer", _comparison(swing=(50, 45)))
+    assert "reproduces the aim" in finding("rectus_transfer", _comparison(swing=(50, 58)))
+
+
+def test_unknown_muscle_exit_2(tmp_path):
+    text = (REPO / "problems" / "scenario_muscle_plantarflexor_weakness.toml").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace('"soleus", "gastroc"', '"soleus", "gastrocnemius"')
+                   .replace('"predict_2d_muscles.toml"',
+                            json.dumps(str(REPO / "problems" / "predict_2d_muscles.toml"))))
+    result = run_cli("scenario", str(bad), "--out", str(tmp_path / "out"))
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("predgait: error:")
+    assert "gastrocnemius" in lines[0] and "line" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
+def test_failed_baseline_exit_3(tmp_path):
+    out = tmp_path / "out"
+    result = run_cli("scenario", str(REPO / "problems" / "scenario_muscle_afo_2d.toml"),
+                     "--out", str(out), "--no-plots", "--set", "baseline.grid.nodes=8",
+                     "--set", "baseline.solver.max_iter=3")
+    assert result.returncode == 3, result.stderr
+    assert "solve failed" in result.stderr and "baseline" in result.stderr
+    assert not out.exists()
+
+
+def test_fused_knee_residual_row_is_dropped():
+    """The fused knee's bounds and whole-stride setup, without solving (fast)."""
+    from predgait.scenarios.muscle_edits import muscle_scenario
+    from predgait.scenarios.muscle_predict import scenario_bounds
+
+    run = load_muscle_scenario(REPO / "problems" / "scenario_muscle_knee_fusion_2d.toml", SET)
+    from predgait.models.osim import read_osim
+    from predgait.problems.muscle_gait_setup import plant_2d_gait
+    from predgait.workflows.predict_muscles import _bundled
+
+    plant, planar = plant_2d_gait(read_osim(_bundled("2D_gait.osim")))
+    sc = muscle_scenario(run.spec.edits, planar, plant.muscle_set)
+    assert sc.fused == ("knee_angle_r",) and not sc.symmetric
+    bounds = scenario_bounds(plant, planar, run.baseline, sc, whole=True)
+    row = planar.osim_coordinates.index("knee_angle_r")
+    assert np.all(bounds.q[row] == 0.0) and np.all(bounds.v[row] == 0.0)
+    assert np.all(bounds.a[row] == 0.0)
+    assert bounds.duration == pytest.approx((0.8, 1.2))        # a whole stride
+    left = planar.osim_coordinates.index("knee_angle_l")
+    assert bounds.q[left, 0] < -0.5                           # the sound knee still bends
+
+
+def test_fused_knee_stays_at_its_angle():
+    """Right knee fused (a whole stride): held at 0, the weld's reaction holds it."""
+    r = scenario("knee_fusion_2d")
+    e = r.edited
+    assert e.gait.solved.success, e.gait.solved.status
+    p = e.gait.path
+    assert p.q.shape[0] == 2 * NODES + 1                       # a whole stride, not mirrored
+    row = e.planar.osim_coordinates.index("knee_angle_r")
+    left = e.planar.osim_coordinates.index("knee_angle_l")
+    np.testing.assert_allclose(p.q[:, row], 0.0, atol=1e-9)
+    np.testing.assert_allclose(p.v[:, row], 0.0, atol=1e-9)
+    assert e.check["max_residual"] < 0.05                     # every other row is dynamics
+    assert e.check["fused_reaction_peak_n_m"]["knee_angle_r"] > 5.0   # N m, the weld's
+    assert -p.q[:, left].min() > np.radians(30.0)             # the sound knee swings
