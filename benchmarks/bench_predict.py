@@ -29,7 +29,7 @@ problems/predict_2d_muscles.toml`` (Moco's example2DWalking prediction on 2D_gai
 50 intervals) cold, each repeat a fresh process (model read, path fit, NLP and Ipopt
 built, solved, checked, written): wall time, build time, Ipopt iterations, objective; with
 ``--moco-solution`` (Moco's gaitPrediction_solution.sto, e.g. from
-benchmarks/peer/moco_2d_walking.py) its objective, iterations and solver time beside
+benchmarks/opensim_moco_2d_walking.py --write) its objective, iterations and solver time beside
 ours; with ``--coretypes`` one run per OPENBLAS_CORETYPE and the spread of the objective
 and kinematics between them; the human-likeness run (problems/
 predict_2d_muscles_physiological.toml) with its failed checks.

@@ -7,7 +7,7 @@ and guess) on the bundled 2D_gait.osim:
   coordinates, in one process (one model and path fit); per grid the status, iterations,
   solve time, objective, half-stride duration; then the right-leg kinematics RMS (deg)
   between every pair of grids from each one's own right heel strike
-  (:mod:`predgait.analysis.gait_agreement`; the issue's goal: within 3 deg);
+  (:mod:`predgait.problems.gait_agreement`; the issue's goal: within 3 deg);
 * Moco: with ``--moco DIR`` (gaitPrediction_solution.sto and its _fullcycle_grf.sto, e.g.
   tests/reference/osim2d/moco_prediction), each grid's objective over Moco's and its
   kinematics RMS against Moco's solution (goal: objective equal or lower, within 5 deg);
@@ -109,7 +109,7 @@ def kernels() -> dict:
 
 def child(nodes: int) -> None:
     """One solve; prints a JSON line (objective, iterations, kernels, curves)."""
-    from predgait.analysis.gait_agreement import gait_curves
+    from predgait.problems.gait_agreement import gait_curves
 
     plant, planar, problem, _, guess, bounds, goal = setup(nodes)
     gait = problem.solve(guess, bounds, goal)
@@ -121,7 +121,7 @@ def child(nodes: int) -> None:
 
 
 def grids_table(grids: list[int], moco: Path | None) -> None:
-    from predgait.analysis.gait_agreement import (
+    from predgait.problems.gait_agreement import (
         agreement_table,
         gait_curves,
         moco_curves,
@@ -184,7 +184,7 @@ def multistart_run(nodes: int, starts: int, tracking: Path | None) -> None:
 
 
 def coretype_runs(nodes: int, coretypes: list[str]) -> None:
-    from predgait.analysis.gait_agreement import rms_deg
+    from predgait.problems.gait_agreement import rms_deg
 
     runs = {}
     for kind in coretypes:

@@ -330,3 +330,30 @@ def test_predicted_scenario_metrics_compare_clinical_angles():
             name = f"{joint}_{side}"
             assert out[f"{name}_rms_change_deg"] == pytest.approx(np.degrees(0.2)), name
             assert out[f"{name}_range_deg"] == pytest.approx(np.degrees(0.3)), name
+
+
+def test_osim2d_signs_follow_the_model_geometry():
+    """OpenSim's planar gait model: a clinically positive angle moves the segment the way a
+    flexion (hip, knee) or a dorsiflexion (ankle) does, in the built model's kinematics."""
+    import pinocchio as pin
+
+    from predgait.models.osim import bundled_2d_gait
+    from predgait.models.osim_model import build_model
+
+    built = build_model(bundled_2d_gait())
+    model = built.model
+    zero = {c.name: 0.0 for c in built.osim.coordinates}
+
+    def point(values, body):
+        q = built.q_from_osim(values)
+        data = model.pin_model.createData()
+        pin.framesForwardKinematics(model.pin_model, data, q)
+        return data.oMf[model.frame_id(built.body_link(body))].translation.copy()
+
+    cases = {"hip_flexion_r": ("tibia_r", 0, +1), "knee_angle_r": ("talus_r", 0, -1),
+             "ankle_angle_r": ("toes_r", 2, +1)}   # moved body, lab axis, direction
+    for coordinate, (body, axis, direction) in cases.items():
+        joint = clinical_joint("osim2d", coordinate)
+        flexed = dict(zero, **{coordinate: joint.clinical(0.3)})   # clinical +0.3 rad
+        move = point(flexed, body)[axis] - point(zero, body)[axis]
+        assert direction * move > 0.01, coordinate

@@ -135,7 +135,7 @@ def test_cost_of_transport_known_answer():
 
 
 def test_stride_rates_from_paths(muscles):
-    from predgait.models.muscle_paths import smooth_paths
+    from predgait.dynamics.muscle_paths import smooth_paths
     from predgait.models.osim_model import build_model
 
     built = build_model(bundled_2d_gait())
@@ -167,7 +167,7 @@ def test_stride_cost_of_transport_along_moco_gait(muscles):
     state, and the cost of transport from q, v through predgait's smooth paths."""
     from types import SimpleNamespace
 
-    from predgait.models.muscle_paths import smooth_paths
+    from predgait.dynamics.muscle_paths import smooth_paths
     from predgait.models.osim_model import build_model
 
     rows = list(csv.DictReader(GAIT.open()))

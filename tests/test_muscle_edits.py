@@ -7,9 +7,9 @@ import casadi as cs
 import numpy as np
 import pytest
 
+from predgait.dynamics.muscle_paths import PathGeometry
 from predgait.dynamics.muscles import MuscleSet
 from predgait.errors import InputError
-from predgait.models.muscle_paths import PathGeometry
 from predgait.models.osim import bundled_2d_gait
 from predgait.models.osim_model import build_model
 from predgait.problemfile import load_problem

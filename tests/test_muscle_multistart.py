@@ -22,17 +22,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from predgait.analysis.gait_agreement import (
+from predgait.data.bundled import bundled_path
+from predgait.data.storage import read_storage
+from predgait.errors import InputError
+from predgait.models.osim import bundled_2d_gait
+from predgait.problems.gait_agreement import (
     agreement_table,
     gait_curves,
     heel_strike_curves,
     heel_strike_time,
     moco_curves,
 )
-from predgait.data.bundled import bundled_path
-from predgait.data.storage import read_storage
-from predgait.errors import InputError
-from predgait.models.osim import bundled_2d_gait
 from predgait.problems.muscle_gait import Goal, MuscleGaitProblem
 from predgait.problems.muscle_gait_setup import (
     MOCO_BOUNDS,
@@ -171,7 +171,7 @@ def test_perturbed_starts_are_seeded_and_smooth(setup):
 
 def _problem(tmp_path, text):
     from predgait.problemfile import load_problem
-    from predgait.workflows.predict_muscles import parse_muscle_predict
+    from predgait.problems.muscle_prediction import parse_muscle_predict
 
     path = tmp_path / "p.toml"
     path.write_text('kind = "predict_muscles_2d"\n' + text)

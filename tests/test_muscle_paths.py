@@ -13,8 +13,13 @@ import casadi as cs
 import numpy as np
 import pytest
 
+from predgait.dynamics.muscle_paths import (
+    PathGeometry,
+    branch_ranges,
+    fit_smooth_paths,
+    smooth_paths,
+)
 from predgait.errors import InputError
-from predgait.models.muscle_paths import PathGeometry, branch_ranges, fit_smooth_paths, smooth_paths
 from predgait.models.osim import bundled_2d_gait
 from predgait.models.osim_model import build_model
 

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from predgait.analysis.muscle_scenario_compare import finding
 from predgait.scenarios.muscle_predict import load_muscle_scenario, solve_muscle_scenario
+from predgait.scenarios.muscle_scenario_compare import finding
 
 REPO = Path(__file__).resolve().parents[1]
 NODES = 20
@@ -145,9 +145,9 @@ def test_fused_knee_residual_row_is_dropped():
     run = load_muscle_scenario(REPO / "problems" / "scenario_muscle_knee_fusion_2d.toml", SET)
     from predgait.models.osim import read_osim
     from predgait.problems.muscle_gait_setup import plant_2d_gait
-    from predgait.workflows.predict_muscles import _bundled
+    from predgait.problems.muscle_prediction import bundled_file
 
-    plant, planar = plant_2d_gait(read_osim(_bundled("2D_gait.osim")))
+    plant, planar = plant_2d_gait(read_osim(bundled_file("2D_gait.osim")))
     sc = muscle_scenario(run.spec.edits, planar, plant.muscle_set)
     assert sc.fused == ("knee_angle_r",) and not sc.symmetric
     bounds = scenario_bounds(plant, planar, run.baseline, sc, whole=True)

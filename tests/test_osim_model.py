@@ -271,3 +271,14 @@ def test_reference_motion_stands_on_the_floor(built):
                 assert min(values) < 0.0, (k, side)
                 loaded += 1
     assert loaded > 40
+
+
+def test_model_show_prints_the_opensim_model(capsys):
+    from predgait.cli import main
+    from predgait.models.osim import bundled_2d_gait_path
+
+    assert main(["model", "show", str(bundled_2d_gait_path())]) == 0
+    out = capsys.readouterr().out
+    assert "total mass 62.000 kg; 10 coordinates, 18 muscles, 4 contacts" in out
+    assert "knee_angle_r        -120.0 ..   10.0 deg" in out
+    assert "soleus_r" in out

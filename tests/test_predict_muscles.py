@@ -19,7 +19,7 @@ import pytest
 from predgait.data import read_storage
 from predgait.problems.muscle_gait import mirror_rows
 from predgait.problems.muscle_gait_check import node_check
-from predgait.workflows.predict_muscles import MusclePredictSpec, solve_prediction
+from predgait.problems.muscle_prediction import MusclePredictSpec, solve_prediction
 
 REPO = Path(__file__).resolve().parents[1]
 NODES = 16

@@ -60,7 +60,8 @@ def resample_stride(t: np.ndarray, values: np.ndarray) -> np.ndarray:
 
 def subject01_curves() -> dict[str, np.ndarray]:
     """Right hip flexion, knee flexion, ankle dorsiflexion (deg, 101 points) of subject01."""
-    from predgait.simulations.gait7_motion import bundled_gait7_motion, gait7_model
+    from predgait.dynamics.gait7_motion import bundled_gait7_motion, gait7_model
+    from predgait.kinematics.clinical import clinical_joint
 
     model = gait7_model(72.6, 1.8034)
     motion = bundled_gait7_motion(model)
@@ -70,8 +71,8 @@ def subject01_curves() -> dict[str, np.ndarray]:
     t = motion.time[keep]
     q = np.degrees(motion.q[keep])
     grid = np.linspace(start, end, 201)
-    curves = {"hip": -q[:, names.index("hip_r")], "knee": q[:, names.index("knee_r")],
-              "ankle": -q[:, names.index("ankle_r")]}
+    curves = {j: clinical_joint(model, f"{j}_r").clinical(q[:, names.index(f"{j}_r")])
+              for j in JOINTS}
     return {k: resample_stride(grid, np.interp(grid, t, v)) for k, v in curves.items()}
 
 

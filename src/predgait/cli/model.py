@@ -52,7 +52,8 @@ def register(commands: argparse._SubParsersAction) -> None:
     show = sub.add_parser("show", help="print segments, joints and frames of a URDF",
                           description="Print the segment table (mass kg, length m, COM m, "
                                       "inertia kg m^2), joints with limits and frames.")
-    show.add_argument("urdf", help="a URDF made by 'predgait model build', or 'leg' / 'rod'")
+    show.add_argument("urdf", help="a URDF made by 'predgait model build', 'leg' / 'rod', "
+                      "or an OpenSim .osim model")
     show.set_defaults(run=run_show)
 
 
@@ -101,6 +102,8 @@ def run_show(args: argparse.Namespace) -> int:
     from predgait.textfile import read_text
 
     path = Path(args.urdf)
+    if path.suffix.lower() == ".osim":
+        return _show_osim(path)
     if path.is_file() and "base=free_flyer" in read_text(path, what="URDF model")[:1000]:
         from predgait.models.loading3d import load_fullbody
 
@@ -116,4 +119,30 @@ def run_show(args: argparse.Namespace) -> int:
                 print(f"{pm.names[j]:<22}{inertia.mass:>10.3f}{com:>40}")
         return 0
     print(format_model(load_model(args.urdf)))
+    return 0
+
+
+def _show_osim(path: Path) -> int:
+    """An OpenSim model as predgait reads it: bodies, coordinates, muscles, contacts."""
+    import math
+
+    from predgait.models.osim import read_osim
+    from predgait.models.osim_model import build_model
+
+    osim = read_osim(path)
+    built = build_model(osim)
+    print(f"model: {osim.name} ({path.name}, OpenSim); total mass {osim.total_mass():.3f} kg; "
+          f"{len(osim.coordinates)} coordinates, {len(osim.muscles)} muscles, "
+          f"{len(osim.contacts)} contacts; predgait model {built.model.kind}, "
+          f"{built.model.nq} coordinates")
+    print(f"{'coordinate':<16}{'range':>22}")
+    for c in osim.coordinates:
+        low, high = c.range
+        unit = "m" if c.name.endswith(("_tx", "_ty")) else "deg"
+        scale = 1.0 if unit == "m" else 180.0 / math.pi
+        print(f"{c.name:<16}{low * scale:>10.1f} .. {high * scale:>6.1f} {unit}")
+    print(f"{'muscle':<16}{'F max N':>9}{'l opt m':>9}{'l slack m':>10}")
+    for m in osim.muscles:
+        print(f"{m.name:<16}{m.max_isometric_force:>9.0f}{m.optimal_fiber_length:>9.3f}"
+              f"{m.tendon_slack_length:>10.3f}")
     return 0

@@ -232,7 +232,7 @@ def stride_rates(muscles, paths, q, v, excitation, activation, *, body_mass: flo
 
     Args:
         muscles: :class:`~predgait.dynamics.muscles.MuscleSet`.
-        paths: Smooth paths (:func:`predgait.models.muscle_paths.smooth_paths`) on the
+        paths: Smooth paths (:func:`predgait.dynamics.muscle_paths.smooth_paths`) on the
             coordinate vector of ``q``.
         q: (N, n) coordinates at the nodes, in ``paths``' order.
         v: (N, n) their rates.

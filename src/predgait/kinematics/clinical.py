@@ -83,6 +83,14 @@ PLANAR_JOINTS: dict[str, dict[str, ClinicalJoint]] = {
               for joint, angle, sign in (("hip", "hip_flexion", -1.0),
                                          ("knee", "knee_flexion", 1.0),
                                          ("ankle", "ankle_dorsiflexion", -1.0))},
+    # OpenSim's planar gait models (2D_gait.osim): joints named after their coordinates,
+    # values as OpenSim's (knee_angle negative in flexion).
+    "osim2d": {f"{coordinate}_{side}": ClinicalJoint(f"{angle}_{side}", (f"{coordinate}_{side}",),
+                                                      sign)
+               for side in ("r", "l")
+               for coordinate, angle, sign in (("hip_flexion", "hip_flexion", 1.0),
+                                               ("knee_angle", "knee_flexion", -1.0),
+                                               ("ankle_angle", "ankle_dorsiflexion", 1.0))},
 }
 #: The planar leg's free joints (model coordinates 3 and 4, after base x, z, pitch).
 LEG_FREE_JOINTS = ("ankle", "knee")
@@ -95,8 +103,8 @@ def clinical_joint(model, joint: str) -> ClinicalJoint:
     simulator, the fitting and predictive problems) takes its sign from here.
 
     Args:
-        model: A model (its ``kind``: leg, gait7, or the whole body) or a kind name
-            ("leg", "gait7", "fullbody") where no model is at hand (plots of arrays).
+        model: A model (its ``kind``: leg, gait7, osim2d, or the whole body) or a kind
+            name ("leg", "gait7", "osim2d", "fullbody") where no model is at hand.
         joint: Joint name ("knee", "hip_r", "knee_r_y", ...).
 
     Raises:

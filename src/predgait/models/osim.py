@@ -144,9 +144,9 @@ def read_osim(path: str | Path) -> OsimModel:
 
 def bundled_2d_gait_path() -> Path:
     """Path of the bundled ``2D_gait.osim`` (Moco example2DWalking, OpenSim 4.6)."""
-    from predgait.data.bundled import bundled_path
+    from importlib import resources
 
-    return bundled_path("moco_2d_walking/2D_gait.osim")
+    return Path(str(resources.files("predgait.datasets") / "moco_2d_walking" / "2D_gait.osim"))
 
 
 def bundled_2d_gait() -> OsimModel:

@@ -10,7 +10,7 @@ the accelerations are controls and
 
 with M, h from ADAM on the same URDF as Pinocchio (:mod:`predgait.models.symbolic`),
 R = -dl/dq the muscle moment arms and F_T the rigid-tendon DeGrooteFregly2016 forces
-(:mod:`predgait.dynamics.muscles`, lengths l(q) from :mod:`predgait.models.muscle_paths`),
+(:mod:`predgait.dynamics.muscles`, lengths l(q) from :mod:`predgait.dynamics.muscle_paths`),
 the lumbar CoordinateActuator (control times its optimal force) and the four
 SmoothSphereHalfSpaceForce contacts (:mod:`predgait.dynamics.smooth_contact`), each applied
 at its sphere's contact point. Activation dynamics: d act/dt = f(exc, act) (De Groote
@@ -47,7 +47,7 @@ class MusclePlant:
         osim: the osim model object it came from (:func:`predgait.models.osim.read_osim`).
         muscle_names: in the order of the activations and excitations.
         muscle_set: the DeGrooteFregly2016 parameters (:mod:`predgait.dynamics.muscles`).
-        paths: smooth muscle-tendon lengths l(q) (:mod:`predgait.models.muscle_paths`).
+        paths: smooth muscle-tendon lengths l(q) (:mod:`predgait.dynamics.muscle_paths`).
         lumbar_row: model coordinate index driven by the lumbar actuator.
         lumbar_optimal_force: N m per unit control.
         lumbar_control_range: (min_control, max_control) of the actuator.

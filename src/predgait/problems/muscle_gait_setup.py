@@ -3,7 +3,7 @@
 * :func:`plant_2d_gait`: the predgait model of an OpenSim planar gait model
   (:func:`predgait.models.osim_model.build_model`), its DeGrooteFregly2016 muscles
   (:class:`predgait.dynamics.muscles.MuscleSet`), the smooth path lengths
-  (:mod:`predgait.models.muscle_paths`), the lumbar CoordinateActuator and the
+  (:mod:`predgait.dynamics.muscle_paths`), the lumbar CoordinateActuator and the
   SmoothSphereHalfSpaceForce contacts (:mod:`predgait.dynamics.smooth_contact`).
 * :data:`MOCO_BOUNDS`: the coordinate bounds of Moco's example2DWalking (OpenSim
   coordinate values: rad, m); :data:`PHYSIOLOGICAL_BOUNDS` widens the joint ones to
@@ -26,7 +26,7 @@ from predgait.problems.muscle_gait import Bounds, Trajectory
 from predgait.problems.muscle_gait_dynamics import MusclePlant, Sphere
 
 DEG = math.pi / 180.0
-#: Moco's bounds (benchmarks/peer/moco_2d_walking.py): OpenSim coordinate -> (low, high).
+#: Moco's bounds (benchmarks/opensim_moco_2d_walking.py): OpenSim coordinate -> (low, high).
 MOCO_BOUNDS = {
     "pelvis_tilt": (-20 * DEG, -10 * DEG), "pelvis_tx": (0.0, 1.0), "pelvis_ty": (0.75, 1.25),
     "hip_flexion_l": (-10 * DEG, 60 * DEG), "hip_flexion_r": (-10 * DEG, 60 * DEG),
@@ -51,9 +51,9 @@ GUESS_ACTIVATION = 0.05
 
 def plant_2d_gait(osim):
     """(MusclePlant, OsimPlanarModel) of a model read by :func:`read_osim`."""
+    from predgait.dynamics.muscle_paths import smooth_paths
     from predgait.dynamics.muscles import MuscleSet
     from predgait.dynamics.smooth_contact import SmoothSphereContact
-    from predgait.models.muscle_paths import smooth_paths
     from predgait.models.osim_model import build_model
 
     planar = build_model(osim)

@@ -18,7 +18,7 @@ starts, in this order, until there are that many:
 
 The best is the converged solve of least objective; the spread (objective min / median /
 max over the converged solves, right-leg kinematics RMS from heel strike of each converged
-solve against the best: :mod:`predgait.analysis.gait_agreement`) goes in summary.json.
+solve against the best: :mod:`predgait.problems.gait_agreement`) goes in summary.json.
 """
 
 from __future__ import annotations
@@ -158,7 +158,7 @@ def start_guesses(problem, plant, planar, storage, bounds, goal, options: MultiS
 
 def spread_of(runs: list[StartRun], best: int, plant, planar) -> dict:
     """Objective min / median / max over the converged runs, kinematics RMS vs the best."""
-    from predgait.analysis.gait_agreement import gait_curves, rms_deg
+    from predgait.problems.gait_agreement import gait_curves, rms_deg
 
     converged = [i for i, r in enumerate(runs) if r.gait.solved.success]
     reference = gait_curves(plant, planar, runs[best].gait) if converged else None

@@ -6,11 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
+from predgait.kinematics.clinical import clinical_joint
 from predgait.report.figures import new_figure, save_figure
 
 #: Right-leg angles: OpenSim coordinate, clinical sign, label.
-ANGLES = (("hip_flexion_r", 1.0, "hip flexion"), ("knee_angle_r", -1.0, "knee flexion"),
-          ("ankle_angle_r", 1.0, "ankle dorsiflexion"))
+ANGLES = (("hip_flexion_r", "hip flexion"), ("knee_angle_r", "knee flexion"),
+          ("ankle_angle_r", "ankle dorsiflexion"))
 
 
 def save_muscle_gait_plots(path: Path, plant, planar, stride, *, measured=None) -> Path:
@@ -33,9 +34,10 @@ def save_muscle_gait_plots(path: Path, plant, planar, stride, *, measured=None) 
     values = planar.osim_from_q(stride.q)
     fig, axes = new_figure(1, 5, figsize=(22, 4.0), squeeze=False, wspace=0.3)
     axes = axes[0]
-    for ax, (name, sign, label), joint in zip(axes[:3], ANGLES, ("hip", "knee", "ankle"),
-                                              strict=True):
-        ax.plot(cycle, sign * np.degrees(values[name]), "k", lw=2, label="predicted")
+    for ax, (name, label), joint in zip(axes[:3], ANGLES, ("hip", "knee", "ankle"),
+                                        strict=True):
+        angle = clinical_joint("osim2d", name).clinical(values[name])
+        ax.plot(cycle, np.degrees(angle), "k", lw=2, label="predicted")
         for source, curves in measured.items():
             ax.plot(PERCENT, curves[joint], "--", lw=1, label=source)
         ax.set_title(f"right {label}")

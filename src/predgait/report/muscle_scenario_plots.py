@@ -21,7 +21,7 @@ def save_muscle_scenario_plot(path: Path, baseline, edited, *, title: str = "") 
         title: the scenario's name.
     """
     from predgait.analysis.human_likeness import PERCENT
-    from predgait.analysis.muscle_scenario_compare import leg_measures
+    from predgait.scenarios.muscle_scenario_compare import leg_measures
 
     fig, axes = new_figure(2, 4, figsize=(18, 7.0), squeeze=False, wspace=0.3, hspace=0.35,
                            title=bool(title))

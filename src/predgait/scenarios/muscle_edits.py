@@ -144,7 +144,7 @@ class MuscleScenario:
             speeds and the accelerations: (0, 0) for a fused one.
         passive_torques: :class:`JointSpring` elements whose torques add to the applied
             generalised forces (:meth:`passive_forces`).
-        paths: Smooth paths (:func:`predgait.models.muscle_paths.smooth_paths`, model q)
+        paths: Smooth paths (:func:`predgait.dynamics.muscle_paths.smooth_paths`, model q)
             replacing the baseline's, or None (no transfer: keep the baseline's fit).
         built: The :class:`~predgait.models.osim_model.OsimPlanarModel` whose ``osim``
             holds the transferred paths (the baseline's if no transfer).

@@ -3,7 +3,7 @@
 A ``kind = "muscle_scenario"`` file (problems/scenario_muscle_*.toml) names its baseline
 problem (``predict_2d_muscles.toml``, kind ``predict_muscles_2d``) and holds
 ``[[muscle_edit]]`` tables (:mod:`predgait.scenarios.muscle_edits`). The baseline is
-solved as ``predgait solve`` does (:func:`predgait.workflows.predict_muscles.solve_prediction`,
+solved as ``predgait solve`` does (:func:`predgait.problems.muscle_prediction.solve_prediction`,
 cached per process), then the edited model's problem is built on the same grid and goal
 (:class:`predgait.problems.muscle_gait.MuscleGaitProblem`) with
 
@@ -46,7 +46,7 @@ class MuscleScenarioRun:
 
     Attributes:
         spec: :class:`~predgait.scenarios.muscle_edits.MuscleScenarioSpec`.
-        baseline: The baseline's :class:`~predgait.workflows.predict_muscles.MusclePredictSpec`.
+        baseline: The baseline's :class:`~predgait.problems.muscle_prediction.MusclePredictSpec`.
         overrides: ``--set`` overrides applied to the baseline file.
     """
 
@@ -77,8 +77,8 @@ def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
     """
     from predgait.dynamics.muscles import MuscleSet
     from predgait.models.osim import read_osim
+    from predgait.problems.muscle_prediction import bundled_file, parse_muscle_predict
     from predgait.scenarios.muscle_edits import parse_muscle_scenario
-    from predgait.workflows.predict_muscles import _bundled, parse_muscle_predict
 
     own = [o for o in overrides if not o.startswith("baseline.")]
     theirs = tuple(o[len("baseline."):] for o in overrides if o.startswith("baseline."))
@@ -94,7 +94,7 @@ def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
                                       f"{base_table.data.get('kind')!r}; a muscle scenario's "
                                       "baseline is a 'predict_muscles_2d' problem.")
     base = parse_muscle_predict(base_table)
-    osim = read_osim(base.osim or _bundled("2D_gait.osim"))
+    osim = read_osim(base.osim or bundled_file("2D_gait.osim"))
     spec = parse_muscle_scenario(table, MuscleSet.from_osim(osim),
                                  tuple(c.name for c in osim.coordinates))
     return MuscleScenarioRun(spec, base, theirs)
@@ -102,7 +102,7 @@ def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
 
 def baseline_prediction(run: MuscleScenarioRun):
     """The baseline MusclePrediction (solved once per process and problem)."""
-    from predgait.workflows.predict_muscles import solve_prediction
+    from predgait.problems.muscle_prediction import solve_prediction
 
     key = (str(run.baseline.source), run.overrides, repr(run.baseline))
     if key not in _BASELINES:
@@ -145,9 +145,9 @@ def whole_stride_guess(plant, path):
 def scenario_bounds(plant, planar, base_spec, scenario, *, whole: bool):
     """The baseline's box bounds with the scenario's coordinate, speed and acceleration ones."""
     from predgait.problems.muscle_gait_setup import bounds_for
-    from predgait.workflows.predict_muscles import _ranges
+    from predgait.problems.muscle_prediction import coordinate_ranges
 
-    ranges = {**_ranges(base_spec), **scenario.coordinate_bounds}
+    ranges = {**coordinate_ranges(base_spec), **scenario.coordinate_bounds}
     low, high = base_spec.duration
     duration = (2.0 * low, 2.0 * high) if whole else (low, high)
     bounds = bounds_for(plant, planar, ranges, duration)
@@ -213,8 +213,8 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
     import time
 
     from predgait.problems.muscle_gait import MuscleGaitProblem
+    from predgait.problems.muscle_prediction import MusclePrediction
     from predgait.scenarios.muscle_edits import muscle_scenario
-    from predgait.workflows.predict_muscles import MusclePrediction
 
     base = baseline_prediction(run)
     s = base.gait.solved

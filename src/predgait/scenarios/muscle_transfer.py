@@ -18,8 +18,8 @@ transferred rectus femoris fibres still shorten with knee extension (scar connec
 vasti), so the full flexor conversion is the model's best case.
 
 Lengths and moment arms of the transferred path come from the exact geometry
-(:class:`predgait.models.muscle_paths.PathGeometry` on the edited model record) and a new
-smooth fit (:func:`predgait.models.muscle_paths.smooth_paths`, ~1 s).
+(:class:`predgait.dynamics.muscle_paths.PathGeometry` on the edited model record) and a new
+smooth fit (:func:`predgait.dynamics.muscle_paths.smooth_paths`, ~1 s).
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ def transferred_model(built, osim, muscles, names: tuple[str, ...]):
     Returns:
         (edited OsimPlanarModel, edited MuscleSet, smooth paths on model q).
     """
-    from predgait.models.muscle_paths import PathGeometry, smooth_paths
+    from predgait.dynamics.muscle_paths import PathGeometry, smooth_paths
 
     edited = replace(built, osim=osim)
     before, after = PathGeometry(built), PathGeometry(edited)

@@ -1,7 +1,7 @@
 """``predgait scenario`` of a ``kind = "muscle_scenario"`` file: write both predicted gaits.
 
 :func:`run_muscle_scenario` solves (:mod:`predgait.scenarios.muscle_predict`), compares
-(:mod:`predgait.analysis.muscle_scenario_compare`) and writes, whole or not at all:
+(:mod:`predgait.scenarios.muscle_scenario_compare`) and writes, whole or not at all:
 
 * ``baseline_*.sto`` and ``edited_*.sto``: each gait's solution, states, controls, muscle
   forces and GRF in OpenSim's column names (:mod:`predgait.workflows.muscle_gait_files`);
@@ -35,9 +35,9 @@ def edit_record(edit) -> dict:
 
 def scenario_summary(result) -> dict:
     """summary.json of a solved (or failed) scenario."""
-    from predgait.analysis.muscle_scenario_compare import compare, finding, scenario_kind
+    from predgait.problems.muscle_prediction import coordinate_ranges, prediction_summary
+    from predgait.scenarios.muscle_scenario_compare import compare, finding, scenario_kind
     from predgait.textfile import source_name
-    from predgait.workflows.predict_muscles import _ranges, prediction_summary
 
     run, sc = result.run, result.scenario
     ok = result.edited.gait.solved.success
@@ -56,7 +56,7 @@ def scenario_summary(result) -> dict:
     if ok:
         kind = scenario_kind(run.spec.edits)
         comparison = compare(result.baseline, result.edited)
-        low = {**_ranges(run.baseline), **sc.coordinate_bounds}["knee_angle_r"][0]
+        low = {**coordinate_ranges(run.baseline), **sc.coordinate_bounds}["knee_angle_r"][0]
         comparison["knee_flexion_limit_deg"] = float(-np.degrees(low))
         out |= {"finding_kind": kind, "finding": finding(kind, comparison),
                 "comparison": comparison}

@@ -35,7 +35,8 @@ Table ``metabolics.csv``, one row per (state, ratio set, muscle): ``state``, ``r
 basal) and ``model_mass`` (kg).
 
 With ``--moco-solution`` (Moco's example2DWalking tracking solution, full cycle, as
-benchmarks/peer/moco_2d_walking.py writes it), also ``metabolics_gait.csv``: every state of
+``benchmarks/opensim_moco_2d_walking.py --write`` writes it), also
+``metabolics_gait.csv``: every state of
 that trajectory (states and controls as Moco solved them, through ``StatesTrajectory`` and
 ``Model.setControls``), one row per time: ``time``, the 10 coordinate values and
 ``<coordinate>.speed``, per muscle ``<muscle>.activation``, ``.excitation``, ``.length``,

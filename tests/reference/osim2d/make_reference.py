@@ -8,8 +8,8 @@ Run with the OpenSim 4.6 Python (the peer; predgait never imports opensim), from
 (``--tables``: a comma-separated subset of muscle_geometry, muscle_force, contact_force,
 model_frames, contact_parameters; default all these; ``gait_contact`` also needs
 ``--moco-solution gaitTracking_solution_fullcycle.sto``, Moco's tracking solution of
-example2DWalking as benchmarks/peer/moco_2d_walking.py writes it). Values are written with 12
-significant digits.
+example2DWalking as ``benchmarks/opensim_moco_2d_walking.py --write`` writes it). Values
+are written with 12 significant digits.
 
 It reads ``2D_gait.osim`` (default: ``../shared/data/opensim_moco_2d_walking/`` beside the
 repository, i.e. opensim-core's Moco example2DWalking model) and writes, next to this script,

@@ -9,7 +9,7 @@ between consecutive *active* points, where
   1e-5 on each side (OpenSim ``ConditionalPathPoint::isActive``);
 - a ``MovingPathPoint`` sits at (f_x(q_x), f_y(q_y), f_z(q_z)) in its body, each coordinate
   clamped to its range first (OpenSim ``MovingPathPoint::getLocation``;
-  :mod:`predgait.models.path_functions`); the file's ``location`` is ignored, as in OpenSim.
+  :mod:`predgait.dynamics.path_functions`); the file's ``location`` is ignored, as in OpenSim.
 
 Body poses come from Pinocchio's forward kinematics on the model built by
 :mod:`predgait.models.osim_model`, whose joint values equal OpenSim's. Moment arms are
@@ -25,7 +25,7 @@ poses its knee moment arm runs from -26 mm (a flexor) to +6 mm in deep flexion, 
 4.6 and here alike).
 
 For the optimiser, :func:`smooth_paths` (:func:`fit_smooth_paths`) fits each muscle a
-polynomial of its spanned coordinates (:mod:`predgait.models.path_polynomials`) to this
+polynomial of its spanned coordinates (:mod:`predgait.dynamics.path_polynomials`) to this
 exact geometry, in ~1 s; :func:`branch_ranges` says where such a fit can follow OpenSim.
 
 Coordinates are given as OpenSim values in :attr:`PathGeometry.coordinate_names` order
@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from predgait.models import path_functions
+from predgait.dynamics import path_functions
 from predgait.models.osim import Muscle, OsimModel, PointKind
 
 #: OpenSim's tolerance on a ConditionalPathPoint range, rad or m.
@@ -280,7 +280,7 @@ def branch_ranges(geometry: PathGeometry, muscle: int) -> np.ndarray:
 
 
 def fit_smooth_paths(geometry: PathGeometry, *, n_samples: int = SAMPLES, seed: int = 0):
-    """Fit every muscle's polynomial (:mod:`predgait.models.path_polynomials`).
+    """Fit every muscle's polynomial (:mod:`predgait.dynamics.path_polynomials`).
 
     The exact lengths and moment arms are sampled at ``n_samples`` poses within the spanned
     coordinates' ranges, half drawn uniformly, half with the arcsine density of Chebyshev
@@ -289,10 +289,10 @@ def fit_smooth_paths(geometry: PathGeometry, *, n_samples: int = SAMPLES, seed: 
     :func:`branch_ranges` (the poses clipped into them), which it then follows.
 
     Returns:
-        :class:`~predgait.models.path_polynomials.SmoothPaths` on OpenSim coordinate values
+        :class:`~predgait.dynamics.path_polynomials.SmoothPaths` on OpenSim coordinate values
         in ``geometry.coordinate_names`` order.
     """
-    from predgait.models import path_polynomials
+    from predgait.dynamics import path_polynomials
 
     rng = np.random.default_rng(seed)
     spanned = sorted({c for m in range(len(geometry.muscle_names)) for c in geometry.columns(m)})

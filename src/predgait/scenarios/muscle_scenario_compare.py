@@ -25,11 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from predgait.kinematics.clinical import clinical_joint
 from predgait.problems.muscle_gait_stride import STANCE_THRESHOLD_N
 
-#: Joints compared, with the OpenSim coordinate and the clinical sign.
-JOINTS = {"hip": ("hip_flexion", 1.0), "knee": ("knee_angle", -1.0),
-          "ankle": ("ankle_angle", 1.0)}
+#: Joints compared, with their OpenSim coordinate (sign: kinematics.clinical, osim2d).
+JOINTS = {"hip": "hip_flexion", "knee": "knee_angle", "ankle": "ankle_angle"}
 #: Hanada & Kerrigan 2001: knee immobilised in extension, energy cost per distance, %.
 HANADA_COST_PERCENT = 23.0
 #: Ploeger et al. 2019: ankle motion lost with stiff AFOs, deg.
@@ -56,8 +56,9 @@ def leg_measures(stride, plant, planar, side: str) -> dict:
         return np.concatenate([body[k:], body[:k + 1]])
 
     values = planar.osim_from_q(stride.q)
-    curves = {j: resample_stride(stride.t, rolled(sign * np.degrees(values[f"{c}_{side}"])))
-              for j, (c, sign) in JOINTS.items()}
+    curves = {j: resample_stride(stride.t, rolled(np.degrees(
+                  clinical_joint("osim2d", f"{c}_{side}").clinical(values[f"{c}_{side}"]))))
+              for j, c in JOINTS.items()}
     weight = plant.model.total_mass() * plant.model.gravity
     fz = resample_stride(stride.t, rolled(fz_all[:, column]) / weight)
     on = fz > STANCE_THRESHOLD_N / weight

@@ -20,14 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from predgait.errors import InputError
+from predgait.kinematics.clinical import clinical_joint
 
 JOINTS = ("hip", "knee", "ankle")
 #: A foot carrying more than this (N) is in stance (as muscle_gait_stride).
 STANCE_THRESHOLD_N = 20.0
 PERCENT = np.linspace(0.0, 100.0, 101)
-#: OpenSim coordinate and sign of each joint angle (right leg).
-COLUMNS = {"hip": ("hip_flexion", 1.0), "knee": ("knee_angle", -1.0),
-           "ankle": ("ankle_angle", 1.0)}
+#: OpenSim coordinate of each joint angle (its clinical sign: kinematics.clinical, osim2d).
+COLUMNS = {"hip": "hip_flexion", "knee": "knee_angle", "ankle": "ankle_angle"}
 
 
 def heel_strike_time(t: np.ndarray, fz: np.ndarray,
@@ -67,7 +67,8 @@ def gait_curves(plant, planar, gait) -> dict[str, np.ndarray]:
 
     stride = full_stride(plant, gait, np.zeros(gait.grf.shape[:2]))
     values = planar.osim_from_q(stride.q)
-    angles = {j: sign * np.degrees(values[f"{name}_r"]) for j, (name, sign) in COLUMNS.items()}
+    angles = {j: np.degrees(clinical_joint("osim2d", f"{name}_r").clinical(values[f"{name}_r"]))
+              for j, name in COLUMNS.items()}
     return heel_strike_curves(stride.t, angles, stride.foot_fz(plant)[:, 0])
 
 
@@ -92,9 +93,10 @@ def moco_curves(solution: Path, grf: Path) -> dict[str, np.ndarray]:
         return half.columns[label]
 
     angles = {}
-    for joint, (name, sign) in COLUMNS.items():
+    for joint, name in COLUMNS.items():
         right, left = column(f"{name}_r"), column(f"{name}_l")
-        angles[joint] = sign * np.degrees(np.concatenate([right, left[1:]]))
+        sign = clinical_joint("osim2d", f"{name}_r")
+        angles[joint] = np.degrees(sign.clinical(np.concatenate([right, left[1:]])))
     ft = forces.time - half.time[0]
     fz = np.interp(np.mod(full_t, period), np.mod(ft, period + 1e-12),
                    forces.column("ground_force_r_vy"))

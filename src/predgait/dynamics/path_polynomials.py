@@ -56,7 +56,7 @@ class PathPolynomial:
         arm_error: Max |moment arm - exact| on all the samples, m.
         agrees: (n_spanned, 2) ranges where the exact data followed OpenSim's switching
             conditional points (None: the whole fitting range); see
-            :func:`predgait.models.muscle_paths.branch_ranges`.
+            :func:`predgait.dynamics.muscle_paths.branch_ranges`.
     """
 
     muscle: str
