@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from cli_checks import one_error as _one_error
 from predgait.cli import main
 from predgait.data import read_trc
 from predgait.errors import InputError
@@ -21,14 +22,6 @@ BUNDLED = REPO / "src" / "predgait" / "datasets" / "subject01_walk1"
 TRC = BUNDLED / "subject01_walk1.trc"
 
 
-def _one_error(capsys, status: int, *words: str) -> str:
-    err = capsys.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert status == 2, err
-    assert len(lines) == 1 and lines[0].startswith("predgait: error: "), err
-    for word in words:
-        assert word in lines[0], lines[0]
-    return lines[0]
 
 
 @pytest.fixture

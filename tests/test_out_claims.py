@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from cli_checks import one_error as _one_error
 from predgait.cli import main
 from predgait.workflows import output
 from predgait.workflows.output import staged_output
@@ -28,14 +29,6 @@ time.sleep(float(sys.argv[2]))
 """
 
 
-def _one_error(capsys, status: int, *words: str) -> str:
-    err = capsys.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert status == 2, err
-    assert len(lines) == 1 and lines[0].startswith("predgait: error: "), err
-    for word in words:
-        assert word in lines[0], lines[0]
-    return lines[0]
 
 
 def _holder(out: Path, seconds: float) -> subprocess.Popen:

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cli_checks import one_error as _one_error
 from predgait.cli import main
 from predgait.data import write_csv
 from predgait.workflows.output import remove_stale_stages, staged_output
@@ -28,14 +29,6 @@ SEGMENTS = ("segment,mass_kg,length_m,com_from_proximal,inertia_kg_m2\n"
             "thigh,7.26,0.43,0.433,0.1330\n")
 
 
-def _one_error(capsys, status: int, *words: str) -> str:
-    err = capsys.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert status == 2, err
-    assert len(lines) == 1 and lines[0].startswith("predgait: error: "), err
-    for word in words:
-        assert word in lines[0], lines[0]
-    return lines[0]
 
 
 def test_inverse_out_holding_the_problem_file_is_refused(tmp_path, capsys, monkeypatch):

@@ -8,6 +8,7 @@ import threading
 
 import pytest
 
+from cli_checks import one_error as _one_error
 from predgait.cli import main
 from predgait.models import urdf
 from predgait.models.urdf import write_text_atomic
@@ -15,14 +16,6 @@ from predgait.models.urdf import write_text_atomic
 SUMMARY = '{"status": "ok"}\n'
 
 
-def _one_error(capsys, status: int, *words: str) -> str:
-    err = capsys.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert status == 2, err
-    assert len(lines) == 1 and lines[0].startswith("predgait: error: "), err
-    for word in words:
-        assert word in lines[0], lines[0]
-    return lines[0]
 
 
 @pytest.fixture
