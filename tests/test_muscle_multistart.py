@@ -208,3 +208,17 @@ def test_summary_headline_names_the_spread():
     line = next(x for x in summary_lines(summary) if "multi-start" in x)
     assert "2 of 3 converged" in line and "0.12 / 0.125 / 0.13" in line and "1.5 deg" in line
     assert "all starts 12.0 s" in line
+
+
+def test_grf_balance_of_the_moco_solution():
+    """Moco's committed optimum misses part of its stride's impulse (predgait's grf.sto
+    averages to body weight: tests/test_predict_muscles.py)."""
+    from predgait.data.storage import read_storage
+    from predgait.problems.muscle_prediction import grf_balance
+
+    weight = 62.0 * 9.80665        # 2D_gait.osim's mass, OpenSim's gravity
+    moco = grf_balance(read_storage(MOCO / "gaitPrediction_solution_fullcycle_grf.sto"), weight)
+    assert moco["samples"] == 201
+    assert moco["mean_vertical_bw"] == pytest.approx(0.9826, abs=0.001)   # 597.5 N of 608.0
+    assert moco["mean_fore_aft_n"] == pytest.approx(-3.62, abs=0.05)
+    assert moco["peak_vertical_bw"] > 3.5

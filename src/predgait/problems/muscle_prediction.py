@@ -193,6 +193,27 @@ def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
                             spread)
 
 
+def grf_balance(grf, body_weight: float) -> dict:
+    """Momentum balance of a periodic stride's ground reaction (an OpenSim GRF table).
+
+    Over a whole periodic stride the mean vertical ground reaction equals body weight and
+    the mean fore-aft one is zero (the body returns to the same velocity). A solution whose
+    forces, at its own time points, miss part of the impulse (e.g. at heel-strike impacts
+    between collocation points) shows it here.
+
+    Returns:
+        ``mean_vertical_bw`` (mean vertical force / body weight, 1 for a balanced stride),
+        ``mean_fore_aft_n`` (N), ``peak_vertical_bw`` (both feet), ``samples``.
+    """
+    t = grf.time
+    vertical = sum(grf.column(f"ground_force_{s}_vy") for s in ("r", "l"))
+    fore_aft = sum(grf.column(f"ground_force_{s}_vx") for s in ("r", "l"))
+    period = t[-1] - t[0]
+    return {"mean_vertical_bw": float(np.trapezoid(vertical, t) / period / body_weight),
+            "mean_fore_aft_n": float(np.trapezoid(fore_aft, t) / period),
+            "peak_vertical_bw": float(vertical.max() / body_weight), "samples": int(t.size)}
+
+
 def moco_comparison(path: Path | None, planar, stride) -> dict:
     """Objective and kinematics RMS (deg, from right heel strike) against Moco's solution."""
     from predgait.analysis.human_likeness import resample_stride
@@ -225,7 +246,9 @@ def moco_comparison(path: Path | None, planar, stride) -> dict:
         mine = resample_stride(stride.t, ours[name])
         rms[name] = float(np.degrees(np.sqrt(np.mean((mine - theirs) ** 2))))
     objective = half.header.get("objective")
-    return {"available": True, "file": source_name(path),
+    balance = grf_balance(read_storage(grf_path), planar.model.total_mass()
+                          * planar.model.gravity) if grf_path.is_file() else None
+    return {"available": True, "file": source_name(path), "grf_balance": balance,
             "objective": float(objective) if objective else None,
             "status": half.header.get("status"),
             "iterations": int(half.header["num_iterations"])
