@@ -2,7 +2,7 @@
 
 Run with the OpenSim 4.6 Python (the peer; predgait never imports opensim):
 
-    OMP_NUM_THREADS=1 /work/osimenv/bin/python tests/reference/osim2d/make_body_frames.py \
+    OMP_NUM_THREADS=1 $OPENSIM_PYTHON tests/reference/osim2d/make_body_frames.py \
         [--model PATH/2D_gait.osim]
 
 Beside ``make_reference.py`` (whose ``model_frames.csv`` holds the body frames of the

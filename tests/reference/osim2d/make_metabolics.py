@@ -2,7 +2,7 @@
 
 Run with the OpenSim 4.6 Python (the peer; predgait never imports opensim), from anywhere:
 
-    OMP_NUM_THREADS=1 /work/osimenv/bin/python tests/reference/osim2d/make_metabolics.py \
+    OMP_NUM_THREADS=1 $OPENSIM_PYTHON tests/reference/osim2d/make_metabolics.py \
         [--model PATH/2D_gait.osim] [--moco-solution gaitTracking_solution_fullcycle.sto]
 
 It loads ``2D_gait.osim`` (default: ``../shared/data/opensim_moco_2d_walking/`` beside the

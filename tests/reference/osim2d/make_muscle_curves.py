@@ -2,7 +2,7 @@
 
 Run once with the OpenSim 4.6 Python (the peer; predgait never imports opensim):
 
-    OMP_NUM_THREADS=1 /work/osimenv/bin/python tests/reference/osim2d/make_muscle_curves.py \
+    OMP_NUM_THREADS=1 $OPENSIM_PYTHON tests/reference/osim2d/make_muscle_curves.py \
         [--model PATH/2D_gait.osim]
 
 Writes next to this script (each table whole: a temporary file, then renamed; 12 significant

@@ -2,7 +2,7 @@
 
 Run with the OpenSim 4.6 Python (the peer; predgait never imports opensim), from anywhere:
 
-    OMP_NUM_THREADS=1 /work/osimenv/bin/python tests/reference/osim2d/make_reference.py \
+    OMP_NUM_THREADS=1 $OPENSIM_PYTHON tests/reference/osim2d/make_reference.py \
         [--model PATH/2D_gait.osim] [--tables NAME,...]
 
 (``--tables``: a comma-separated subset of muscle_geometry, muscle_force, contact_force,
