@@ -31,12 +31,12 @@ Samples come from a seeded generator, so a rerun gives the same files.
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 from pathlib import Path
 
 import numpy as np
 import opensim as osim
+from peer_csv import write_table
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_MODEL = HERE.parents[3] / "shared" / "data" / "opensim_moco_2d_walking" / "2D_gait.osim"
@@ -63,18 +63,8 @@ INERTIAS = {
 }
 
 
-def _fmt(value) -> str:
-    return value if isinstance(value, str) else format(float(value) + 0.0, ".15g")
 
 
-def _write(path: Path, header: list[str], rows: list[list]) -> None:
-    tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as handle:
-        writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(header)
-        for row in rows:
-            writer.writerow([_fmt(v) for v in row])
-    os.replace(tmp, path)
 
 
 def _vec(v) -> list[float]:
@@ -144,8 +134,8 @@ def tables(original: Path, offsets: Path) -> None:
                     *[f"r{i}{j}" for i in range(3) for j in range(3)]]
     energy_header = ["model", "pose", *names, *[f"{n}.speed" for n in names],
                      "kinetic_energy"]
-    _write(HERE / "offsets_frames.csv", frame_header, frame_rows)
-    _write(HERE / "kinetic_energy.csv", energy_header, energy_rows)
+    write_table(HERE / "offsets_frames.csv", frame_header, frame_rows, digits=15)
+    write_table(HERE / "kinetic_energy.csv", energy_header, energy_rows, digits=15)
 
 
 def main() -> None:

@@ -48,12 +48,11 @@ that trajectory (states and controls as Moco solved them, through ``StatesTrajec
 from __future__ import annotations
 
 import argparse
-import csv
-import os
 from pathlib import Path
 
 import numpy as np
 import opensim as osim
+from peer_csv import write_table
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_MODEL = HERE.parents[3] / "shared" / "data" / "opensim_moco_2d_walking" / "2D_gait.osim"
@@ -67,8 +66,6 @@ SLOW_TWITCH = {"hamstrings": 0.486666666667, "bifemsh": 0.529, "glut_max": 0.55,
 TERMS = ("activation_rate", "maintenance_rate", "shortening_rate", "mechanical_work_rate")
 
 
-def _fmt(value) -> str:
-    return value if isinstance(value, str) else format(float(value) + 0.0, ".12g")
 
 
 def _metabolics(name: str, muscles, ratios: dict | None):
@@ -148,11 +145,11 @@ def main() -> None:
                     one.getTotalShorteningRate(state), one.getTotalMechanicalWorkRate(state),
                     whole.getMuscleMetabolicRate(state, muscle.getAbsolutePathString()),
                     whole.getTotalMetabolicRate(state), mass])
-    _write(HERE / "metabolics.csv", header, rows)
+    write_table(HERE / "metabolics.csv", header, rows)
     if args.moco_solution is not None:
         header, rows = _gait(model, state, muscles, coords, parts["all_default"],
                              args.moco_solution)
-        _write(HERE / "metabolics_gait.csv", header, rows)
+        write_table(HERE / "metabolics_gait.csv", header, rows)
 
 
 def _gait(model, state, muscles, coords, whole, solution: Path):
@@ -196,15 +193,6 @@ def _gait(model, state, muscles, coords, whole, solution: Path):
     return header, rows
 
 
-def _write(path: Path, header: list[str], rows: list[list]) -> None:
-    tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as handle:
-        writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(header)
-        for row in rows:
-            writer.writerow([_fmt(v) for v in row])
-    os.replace(tmp, path)
-    print(f"{path.name}: {len(rows)} rows x {len(header)} columns")
 
 
 if __name__ == "__main__":

@@ -25,27 +25,17 @@ digits; seeded, so a rerun on the same OpenSim gives the same files):
 from __future__ import annotations
 
 import argparse
-import csv
-import os
 from pathlib import Path
 
 import numpy as np
 import opensim as osim
+from peer_csv import write_table
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_MODEL = HERE.parents[3] / "shared" / "data" / "opensim_moco_2d_walking" / "2D_gait.osim"
 SETS = ((1.0, 0.6, 0.049), (1.5, 0.3, 0.033), (2.0, 0.9, 0.1))
 
 
-def _write(path: Path, header: list[str], rows: list[list]) -> None:
-    tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as handle:
-        writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(header)
-        for row in rows:
-            writer.writerow([v if isinstance(v, str) else format(float(v) + 0.0, ".12g")
-                             for v in row])
-    os.replace(tmp, path)
 
 
 def curves() -> tuple[list[str], list[list]]:
@@ -96,8 +86,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, default=DEFAULT_MODEL)
     args = parser.parse_args()
-    _write(HERE / "muscle_curves.csv", *curves())
-    _write(HERE / "compliant_residual.csv", *residuals(args.model))
+    write_table(HERE / "muscle_curves.csv", *curves())
+    write_table(HERE / "compliant_residual.csv", *residuals(args.model))
 
 
 if __name__ == "__main__":

@@ -71,12 +71,11 @@ Tables (one header row; ``nan`` never appears):
 from __future__ import annotations
 
 import argparse
-import csv
-import os
 from pathlib import Path
 
 import numpy as np
 import opensim as osim
+from peer_csv import write_table
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_MODEL = HERE.parents[3] / "shared" / "data" / "opensim_moco_2d_walking" / "2D_gait.osim"
@@ -89,18 +88,8 @@ JOINT_COORDS = (
 )
 
 
-def _fmt(value) -> str:
-    return value if isinstance(value, str) else format(float(value) + 0.0, ".12g")
 
 
-def _write(path: Path, header: list[str], rows: list[list]) -> None:
-    tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as handle:
-        writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(header)
-        for row in rows:
-            writer.writerow([_fmt(v) for v in row])
-    os.replace(tmp, path)
 
 
 class Peer:
@@ -436,7 +425,7 @@ def main() -> None:
         # One generator per table, so regenerating one table leaves the others unchanged.
         rng = np.random.default_rng([SEED, TABLES.index(name)])
         header, rows = builders[name](peer, rng)
-        _write(HERE / f"{name}.csv", header, rows)
+        write_table(HERE / f"{name}.csv", header, rows)
         print(f"{name}.csv: {len(rows)} rows x {len(header)} columns")
 
 
