@@ -60,8 +60,18 @@ def scenario_summary(result) -> dict:
         comparison["knee_flexion_limit_deg"] = float(-np.degrees(low))
         out |= {"finding_kind": kind, "finding": finding(kind, comparison),
                 "comparison": comparison}
-    out["baseline"] = prediction_summary(quiet, result.baseline)
+    # The baseline is checked against normal gait (an edited gait need not be normal): a
+    # comparison built on a baseline that fails those checks says so.
+    checked = dataclasses.replace(run.baseline, moco_solution=None)
+    out["baseline"] = prediction_summary(checked, result.baseline)
     out["edited"] = prediction_summary(quiet, result.edited)
+    failed = out["baseline"]["warnings"]
+    if ok and failed:
+        out["status"] = "completed with warnings"
+        out["warnings"] = [f"the baseline gait fails {len(failed)} of "
+                           f"{len(out['baseline']['human_likeness'])} checks against normal "
+                           "gait (baseline.warnings): the predicted changes are those of a "
+                           "gait that is not yet human"]
     return out
 
 
@@ -122,5 +132,6 @@ def summary_lines(summary: dict) -> list[str]:
         f"  right vertical GRF peak {right['peak_vertical_grf_bw']['baseline']:.2f} -> "
         f"{right['peak_vertical_grf_bw']['edited']:.2f} BW; initial contact "
         f"{right['initial_contact']['baseline']} -> {right['initial_contact']['edited']}",
-        f"  {summary['finding']}"]
+        f"  {summary['finding']}",
+        *(f"  warning: {w}" for w in summary.get("warnings", ()))]
     return lines
