@@ -130,3 +130,23 @@ def test_infeasible_bounds_exit_3_with_a_partial_point(tmp_path):
     assert summary["status"] == "not converged"
     assert not summary["ipopt"]["success"]
     assert (out / "partial_states.sto").is_file() and not (out / "states.sto").exists()
+
+
+def test_cli_lists_the_files_it_wrote(tmp_path, monkeypatch, capsys):
+    """The console names what is in the folder (e.g. no plot under --no-plots), not a
+    fixed list: the run is replaced by one writing two files."""
+    import predgait.workflows.predict_muscles as workflow
+    from predgait.cli import main
+
+    def fake_run(spec, out, *, force=False):
+        out.mkdir()
+        for name in ("summary.json", "states.sto"):
+            (out / name).write_text("x")
+        return {}
+
+    monkeypatch.setattr(workflow, "run_muscle_predict", fake_run)
+    monkeypatch.setattr(workflow, "summary_lines", lambda summary: [])
+    out = tmp_path / "out"
+    assert main(["solve", str(REPO / "problems" / "predict_2d_muscles.toml"), "--out",
+                 str(out), "--no-plots"]) == 0
+    assert capsys.readouterr().out.strip() == f"wrote {out}/ (states.sto, summary.json)"

@@ -1,7 +1,9 @@
 """Is a predicted planar gait human? Checks of issue 26 item 5 against measured walking.
 
 Every curve is taken from its own right heel strike and resampled on 0..100 % of the
-stride (101 points). Measured normal gait:
+stride (101 points). Hip flexion is the thigh against the trunk on both sides of every
+comparison (the predicted one from :func:`predgait.kinematics.osim2d_angles.leg_angles_deg`).
+Measured normal gait:
 
 * ``subject01``: the bundled OpenSim Gait2354 walk (:mod:`predgait.simulations.
   gait7_motion`, hinge-consistent IK): the stride between its first two right heel
@@ -13,8 +15,9 @@ stride (101 points). Measured normal gait:
   near neutral at heel contact; the marker offset is otherwise unknown).
 
 Checks (bound, source): hip, knee, ankle r >= 0.85 and RMS <= 8 deg against each;
-loading-response knee flexion (peak in the first 20 % of the stride) >= 8 deg (normal
-15-20 deg, Perry 1992); ankle at right toe-off <= -5 deg (plantarflexed; normal about
+loading-response knee flexion (:func:`loading_response_flexion`: the knee's flexion from
+heel strike to its peak in the first 20 % of the stride) >= 8 deg (normal 15-20 deg,
+Perry 1992; subject01 19.8, Winter 17.1); ankle at right toe-off <= -5 deg (plantarflexed; normal about
 -20 deg); vertical GRF <= 1.5 BW with a mid-stance trough below both peaks; slip of the
 loaded foot's contact points <= 2 cm per stride.
 """
@@ -112,6 +115,13 @@ def measured_curves() -> dict[str, dict[str, np.ndarray]]:
     return {"subject01": subject01_curves(), "winter": winter_curves()}
 
 
+def loading_response_flexion(knee: np.ndarray) -> float:
+    """Knee flexion during loading response, deg: the peak of the (101,) knee flexion curve
+    in :data:`LOADING_RESPONSE` minus its value at heel strike (0 when the knee extends)."""
+    window = (PERCENT >= LOADING_RESPONSE[0]) & (PERCENT <= LOADING_RESPONSE[1])
+    return float(np.asarray(knee)[window].max() - knee[0])
+
+
 def curve_agreement(predicted: dict[str, np.ndarray], measured: dict[str, np.ndarray]
                     ) -> dict[str, dict[str, float]]:
     """Agreement per joint, {"r", "rms_deg"}, between two sets of (101,) curves."""
@@ -142,8 +152,7 @@ def human_checks(curves: dict[str, np.ndarray], *, toe_off_percent: float,
             checks.append(Check(f"{joint} RMS vs {source}", numbers["rms_deg"],
                                 f"<= {MAX_RMS_DEG:g} deg", source,
                                 numbers["rms_deg"] <= MAX_RMS_DEG))
-    window = (PERCENT >= LOADING_RESPONSE[0]) & (PERCENT <= LOADING_RESPONSE[1])
-    loading = float(curves["knee"][window].max())
+    loading = loading_response_flexion(curves["knee"])
     checks.append(Check("loading-response knee flexion", loading,
                         f">= {MIN_LOADING_KNEE_DEG:g} deg", "Perry 1992 (15-20 deg)",
                         loading >= MIN_LOADING_KNEE_DEG))

@@ -69,35 +69,25 @@ class _Workflow:
     module: str
     parse: str
     run: str
-    writes: str
     exit_code: Callable[[dict], int] = lambda result: 0
 
 
 _WORKFLOWS = {
     "passive_decomposition": _Workflow(
-        "predgait.workflows.decomposition", "parse_decomposition", "run_decomposition",
-        "solution.json, passive_moments.sto, active_passive.png"),
+        "predgait.workflows.decomposition", "parse_decomposition", "run_decomposition"),
     "passive_shooting": _Workflow(
-        "predgait.workflows.shooting", "parse_shooting", "run_shooting",
-        "solution.json, passive_moments.sto, active_passive.png"),
+        "predgait.workflows.shooting", "parse_shooting", "run_shooting"),
     "passive_swing": _Workflow(
-        "predgait.workflows.passive_swing", "parse_swing", "run_swing",
-        "solution.json, passive_moments.sto, swing_angles.sto"),
+        "predgait.workflows.passive_swing", "parse_swing", "run_swing"),
     "torque_feedback": _Workflow(
         "predgait.workflows.torque_feedback", "parse_feedback", "run_feedback",
-        "solution.json, corrected_moments.sto, feedback_gains.sto, torque_feedback.png",
         exit_code=lambda result: 0 if result["holds_within_threshold"] else 3),
     "predict_gait7": _Workflow(
-        "predgait.workflows.predict", "parse_predict", "run_predict",
-        "solution.json, states.sto, torques.sto, grf.sto, plots"),
+        "predgait.workflows.predict", "parse_predict", "run_predict"),
     "predict_muscles_2d": _Workflow(
-        "predgait.workflows.predict_muscles", "parse_muscle_predict", "run_muscle_predict",
-        "summary.json, solution.sto, states.sto, controls.sto, muscle_forces.sto, grf.sto, "
-        "prediction.png"),
+        "predgait.workflows.predict_muscles", "parse_muscle_predict", "run_muscle_predict"),
     "fullbody_tracking": _Workflow(
-        "predgait.workflows.fullbody_tracking_run", "parse_tracking", "run_tracking",
-        "kinematics3d.sto, corrected_moments3d.sto, contact_forces.sto, feedback_gains.npz, "
-        "resimulated_kinematics3d.sto, summary.json, tracking.png"),
+        "predgait.workflows.fullbody_tracking_run", "parse_tracking", "run_tracking"),
 }
 
 
@@ -132,7 +122,8 @@ def _run_workflow(workflow: _Workflow, table, args) -> int:
         return 3
     for line in module.summary_lines(result):
         print(line)
-    print(f"  wrote {args.out}/ ({workflow.writes})")
+    written = ", ".join(sorted(p.name for p in Path(args.out).iterdir()))
+    print(f"  wrote {args.out}/ ({written})")  # what is there, e.g. no plots with --no-plots
     return workflow.exit_code(result)
 
 

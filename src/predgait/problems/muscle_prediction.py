@@ -268,6 +268,7 @@ def _solved(s) -> dict:
 def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
     """The JSON summary: solver, objective terms, gait measures, checks, comparison."""
     from predgait.analysis.human_likeness import human_checks, resample_stride
+    from predgait.kinematics.osim2d_angles import leg_angles_deg
     from predgait.problems.muscle_gait_check import slip_per_stride
     from predgait.problems.muscle_gait_stride import gait_measures
 
@@ -275,12 +276,7 @@ def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
     weight = plant.model.total_mass() * plant.model.gravity
     slip = slip_per_stride(stride.t, stride.grf[:, :, 2], stride.speed, weight)
     measures = gait_measures(stride, plant, slip, weight)
-    values = pred.planar.osim_from_q(stride.q)
-    from predgait.kinematics.clinical import clinical_joint
-
-    curves = {joint: np.degrees(clinical_joint("osim2d", name).clinical(values[name]))
-              for joint, name in (("hip", "hip_flexion_r"), ("knee", "knee_angle_r"),
-                                  ("ankle", "ankle_angle_r"))}
+    curves = leg_angles_deg(pred.planar, stride.q, "r")
     curves = {k: resample_stride(stride.t, v) for k, v in curves.items()}
     checks = []
     if spec.human_checks and gait.solved.success:

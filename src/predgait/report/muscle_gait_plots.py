@@ -4,14 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
-from predgait.kinematics.clinical import clinical_joint
+from predgait.kinematics.osim2d_angles import leg_angles_deg
 from predgait.report.figures import new_figure, save_figure
 
-#: Right-leg angles: OpenSim coordinate, clinical sign, label.
-ANGLES = (("hip_flexion_r", "hip flexion"), ("knee_angle_r", "knee flexion"),
-          ("ankle_angle_r", "ankle dorsiflexion"))
+#: Right-leg angles (kinematics.osim2d_angles) and their labels.
+ANGLES = (("hip", "hip flexion (thigh vs trunk)"), ("knee", "knee flexion"),
+          ("ankle", "ankle dorsiflexion"))
 
 
 def save_muscle_gait_plots(path: Path, plant, planar, stride, *, measured=None) -> Path:
@@ -31,13 +29,11 @@ def save_muscle_gait_plots(path: Path, plant, planar, stride, *, measured=None) 
 
     measured = measured_curves() if measured is None else measured
     cycle = 100.0 * (stride.t - stride.t[0]) / (stride.t[-1] - stride.t[0])
-    values = planar.osim_from_q(stride.q)
+    angles = leg_angles_deg(planar, stride.q, "r")
     fig, axes = new_figure(1, 5, figsize=(22, 4.0), squeeze=False, wspace=0.3)
     axes = axes[0]
-    for ax, (name, label), joint in zip(axes[:3], ANGLES, ("hip", "knee", "ankle"),
-                                        strict=True):
-        angle = clinical_joint("osim2d", name).clinical(values[name])
-        ax.plot(cycle, np.degrees(angle), "k", lw=2, label="predicted")
+    for ax, (joint, label) in zip(axes[:3], ANGLES, strict=False):
+        ax.plot(cycle, angles[joint], "k", lw=2, label="predicted")
         for source, curves in measured.items():
             ax.plot(PERCENT, curves[joint], "--", lw=1, label=source)
         ax.set_title(f"right {label}")

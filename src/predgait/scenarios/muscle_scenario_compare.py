@@ -3,8 +3,8 @@
 Each leg's curves start at that leg's own heel strike (the foot's vertical force rising
 through :data:`~predgait.problems.muscle_gait_stride.STANCE_THRESHOLD_N`) and are resampled
 to 0..100 % of the stride, so a change of timing is not taken for a change of shape.
-Clinical signs: hip and knee flexion positive (knee flexion = -knee_angle), ankle
-dorsiflexion positive (OpenSim's ankle_angle).
+Clinical signs: hip flexion (thigh vs trunk) and knee flexion (-knee_angle) positive,
+ankle dorsiflexion positive (OpenSim's ankle_angle); :mod:`predgait.kinematics.osim2d_angles`.
 
 :func:`finding` decides, from the numbers, whether the predicted change reproduces or
 contradicts the published finding for the scenario's kind of edit:
@@ -25,11 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from predgait.kinematics.clinical import clinical_joint
+from predgait.kinematics.osim2d_angles import LEG_ANGLES, leg_angles_deg
 from predgait.problems.muscle_gait_stride import STANCE_THRESHOLD_N
 
-#: Joints compared, with their OpenSim coordinate (sign: kinematics.clinical, osim2d).
-JOINTS = {"hip": "hip_flexion", "knee": "knee_angle", "ankle": "ankle_angle"}
+#: Joints compared (hip: thigh vs trunk; kinematics.osim2d_angles).
+JOINTS = tuple(LEG_ANGLES)
 #: Hanada & Kerrigan 2001: knee immobilised in extension, energy cost per distance, %.
 HANADA_COST_PERCENT = 23.0
 #: Ploeger et al. 2019: ankle motion lost with stiff AFOs, deg.
@@ -44,7 +44,7 @@ def _onset(fz: np.ndarray) -> int:
 
 def leg_measures(stride, plant, planar, side: str) -> dict:
     """Curves (101 samples, deg / BW) and measures of one leg from its own heel strike."""
-    from predgait.analysis.human_likeness import resample_stride
+    from predgait.analysis.human_likeness import loading_response_flexion, resample_stride
 
     column = 0 if side == "r" else 1
     fz_all = stride.foot_fz(plant)
@@ -55,10 +55,8 @@ def leg_measures(stride, plant, planar, side: str) -> dict:
         body = np.asarray(values)[:-1]
         return np.concatenate([body[k:], body[:k + 1]])
 
-    values = planar.osim_from_q(stride.q)
-    curves = {j: resample_stride(stride.t, rolled(np.degrees(
-                  clinical_joint("osim2d", f"{c}_{side}").clinical(values[f"{c}_{side}"]))))
-              for j, c in JOINTS.items()}
+    curves = {j: resample_stride(stride.t, rolled(c))
+              for j, c in leg_angles_deg(planar, stride.q, side).items()}
     weight = plant.model.total_mass() * plant.model.gravity
     fz = resample_stride(stride.t, rolled(fz_all[:, column]) / weight)
     on = fz > STANCE_THRESHOLD_N / weight
@@ -76,7 +74,7 @@ def leg_measures(stride, plant, planar, side: str) -> dict:
             "min_ankle_deg": float(curves["ankle"].min()),
             "stance_mean_hip_flexion_deg": float(curves["hip"][stance].mean()),
             "stance_mean_knee_flexion_deg": float(curves["knee"][stance].mean()),
-            "loading_knee_flexion_deg": float(curves["knee"][:20].max() - curves["knee"][0]),
+            "loading_knee_flexion_deg": loading_response_flexion(curves["knee"]),
             "swing_knee_flexion_peak_deg": float(curves["knee"][toe_off:].max()
                                                  if toe_off < 100 else curves["knee"].max()),
             "peak_vertical_grf_bw": float(fz.max()),
