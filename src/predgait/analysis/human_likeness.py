@@ -17,8 +17,8 @@ Measured normal gait:
 Checks (bound, source): hip, knee, ankle r >= 0.85 and RMS <= 8 deg against each;
 loading-response knee flexion (:func:`loading_response_flexion`: the knee's flexion from
 heel strike to its peak in the first 20 % of the stride) >= 8 deg (normal 15-20 deg,
-Perry 1992; subject01 19.8, Winter 17.1); ankle at right toe-off <= -5 deg (plantarflexed; normal about
--20 deg); vertical GRF <= 1.5 BW with a mid-stance trough below both peaks; slip of the
+Perry 1992; subject01 19.8, Winter 17.1); ankle at right toe-off <= -5 deg (plantarflexed;
+normal about -20 deg); vertical GRF <= 1.5 BW with a mid-stance trough below both peaks; slip of the
 loaded foot's contact points <= 2 cm per stride.
 """
 
@@ -116,8 +116,11 @@ def measured_curves() -> dict[str, dict[str, np.ndarray]]:
 
 
 def loading_response_flexion(knee: np.ndarray) -> float:
-    """Knee flexion during loading response, deg: the peak of the (101,) knee flexion curve
-    in :data:`LOADING_RESPONSE` minus its value at heel strike (0 when the knee extends)."""
+    """Knee flexion during loading response, deg.
+
+    The peak of the (101,) knee flexion curve in :data:`LOADING_RESPONSE` minus its value at
+    heel strike (0 when the knee only extends).
+    """
     window = (PERCENT >= LOADING_RESPONSE[0]) & (PERCENT <= LOADING_RESPONSE[1])
     return float(np.asarray(knee)[window].max() - knee[0])
 
