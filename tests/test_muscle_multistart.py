@@ -222,3 +222,33 @@ def test_grf_balance_of_the_moco_solution():
     assert moco["mean_vertical_bw"] == pytest.approx(0.9826, abs=0.001)   # 597.5 N of 608.0
     assert moco["mean_fore_aft_n"] == pytest.approx(-3.62, abs=0.05)
     assert moco["peak_vertical_bw"] > 3.5
+
+
+def test_moco_solution_drops_its_activation_periodicity():
+    """Moco's committed optimum holds the example's periodicity on coordinates and speeds
+    (to round-off) but not on the activations (up to 0.99: it starts with activations near 1
+    it never builds up again): the 6x objective gap's first cause."""
+    from predgait.problems.muscle_prediction import symmetry_gaps
+
+    gaps = symmetry_gaps(read_storage(SOLUTION))
+    assert gaps["value"] < 1e-9 and gaps["speed"] < 1e-9
+    assert gaps["activation"] == pytest.approx(0.99, abs=0.01)
+
+
+def test_symmetry_gaps_known_answer():
+    """A trajectory that holds the pairing has no gap; one activation off by 0.3 shows it."""
+    from types import SimpleNamespace
+
+    from predgait.problems.muscle_prediction import symmetry_gaps
+
+    columns = {"/jointset/hip_r/hip_flexion_r/value": np.array([0.1, 0.5, 0.3]),
+               "/jointset/hip_l/hip_flexion_l/value": np.array([0.3, 0.2, 0.1]),
+               "/jointset/groundPelvis/pelvis_tx/value": np.array([0.0, 0.3, 0.6]),
+               "/jointset/groundPelvis/pelvis_tx/speed": np.array([1.2, 1.1, 1.2]),
+               "/soleus_r/activation": np.array([0.2, 0.5, 0.4]),
+               "/soleus_l/activation": np.array([0.4, 0.1, 0.2])}
+    gaps = symmetry_gaps(SimpleNamespace(columns=columns))
+    assert gaps == {"value": 0.0, "speed": 0.0, "activation": 0.0}
+    columns["/soleus_l/activation"] = np.array([0.4, 0.1, 0.5])
+    assert symmetry_gaps(SimpleNamespace(columns=columns))["activation"] == \
+        pytest.approx(0.3)

@@ -93,6 +93,7 @@ class Goal:
     speed_weight: float = 0.0     # per (m/s)^2, when a cost (the goal's "cost" mode)
     effort_weight: float = 10.0   # per (unit control)^3 s / m
     tracking_weight: float = 0.0  # per rad^2 (m^2)
+    acceleration_weight: float = 0.0  # per (rad/s^2)^2 s (Falisse et al. 2019's term)
 
 
 @dataclass(frozen=True)
@@ -191,13 +192,18 @@ class MuscleGaitProblem:
         symmetric: the periodicity pairs left and right (a half stride); False: every row
             with itself (a whole stride, for a one-sided edit).
         ipopt_options: more Ipopt options (e.g. a warm start's).
+        periodic_activations: the activations are periodic (left <-> right) as the
+            example's MocoPeriodicityGoal asks; False drops those rows (the problem Moco
+            4.6 actually solved: its optimum's activations are not periodic, see
+            tests/reference/osim2d/moco_prediction/README.md).
     """
 
     def __init__(self, plant: MusclePlant, mesh: int, *, tx_row: int,
                  transcription: Transcription = Transcription.TRAPEZOIDAL,
                  max_iter: int = 2000, print_level: int = 0, symbol=cs.SX,
                  node: cs.Function | None = None, residual_rows=None,
-                 symmetric: bool = True, ipopt_options: dict | None = None):
+                 symmetric: bool = True, ipopt_options: dict | None = None,
+                 periodic_activations: bool = True):
         if not 4 <= mesh <= 400:
             raise InputError(f"nodes = {mesh}: give 4..400 collocation intervals.")
         intervals = transcription.grid_intervals(mesh)     # grid steps (HS: + midpoints)
@@ -210,9 +216,9 @@ class MuscleGaitProblem:
         x = self.unpack(self.w)
         h, q, v, a, act, exc, u, running = (x[k] for k in ("h", "q", "v", "a", "act", "exc",
                                                            "u", "E"))
-        self.p_sizes = (("goal", 4), ("q_ref", nq * n1))
-        self.p = symbol.sym("p", 4 + nq * n1)
-        goal, q_ref = self.p[:4], cs.reshape(self.p[4:], nq, n1)
+        self.p_sizes = (("goal", 5), ("q_ref", nq * n1))
+        self.p = symbol.sym("p", 5 + nq * n1)
+        goal, q_ref = self.p[:5], cs.reshape(self.p[5:], nq, n1)
         node = node_function(plant) if node is None else node
         # one call per node (not a map): MX differentiates each call through the node's
         # own symbolic SX derivatives, as fast as an SX graph and built in ~1 s
@@ -244,7 +250,8 @@ class MuscleGaitProblem:
         g = [cs.vec(r[rows, :]) / RESIDUAL_SCALE, defect(q, v) * scale,
              defect(v, a) * scale / 10.0, defect(act, act_dot) * scale / 10.0,
              q[keep, -1] - q[mq[keep], 0], v[:, -1] - v[mq, 0],
-             act[:, -1] - act[mm, 0], u[:, -1] - u[:, 0],
+             (act[:, -1] - act[mm, 0]) if periodic_activations else cs.DM(0, 1),
+             u[:, -1] - u[:, 0],
              cs.vec(h[:, 1:] - h[:, :-1]) * scale,
              q[tx_row, -1] - goal[0] * intervals * h[0, -1],
              defect(running, cs.sum1(exc ** 3) + cs.fabs(u) ** 3) / SCALES["E"]]
@@ -256,11 +263,17 @@ class MuscleGaitProblem:
         # last-node values, so no objective term couples all nodes (a sparse KKT system)
         distance, duration = q[tx_row, -1], intervals * h[0, -1]
         tracking = cs.sum2(cs.sum1((q - q_ref) ** 2) @ quad) / intervals / nq
+        # joint accelerations squared, trapezoidal in time (each interval's own step, so
+        # the Hessian stays banded), mean over the joint coordinates
+        joints = [i for i in range(nq) if i not in (0, 1, 2)]
+        square = cs.sum1(a[joints, :] ** 2)
+        acceleration = cs.sum2(h * 0.5 * (square[:, 1:] + square[:, :-1])) / len(joints)
         terms = {"speed": (distance / duration - goal[0]) ** 2,
                  "effort": running[0, -1] / distance,
-                 "tracking": tracking}
+                 "tracking": tracking,
+                 "acceleration": acceleration}
         objective = (goal[1] * terms["speed"] + goal[2] * terms["effort"]
-                     + goal[3] * terms["tracking"])
+                     + goal[3] * terms["tracking"] + goal[4] * terms["acceleration"])
         self.term_names = tuple(terms)
         self.outputs = cs.Function("outputs", [self.w, self.p],
                                    [r, grf, points, force, fibre, muscle_tau, *terms.values()])
@@ -320,7 +333,7 @@ class MuscleGaitProblem:
         n1, nq = self.n + 1, self.plant.model.nq
         ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
         p = np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,
-                             goal.tracking_weight], ref.ravel()])
+                             goal.tracking_weight, goal.acceleration_weight], ref.ravel()])
         lbx, ubx = self.box(bounds)
         w0 = np.clip(self.pack(guess), lbx, ubx)
         clock = time.perf_counter()

@@ -82,7 +82,7 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     guess.check_keys(("reference", "tracking_stage", "tracking_weight"))
     grid.check_keys(("nodes", "transcription"))
     goal.check_keys(("speed", "speed_constraint", "speed_weight", "effort_weight",
-                     "duration"))
+                     "acceleration_weight", "duration"))
     solver.check_keys(("max_iter",))
     compare.check_keys(("moco_solution",))
     check.check_keys(("human_likeness",))
@@ -116,7 +116,9 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
                   speed_constraint=goal.get("speed_constraint", bool, d.speed_constraint),
                   speed_weight=goal.number("speed_weight", d.speed_weight, low=0.0, high=1e9),
                   effort_weight=goal.number("effort_weight", d.effort_weight, low=0.0,
-                                            high=1e9)),
+                                            high=1e9),
+                  acceleration_weight=goal.number("acceleration_weight",
+                                                  d.acceleration_weight, low=0.0, high=1e9)),
         duration=(duration[0], duration[1]),
         preset=bounds.choice("preset", Preset, Preset.MOCO.value), bounds=ranges,
         tracking_stage=guess.get("tracking_stage", bool, False),
@@ -214,6 +216,33 @@ def grf_balance(grf, body_weight: float) -> dict:
             "peak_vertical_bw": float(vertical.max() / body_weight), "samples": int(t.size)}
 
 
+def symmetry_gaps(half) -> dict:
+    """How far a half-stride MocoTrajectory is from its left/right periodicity, per kind.
+
+    For every state the example's MocoPeriodicityGoal pairs (coordinate values but
+    pelvis_tx, speeds, muscle activations; labels with ``_r``/``_l`` swapped, the others
+    with themselves) the largest |final value of the pair - initial value| (rad, m, rad/s,
+    m/s, activation); 0 for a trajectory that holds the goal.
+
+    Returns:
+        {"value", "speed", "activation"} -> largest gap of that kind (None when absent).
+    """
+    def mirrored(label: str) -> str:
+        return label.replace("_r/", "_x/").replace("_l/", "_r/").replace("_x/", "_l/")
+
+    gaps: dict[str, float | None] = {"value": None, "speed": None, "activation": None}
+    for label, values in half.columns.items():
+        kind = label.rsplit("/", 1)[-1]
+        if kind not in gaps or label.endswith("pelvis_tx/value"):
+            continue
+        pair = half.columns.get(mirrored(label))
+        if pair is None:
+            continue
+        gap = float(abs(pair[-1] - values[0]))
+        gaps[kind] = gap if gaps[kind] is None else max(gaps[kind], gap)
+    return gaps
+
+
 def moco_comparison(path: Path | None, planar, stride) -> dict:
     """Objective and kinematics RMS (deg, from right heel strike) against Moco's solution."""
     from predgait.analysis.human_likeness import resample_stride
@@ -249,6 +278,7 @@ def moco_comparison(path: Path | None, planar, stride) -> dict:
     balance = grf_balance(read_storage(grf_path), planar.model.total_mass()
                           * planar.model.gravity) if grf_path.is_file() else None
     return {"available": True, "file": source_name(path), "grf_balance": balance,
+            "symmetry_gaps": symmetry_gaps(half),
             "objective": float(objective) if objective else None,
             "status": half.header.get("status"),
             "iterations": int(half.header["num_iterations"])
