@@ -45,9 +45,10 @@ Against Moco's own solution (OpenSim 4.6, Hermite-Simpson, 50 intervals, 274 ite
 is 0.1335 (0.500 s), 6.1x higher, and stays there from Moco's solution as the guess, on 100
 intervals (0.13353) and with the acceleration bound raised to 1e4 (0.13355, |a| <= 530).
 Moco's trajectory satisfies this NLP's dynamics to a median 0.03 N (residual rows) but not
-at the heel-strike impact (746 N at the third point of 101): the two transcriptions treat
-the impact on the stiff spheres differently, which is where the effort gap comes from;
-the cause on either side is not settled.
+at the heel-strike impact (746 N at the third point of 101), and it does not hold the
+example's activation periodicity (gap 0.99; tests/reference/osim2d/moco_prediction/
+README.md): without those rows (``periodic_activations=False``) this NLP reaches 0.079 from
+Moco's solution at 50 intervals; the rest of the gap goes with the impact transcription.
 
 Decision vector (scaled; :meth:`MuscleGaitProblem.unpack` is the only place that slices
 it): w = [h, vec(Q), vec(V), vec(A)/10, vec(ACT), vec(EXC), vec(U)/10, E/0.01], each block
