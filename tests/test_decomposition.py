@@ -96,6 +96,21 @@ def test_recovers_known_parameters_with_covering_intervals():
     assert min(covered.values()) >= 18, covered
 
 
+def test_noise_free_trial_is_solved_not_refused():
+    """Exact moments (no noise): the residual SD is ~0, the weights 1 / sigma^2 huge.
+
+    Unscaled, Ipopt stopped with Maximum_Iterations_Exceeded here (issue 28); the fit
+    must return the truth."""
+    samples = synthetic_trial(0, noise=(0.0, 0.0), cycles=3)
+    model = build_model(["knee", "ankle"], fit={"knee": ["k", "c", "theta0", "k_lower"],
+                                                "ankle": ["k", "c", "theta0"]})
+    fit = fit_decomposition(samples, model, Settings(quiet_phases=((73.0, 100.0),)))
+    assert fit.status == "Solve_Succeeded"
+    for key in ("knee.k", "knee.c", "knee.theta0"):
+        assert abs(fit.values[key] / TRUTH[key] - 1) < 1e-3, (key, fit.values[key])
+    assert abs(fit.values["ankle.k"] / TRUTH["ankle.k"] - 1) < 0.01
+
+
 def test_passive_element_absent_from_data_is_near_zero():
     """No damping and no extension stop in the data: both fitted, both ~0 with intervals."""
     truth = dict(TRUTH, **{"knee.c": 0.0, "ankle.c": 0.0})
