@@ -260,7 +260,7 @@ def test_cli_on_the_bundled_trial(tmp_path, assert_tidy_result):
     assert max(solution["angle_rms_deg"].values()) < 1.0
     assert set(solution["cutoff_sensitivity"]) == {"25"}
     for key, report in solution["parameters"].items():
-        if report["status"] == "not identifiable":
+        if report["status"] == "not_identifiable":
             assert report["interval95"] is None and f"{key} = " in run.stdout
     names = (out / "swing_angles.sto").read_text().splitlines()
     header = names[names.index("endheader") + 1].split("\t")

@@ -29,7 +29,7 @@ from predgait.problems.decomposition import (
     fit_decomposition,
 )
 from predgait.problems.gait_samples import GaitSamples
-from predgait.problems.identifiability import assess
+from predgait.problems.identifiability import assess, bootstrap_usable, interval_method
 from predgait.problems.passive_model import JOINTS, PassiveModel, build_model
 from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.figures import plots_wanted
@@ -145,7 +145,7 @@ def parse_cutoff(filt: Table, default: float | str = "residual") -> float | None
         raise filt.error("marker_cutoff", f"'{cutoff}': give a cut-off in Hz or \"residual\".")
     if isinstance(cutoff, str):
         return None
-    return filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
+    return filt.number("marker_cutoff", default, low=0.5, high=100, unit="Hz")
 
 
 def write_passive_moments(path: Path, samples, joints, parts: dict, *, what: str,
@@ -225,6 +225,19 @@ def parse_passive_model(passive: Table, joints) -> PassiveModel:
 
 def _options(spec: DecompositionSpec) -> InverseOptions:
     return (spec.trial or LegTrial(spec.side, spec.inverse_problem)).options()
+
+
+def bootstrap_summary(boot, seed: int) -> dict | None:
+    """solution.json's ``bootstrap`` of a passive fit (None without one).
+
+    What was resampled, and whether the intervals use it (``used``; see
+    :func:`~predgait.problems.identifiability.assess`).
+    """
+    if boot is None:
+        return None
+    return {"repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
+            "units": boot.n_units, "seed": seed, "used": bootstrap_usable(boot),
+            "intervals": interval_method(boot)}
 
 
 def residual_cutoff(options: InverseOptions) -> float:
@@ -335,11 +348,9 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         "quiet_phase_residual_sd_n_m": fit.noise_sd,
         "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
         "quiet_samples": int(quiet.sum()),
-        "gait_cycles": int(np.unique(samples.cycle[samples.cycle >= 0]).size),
+        **samples.cycle_counts(quiet),
         "cycle_timing": samples.timing,
-        "bootstrap": None if boot is None else {
-            "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
-            "units": boot.n_units, "seed": spec.resampling.seed},
+        "bootstrap": bootstrap_summary(boot, spec.resampling.seed),
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
@@ -362,12 +373,18 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
     return solution
 
 
+def cycle_words(solution: dict) -> str:
+    """The cycle counts of a passive fit's solution.json, as printed."""
+    return (f"{solution['gait_cycles']} full gait cycle(s) + {solution['partial_cycles']} "
+            f"partial; {solution['quiet_swings']} quiet swing(s) in the fit")
+
+
 def summary_lines(solution: dict) -> list[str]:
     """What the CLI prints: one line per fitted parameter, then the cut-off sensitivity."""
     lines = [f"passive_decomposition: {solution['ipopt_status']} in {solution['iterations']} "
              f"iterations, {solution['solve_time_s']:.3f} s; marker cut-off "
-             f"{solution['marker_cutoff_hz']:.3g} Hz; {solution['gait_cycles']} gait cycle(s), "
-             f"{solution['quiet_samples']} quiet samples"]
+             f"{solution['marker_cutoff_hz']:.3g} Hz",
+             "  " + cycle_words(solution) + f", {solution['quiet_samples']} quiet samples"]
     lines += parameter_lines(solution["parameters"])
     noise = solution.get("noise_sensitivity")
     if noise:

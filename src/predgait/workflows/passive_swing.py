@@ -22,6 +22,7 @@ from predgait.data import write_storage
 from predgait.errors import InputError, SolveFailed
 from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, fit_decomposition
+from predgait.problems.gait_samples import GaitSamples
 from predgait.problems.identifiability import assess
 from predgait.problems.passive_model import PassiveModel
 from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_swing, fit_swing
@@ -29,6 +30,8 @@ from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
     Resampling,
+    bootstrap_summary,
+    cycle_words,
     inverse_samples,
     parse_filter,
     parse_joints,
@@ -107,6 +110,14 @@ def _fit_at(spec: SwingSpec, options, cutoff: float):
     return samples, inverse, windows, fit, start
 
 
+def windows_mask(samples: GaitSamples, windows: Windows) -> np.ndarray:
+    """(n,) bool: the trial's samples inside the fit's windows."""
+    index = (windows.first[:, None] + np.arange(windows.mask.shape[1]))[windows.mask]
+    inside = np.zeros(len(samples.time), dtype=bool)
+    inside[index] = True
+    return inside
+
+
 def sensitivity(spec: SwingSpec, options) -> dict:
     """Fitted values (no bootstrap) with the markers filtered at each ``sensitivity_hz``."""
     table = {}
@@ -146,13 +157,11 @@ def solve_swing(spec: SwingSpec) -> dict:
         "angle_noise_sd_deg": {j: float(np.degrees(v)) for j, v in fit.noise_sd.items()},
         "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
         "windows": len(windows), "quiet_samples": windows.samples,
-        "gait_cycles": int(np.unique(windows.cycle).size),
+        **samples.cycle_counts(windows_mask(samples, windows)),
         "rk4_steps_per_sample": windows.substeps,
         "start_from_decomposition": None if start is None else {
             p.key: start[p.key] for p in spec.model.fitted},
-        "bootstrap": None if boot is None else {
-            "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
-            "units": boot.n_units, "seed": spec.resampling.seed},
+        "bootstrap": bootstrap_summary(boot, spec.resampling.seed),
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
@@ -196,8 +205,9 @@ def summary_lines(solution: dict) -> list[str]:
     rms = solution["angle_rms_deg"]
     lines = [f"passive_swing: Gauss-Newton in {solution['iterations']} iterations, "
              f"{solution['solve_time_s']:.3f} s; {solution['windows']} quiet-phase windows "
-             f"({solution['quiet_samples']} samples, {solution['gait_cycles']} gait cycles); "
-             f"marker cut-off {solution['marker_cutoff_hz']:.3g} Hz",
+             f"({solution['quiet_samples']} samples); marker cut-off "
+             f"{solution['marker_cutoff_hz']:.3g} Hz",
+             "  " + cycle_words(solution),
              f"  angle RMS error of the simulated windows: ankle {rms['ankle']:.3f} deg, "
              f"knee {rms['knee']:.3f} deg"]
     lines += parameter_lines(solution["parameters"])
