@@ -180,6 +180,19 @@ def test_cli_on_the_bundled_trial(tmp_path, assert_tidy_result):
     assert noise["sd"]["knee.k"] > 0.0 and "spread from re-added noise" in run.stdout
     assert 4.0 < solution["marker_cutoff_hz"] < 12.0        # residual analysis, 60 Hz TRC
     assert set(solution["cutoff_sensitivity"]) == {"6", "20"}
+    # Cycle counts as the console prints them: subject01 has 2 heel strikes (issue 28).
+    assert (solution["gait_cycles"], solution["partial_cycles"],
+            solution["quiet_swings"]) == (1, 2, 2)
+    assert "1 full gait cycle(s) + 2 partial; 2 quiet swing(s)" in run.stdout
+    windows = solution["window_sensitivity"]
+    assert list(windows) == ["73-100 %", "73-87 %", "73-95 %"]
+    assert windows["73-100 %"]["knee.k"] == solution["parameters"]["knee.k"]["value"]
+    assert "over 73-87 %: knee.k = " in run.stdout
+    # What subject01 can and cannot say: no damping, no ankle neutral angle.
+    params = solution["parameters"]
+    assert params["knee.c"]["status"] == "consistent_with_zero"
+    assert params["ankle.theta0"]["status"] == "not_identifiable"
+    assert "rest angle" in params["knee.theta0"]["meaning"] and " deg" in run.stdout
     for key, report in solution["parameters"].items():
         assert report["status"] in {s.value for s in Status}
         if report["status"] == "not_identifiable":

@@ -79,9 +79,9 @@ def test_a_bootstrap_of_too_few_units_is_not_used():
     few = _reports(values, se, _boot(MIN_BOOTSTRAP_UNITS - 1))["knee.k"]
     enough = _reports(values, se, _boot(MIN_BOOTSTRAP_UNITS))["knee.k"]
     assert few.interval95 == (12.0 - 1.96, 12.0 + 1.96)         # Fisher only
-    assert few.interval_method.startswith("Fisher information only: 5 gait cycle")
+    assert few.interval_method.startswith("Fisher information only: 5 resampled")
     assert enough.interval95[1] - 12.0 > 2.5 * 5.0               # the bootstrap's SD used
-    assert enough.interval_method.startswith("bootstrap over 6 gait cycles")
+    assert enough.interval_method.startswith("bootstrap over 6 resampled units")
 
 
 def test_a_value_that_moves_outside_its_interval_between_windows_is_window_dependent():

@@ -312,3 +312,15 @@ def test_fit_that_does_not_converge_exits_3_and_writes_nothing(tmp_path):
                  "uncertainty.bootstrap=0", "filter.sensitivity_hz=[]")
     assert run.returncode == 3 and "solve failed" in run.stderr, run.stderr
     assert "Gauss-Newton did not converge" in run.stderr and not out.exists()
+
+
+def test_marker_cutoff_defaults_to_20_hz_as_documented(tmp_path):
+    """Without [filter] marker_cutoff the problem is read, at 20 Hz (issue 28: refused)."""
+    from predgait.problemfile import load_problem
+    from predgait.workflows.passive_swing import DEFAULT_CUTOFF_HZ, parse_swing
+
+    text = (REPO / "problems" / "passive_swing.toml").read_text()
+    problem = tmp_path / "swing.toml"
+    problem.write_text(text.replace("marker_cutoff = 20.0", "# marker_cutoff: default"))
+    spec = parse_swing(load_problem(problem))
+    assert spec.cutoff == DEFAULT_CUTOFF_HZ == 20.0

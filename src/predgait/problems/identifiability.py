@@ -121,12 +121,12 @@ def bootstrap_usable(boot: Bootstrap | None) -> bool:
 def interval_method(boot: Bootstrap | None) -> str:
     """How :func:`assess` makes the intervals for this bootstrap (words for the output)."""
     if bootstrap_usable(boot):
-        return (f"bootstrap over {boot.n_units} {boot.unit}s, widened to the Fisher "
-                "interval where that is wider")
+        return (f"bootstrap over {boot.n_units} resampled units ({boot.unit}), widened to "
+                "the Fisher interval where that is wider")
     if boot is None:
         return "Fisher information only (no bootstrap)"
-    return (f"Fisher information only: {boot.n_units} {boot.unit}(s) with quiet samples, "
-            f"fewer than the {MIN_BOOTSTRAP_UNITS} a bootstrap needs")
+    return (f"Fisher information only: {boot.n_units} resampled unit(s) ({boot.unit}) with "
+            f"quiet samples, fewer than the {MIN_BOOTSTRAP_UNITS} a bootstrap needs")
 
 
 def assess(model: PassiveModel, fit: Decomposition | ShootingFit, boot: Bootstrap | None
@@ -205,7 +205,7 @@ def mark_window_dependent(reports: list[ParameterReport], windows: dict[str, dic
     Args:
         reports: The main fit's reports.
         windows: Window label (e.g. "73-87 %") -> fitted values (``joint.name`` -> SI) of
-            the same fit over that window, or ``{"failed": why}``.
+            the same fit over that window (other entries ignored), or ``{"failed": why}``.
 
     Returns:
         The reports, with every one that has an interval and a window value outside it
@@ -218,7 +218,8 @@ def mark_window_dependent(reports: list[ParameterReport], windows: dict[str, dic
             continue
         low, high = report.interval95
         outside = [f"{label}: {values[report.key]:.4g}" for label, values in windows.items()
-                   if report.key in values and not low <= values[report.key] <= high]
+                   if isinstance(values.get(report.key), float | int)
+                   and not low <= values[report.key] <= high]
         if outside:
             report = replace(report, status=Status.WINDOW_DEPENDENT, reasons=(
                 f"over other quiet windows it moves outside its 95 % interval "

@@ -29,12 +29,23 @@ from predgait.problems.decomposition import (
     fit_decomposition,
 )
 from predgait.problems.gait_samples import GaitSamples
-from predgait.problems.identifiability import assess, bootstrap_usable, interval_method
+from predgait.problems.identifiability import (
+    assess,
+    bootstrap_usable,
+    interval_method,
+    mark_window_dependent,
+)
 from predgait.problems.passive_model import JOINTS, PassiveModel, build_model
 from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.workflows.output import staged_output
+from predgait.workflows.passive_windows import (
+    DEFENSIBLE_WINDOWS,
+    parse_windows,
+    window_lines,
+    window_sensitivity,
+)
 from predgait.workflows.trials import LegTrial, leg_trial
 
 METHOD = ("decomposition of the inverse-dynamics moment, tau_ID = tau_active + "
@@ -109,6 +120,7 @@ class DecompositionSpec:
     noise_marker_mm: float = 1.0
     noise_force_percent: float = 1.0
     trial: LegTrial | None = None
+    windows: tuple[tuple[float, float], ...] = DEFENSIBLE_WINDOWS
 
 
 def parse_joints(table: Table) -> tuple[str, ...]:
@@ -175,7 +187,7 @@ def write_passive_moments(path: Path, samples, joints, parts: dict, *, what: str
 def parse_decomposition(table: Table) -> DecompositionSpec:
     """DecompositionSpec from a problem file (errors name the file, key and line)."""
     table.check_keys(("kind", "joints", "quiet_phases", "smoothness_weight", "trial", "filter",
-                      "uncertainty", "passive", "solver"))
+                      "uncertainty", "passive", "solver", "window_sensitivity"))
     joints = parse_joints(table)
     checked = parse_phases(table)
     trial = leg_trial(table.table("trial"))
@@ -196,7 +208,7 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
         noise_repeats=int(unc.number("noise_repeats", 0, low=0, high=1000)),
         noise_marker_mm=unc.number("noise_marker_mm", 1.0, low=0.0, high=50.0, unit="mm"),
         noise_force_percent=unc.number("noise_force_percent", 1.0, low=0.0, high=50.0,
-                                       unit="%"), trial=trial)
+                                       unit="%"), trial=trial, windows=parse_windows(table))
 
 
 def parse_passive_model(passive: Table, joints) -> PassiveModel:
@@ -270,8 +282,13 @@ def cutoff_sensitivity(spec: DecompositionSpec, options: InverseOptions) -> dict
         except (InputError, SolveFailed) as exc:
             table[f"{cutoff:g}"] = {"failed": str(exc)}
             continue
-        table[f"{cutoff:g}"] = {p.key: fit.values[p.key] for p in spec.model.fitted}
+        table[f"{cutoff:g}"] = fitted_values(spec.model, fit.values)
     return table
+
+
+def fitted_values(model: PassiveModel, values: dict) -> dict:
+    """The fitted parameters' values (``joint.name`` -> SI) of a fit's ``values``."""
+    return {p.key: values[p.key] for p in model.fitted}
 
 
 def noise_sensitivity(spec: DecompositionSpec, options: InverseOptions, cutoff: float
@@ -334,6 +351,11 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
                      seed=res.seed, min_cycles=res.min_cycles, block_s=res.block_s) \
         if res.repeats > 1 else None
     reports, correlation = assess(spec.model, fit, boot)
+    windows = window_sensitivity(
+        lambda phases: (spec.model, fit_decomposition(
+            samples, spec.model, replace(spec.settings, quiet_phases=phases))),
+        spec.settings.quiet_phases, spec.windows, (spec.model, fit))
+    reports = mark_window_dependent(reports, windows)
     sensitivity = cutoff_sensitivity(spec, options)
     noise = noise_sensitivity(spec, options, chosen)
     quiet = fit.quiet
@@ -355,6 +377,7 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
         "cutoff_sensitivity": sensitivity,
+        "window_sensitivity": windows,
         "noise_sensitivity": noise,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
@@ -394,4 +417,5 @@ def summary_lines(solution: dict) -> list[str]:
                      f"{forces}, {noise['repeats']} refits), SD: "
                      + ", ".join(f"{k} {v:.3g}" for k, v in noise["sd"].items()))
     lines += cutoff_lines(solution["cutoff_sensitivity"])
+    lines += window_lines(solution["window_sensitivity"])
     return lines

@@ -13,7 +13,7 @@ Writes solution.json, passive_moments.sto and swing_angles.sto.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +23,7 @@ from predgait.errors import InputError, SolveFailed
 from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, fit_decomposition
 from predgait.problems.gait_samples import GaitSamples
-from predgait.problems.identifiability import assess
+from predgait.problems.identifiability import assess, mark_window_dependent
 from predgait.problems.passive_model import PassiveModel
 from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_swing, fit_swing
 from predgait.report.console import cutoff_lines, parameter_lines
@@ -32,6 +32,7 @@ from predgait.workflows.decomposition import (
     Resampling,
     bootstrap_summary,
     cycle_words,
+    fitted_values,
     inverse_samples,
     parse_filter,
     parse_joints,
@@ -42,6 +43,12 @@ from predgait.workflows.decomposition import (
     write_passive_moments,
 )
 from predgait.workflows.output import staged_output
+from predgait.workflows.passive_windows import (
+    DEFENSIBLE_WINDOWS,
+    parse_windows,
+    window_lines,
+    window_sensitivity,
+)
 from predgait.workflows.trials import LegTrial, leg_trial
 
 METHOD = ("simulation of each quiet phase (muscles quiet, foot off the ground) of every "
@@ -67,12 +74,13 @@ class SwingSpec:
     cutoff: float | None            # Hz; None: residual analysis
     sensitivity_hz: tuple[float, ...]
     resampling: Resampling
+    windows: tuple[tuple[float, float], ...] = DEFENSIBLE_WINDOWS
 
 
 def parse_swing(table: Table) -> SwingSpec:
     """SwingSpec from a problem file (errors name the file, key and line)."""
     table.check_keys(("kind", "joints", "quiet_phases", "trial", "filter", "simulation",
-                      "uncertainty", "passive"))
+                      "uncertainty", "passive", "window_sensitivity"))
     joints = parse_joints(table)
     trial = leg_trial(table.table("trial"))
     cutoff, sensitivity = parse_filter(table.table("filter"), default_cutoff=DEFAULT_CUTOFF_HZ,
@@ -92,22 +100,28 @@ def parse_swing(table: Table) -> SwingSpec:
             initial_rate_span=np.radians(sim.number("initial_rate_span_deg_s", 172.0,
                                                     low=1.0, high=2000.0, unit="deg/s"))),
         cutoff=cutoff, sensitivity_hz=sensitivity,
-        resampling=parse_uncertainty(table.table("uncertainty"), blocks=False))
+        resampling=parse_uncertainty(table.table("uncertainty"), blocks=False),
+        windows=parse_windows(table))
 
 
 def _fit_at(spec: SwingSpec, options, cutoff: float):
     """Inverse dynamics at ``cutoff``, windows, decomposition start, angle fit."""
     samples, inverse = inverse_samples(options, cutoff)
+    return (samples, inverse, *_fit_over(spec, samples, inverse, spec.settings))
+
+
+def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings):
+    """Windows, decomposition start and angle fit over ``settings.quiet_phases``."""
     where = f"{spec.source}: quiet_phases"
-    windows = Windows.from_inverse(inverse, samples, spec.settings, where=where)
+    windows = Windows.from_inverse(inverse, samples, settings, where=where)
     try:
         start = fit_decomposition(samples, spec.model,
-                                  Settings(quiet_phases=spec.settings.quiet_phases)).values
+                                  Settings(quiet_phases=settings.quiet_phases)).values
     except (InputError, SolveFailed):
         start = None
-    fit = fit_swing(inverse.model, windows, spec.model, spec.settings, start=start,
+    fit = fit_swing(inverse.model, windows, spec.model, settings, start=start,
                     where=f"{spec.source}: passive_swing")
-    return samples, inverse, windows, fit, start
+    return windows, fit, start
 
 
 def windows_mask(samples: GaitSamples, windows: Windows) -> np.ndarray:
@@ -127,7 +141,7 @@ def sensitivity(spec: SwingSpec, options) -> dict:
         except (InputError, SolveFailed) as exc:
             table[f"{cutoff:g}"] = {"failed": str(exc)}
             continue
-        table[f"{cutoff:g}"] = {p.key: fit.values[p.key] for p in spec.model.fitted}
+        table[f"{cutoff:g}"] = fitted_values(spec.model, fit.values)
     return table
 
 
@@ -145,6 +159,11 @@ def solve_swing(spec: SwingSpec) -> dict:
     boot = bootstrap_swing(windows, spec.model, fit, repeats=res.repeats, seed=res.seed) \
         if res.repeats > 1 else None
     reports, correlation = assess(spec.model, fit, boot)
+    over = window_sensitivity(
+        lambda phases: (spec.model, _fit_over(
+            spec, samples, inverse, replace(spec.settings, quiet_phases=phases))[1]),
+        spec.settings.quiet_phases, spec.windows, (spec.model, fit))
+    reports = mark_window_dependent(reports, over)
     residual = fit.residual.reshape(len(windows), -1, 2)[windows.mask]
     rms = np.degrees(np.sqrt(np.mean(residual ** 2, axis=0)))
     solution = {
@@ -166,6 +185,7 @@ def solve_swing(spec: SwingSpec) -> dict:
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
         "cutoff_sensitivity": sensitivity(spec, options),
+        "window_sensitivity": over,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
@@ -212,4 +232,5 @@ def summary_lines(solution: dict) -> list[str]:
              f"knee {rms['knee']:.3f} deg"]
     lines += parameter_lines(solution["parameters"])
     lines += cutoff_lines(solution["cutoff_sensitivity"])
+    lines += window_lines(solution["window_sensitivity"])
     return lines
