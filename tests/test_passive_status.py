@@ -110,3 +110,51 @@ def test_cycle_counts_name_full_partial_and_quiet_swings():
     # swing of the partial first cycle (t < 0.5 s is 55-100 %) and of both full cycles;
     # the last partial cycle ends at 73 % (0.8 s of 1.1 s).
     assert counts == {"gait_cycles": 2, "partial_cycles": 2, "quiet_swings": 3}
+
+
+def _answer(values, se, swings=2):
+    from predgait.problems.passive_answer import joint_answer
+
+    fit = _fit(values, se)
+    reports = assess(MODEL, fit, None)[0]
+    angles = np.radians(np.linspace(10.0, 60.0, 50))
+    return joint_answer(MODEL, fit.values, fit.information, reports, "knee", angles,
+                        swings=swings)
+
+
+def test_one_answer_per_joint_parameters_curve_or_swings_needed():
+    # All settled: the parameters.
+    answer = _answer({"knee.k": 12.0, "knee.c": 0.3, "knee.theta0": 0.6},
+                     {"knee.k": 2.0, "knee.c": 0.2, "knee.theta0": 0.05})
+    assert answer.kind == "parameters" and "knee.k 12 [8.08, 15.9]" in answer.text
+    # The elastic curve -k (theta - theta0) at 10 deg, by hand; its band by the delta
+    # method: 1.96 sqrt((theta - theta0)^2 se_k^2 + k^2 se_theta0^2).
+    d = np.radians(10.0) - 0.6
+    assert np.isclose(answer.moment[0], -12.0 * d)
+    assert np.isclose(answer.band[0], 1.96 * np.hypot(d * 2.0, 12.0 * 0.05))
+    # theta0 at its bound but a narrow curve: the curve.
+    answer = _answer({"knee.k": 12.0, "knee.c": 0.3, "knee.theta0": 1.95},
+                     {"knee.k": 0.5, "knee.c": 0.2, "knee.theta0": 0.04})
+    assert answer.kind == "curve" and "knee.theta0" in answer.text
+    # k constrained no better than its bounds (SE 60 vs 0.5 * 200 / 1.96 = 51): the
+    # information must grow (60 / 51.02)^2 = 1.383 times; the curve's band (>> 0.5 |M|)
+    # asks for more. 2 swings -> ceil(2 * 1.383) - 2 = 1 more.
+    answer = _answer({"knee.k": 50.0, "knee.c": 0.3, "knee.theta0": 0.6},
+                     {"knee.k": 60.0, "knee.c": 0.2, "knee.theta0": 0.05})
+    assert answer.kind == "not_identifiable" and answer.swings_needed == 1
+    assert "need about 1 more quiet swing" in answer.text
+    answer = _answer({"knee.k": 50.0, "knee.c": 0.3, "knee.theta0": 0.6},
+                     {"knee.k": 150.0, "knee.c": 0.2, "knee.theta0": 0.05}, swings=3)
+    assert answer.swings_needed == int(np.ceil(3 * (150.0 / (0.5 * 200 / 1.96)) ** 2)) - 3
+
+
+def test_a_window_that_cannot_identify_the_parameter_does_not_make_it_window_dependent():
+    reports = assess(MODEL, _fit({"knee.k": 12.0, "knee.c": 2.0, "knee.theta0": 0.6},
+                                 {"knee.k": 2.0, "knee.c": 0.2, "knee.theta0": 0.05}),
+                     None)[0]
+    windows = {"73-87 %": {"knee.k": 21.0, "knee.c": 3.0, "knee.theta0": 0.6,
+                           "intervals": {"knee.k": [0.0, 45.0], "knee.c": [2.5, 3.5],
+                                         "knee.theta0": None}}}
+    marked = {r.key: r for r in mark_window_dependent(reports, windows)}
+    assert marked["knee.k"].status is Status.IDENTIFIED      # 12 inside [0, 45]
+    assert marked["knee.c"].status is Status.WINDOW_DEPENDENT  # 2 outside [2.5, 3.5]

@@ -286,7 +286,7 @@ def test_cli_on_walking5_through_an_inverse_problem(tmp_path):
     out = tmp_path / "w5"
     run = _solve(REPO / "problems" / "passive_swing.toml", out,
                  'trial.inverse_problem="inverse_walking5.toml"', "uncertainty.bootstrap=20",
-                 "filter.sensitivity_hz=[]")
+                 "filter.sensitivity_hz=[]", "window_sensitivity=[]")
     assert run.returncode == 0, run.stderr
     solution = json.loads((out / "solution.json").read_text())
     assert "walking5.c3d" in solution["provenance"]["trial"]

@@ -210,6 +210,9 @@ def mark_window_dependent(reports: list[ParameterReport], windows: dict[str, dic
     Returns:
         The reports, with every one that has an interval and a window value outside it
         turned :attr:`Status.WINDOW_DEPENDENT` (the interval kept, the windows named).
+        When a window gives its own ``intervals`` (key -> [low, high] or None), the
+        disagreement must be mutual: that window's interval must exclude the main value
+        (a window that cannot identify the parameter is uninformative, not contrary).
     """
     out = []
     for report in reports:
@@ -219,13 +222,22 @@ def mark_window_dependent(reports: list[ParameterReport], windows: dict[str, dic
         low, high = report.interval95
         outside = [f"{label}: {values[report.key]:.4g}" for label, values in windows.items()
                    if isinstance(values.get(report.key), float | int)
-                   and not low <= values[report.key] <= high]
+                   and not low <= values[report.key] <= high
+                   and _excludes(values.get("intervals"), report.key, report.value)]
         if outside:
             report = replace(report, status=Status.WINDOW_DEPENDENT, reasons=(
                 f"over other quiet windows it moves outside its 95 % interval "
                 f"[{low:.4g}, {high:.4g}] ({'; '.join(outside)} {report.unit})",))
         out.append(report)
     return out
+
+
+def _excludes(intervals: dict | None, key: str, value: float) -> bool:
+    """Whether a window's own interval of ``key`` excludes ``value`` (True without one)."""
+    if intervals is None:
+        return True
+    interval = intervals.get(key)
+    return interval is not None and not interval[0] <= value <= interval[1]
 
 
 def cramer_rao(jacobian: np.ndarray, covariance: np.ndarray, parameters: int) -> np.ndarray:

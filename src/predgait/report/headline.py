@@ -460,7 +460,7 @@ BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynt
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
             "solve": _solve, "scenario": _scenario, "sweep": _sweep,
             "passive_decomposition": _decomposition, "torque_feedback": _torque_feedback,
-            "passive_shooting": _shooting, "passive_swing": _swing,
+            "passive_shooting": _shooting, "passive_swing": _swing, "passive_knee_ankle": _swing,
             "fullbody_tracking": _fullbody_tracking,
             "predict_gait7": _predict, "predict_muscles_2d": _predict_muscles}
 

@@ -24,7 +24,9 @@ from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, fit_decomposition
 from predgait.problems.gait_samples import GaitSamples
 from predgait.problems.identifiability import assess, mark_window_dependent
+from predgait.problems.passive_answer import joint_answer
 from predgait.problems.passive_model import PassiveModel
+from predgait.problems.passive_moment_rows import MomentRows
 from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_swing, fit_swing
 from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.tidy import write_summary
@@ -59,6 +61,10 @@ METHOD = ("simulation of each quiet phase (muscles quiet, foot off the ground) o
           "over gait cycles widened to the Fisher-information interval where that is wider")
 WHAT = ("passive joint moments (tissue properties under the quiet-muscle assumption), "
         "identified from the measured angles rather than from the inverse-dynamics moments")
+MOMENTS = ("; kind passive_knee_ankle: the quiet samples' inverse-dynamics moments fitted "
+           "too, as a second residual weighted by their measured noise (1 / sigma_m^2 per "
+           "joint, re-estimated after each pass); intervals from the Fisher information of "
+           "both residuals")
 #: Default marker cut-off of this fit, Hz (module docstring).
 DEFAULT_CUTOFF_HZ = 20.0
 
@@ -75,6 +81,15 @@ class SwingSpec:
     sensitivity_hz: tuple[float, ...]
     resampling: Resampling
     windows: tuple[tuple[float, float], ...] = DEFENSIBLE_WINDOWS
+    moments: bool = False           # kind passive_knee_ankle: the moments fitted too
+
+
+def parse_knee_ankle(table: Table) -> SwingSpec:
+    """Kind ``passive_knee_ankle`` (problems/passive_knee_ankle.toml), same keys.
+
+    The swing fit with the quiet samples' inverse-dynamics moments as a second residual.
+    """
+    return replace(parse_swing(table), moments=True)
 
 
 def parse_swing(table: Table) -> SwingSpec:
@@ -119,9 +134,15 @@ def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings):
                                   Settings(quiet_phases=settings.quiet_phases)).values
     except (InputError, SolveFailed):
         start = None
+    rows = MomentRows.of(samples, windows_mask(samples, windows), spec.model) \
+        if spec.moments else None
     fit = fit_swing(inverse.model, windows, spec.model, settings, start=start,
-                    where=f"{spec.source}: passive_swing")
+                    where=f"{spec.source}: {_kind(spec)}", moments=rows)
     return windows, fit, start
+
+
+def _kind(spec: SwingSpec) -> str:
+    return "passive_knee_ankle" if spec.moments else "passive_swing"
 
 
 def windows_mask(samples: GaitSamples, windows: Windows) -> np.ndarray:
@@ -156,8 +177,10 @@ def solve_swing(spec: SwingSpec) -> dict:
     chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
     samples, inverse, windows, fit, start = _fit_at(spec, options, chosen)
     res = spec.resampling
+    # The replicates re-solve the angle residuals' Gauss-Newton model only: with the
+    # moments fitted too, the intervals are the Fisher information's of both.
     boot = bootstrap_swing(windows, spec.model, fit, repeats=res.repeats, seed=res.seed) \
-        if res.repeats > 1 else None
+        if res.repeats > 1 and not spec.moments else None
     reports, correlation = assess(spec.model, fit, boot)
     over = window_sensitivity(
         lambda phases: (spec.model, _fit_over(
@@ -167,13 +190,16 @@ def solve_swing(spec: SwingSpec) -> dict:
     residual = fit.residual.reshape(len(windows), -1, 2)[windows.mask]
     rms = np.degrees(np.sqrt(np.mean(residual ** 2, axis=0)))
     solution = {
-        "status": "solved", "kind": "passive_swing", "method": METHOD, "what": WHAT,
+        "status": "solved", "kind": _kind(spec),
+        "method": METHOD + (MOMENTS if spec.moments else ""), "what": WHAT,
         "iterations": fit.iterations, "solve_time_s": fit.seconds,
         "parameters": {r.key: r.as_dict() for r in reports},
         "fitted_correlation": {"parameters": [p.key for p in spec.model.fitted],
                                "matrix": np.round(correlation, 4).tolist()},
         "angle_rms_deg": {"ankle": float(rms[0]), "knee": float(rms[1])},
         "angle_noise_sd_deg": {j: float(np.degrees(v)) for j, v in fit.noise_sd.items()},
+        "moment_noise_sd_n_m": fit.moment_sd,
+        "answers": answers(spec, fit, reports, samples, windows),
         "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
         "windows": len(windows), "quiet_samples": windows.samples,
         **samples.cycle_counts(windows_mask(samples, windows)),
@@ -220,16 +246,29 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
     return solution
 
 
+def answers(spec: SwingSpec, fit, reports, samples, windows) -> dict:
+    """Joint -> its one answer (:func:`~predgait.problems.passive_answer.joint_answer`)."""
+    inside = windows_mask(samples, windows)
+    swings = samples.cycle_counts(inside)["quiet_swings"]
+    return {joint: joint_answer(spec.model, fit.values, fit.information, reports, joint,
+                                samples.angles[joint][inside], swings=swings).as_dict()
+            for joint in spec.model.joints}
+
+
 def summary_lines(solution: dict) -> list[str]:
-    """What the CLI prints: one line per fitted parameter, then the cut-off sensitivity."""
+    """What the CLI prints: one answer per joint, each fitted parameter, the sensitivities."""
     rms = solution["angle_rms_deg"]
-    lines = [f"passive_swing: Gauss-Newton in {solution['iterations']} iterations, "
+    lines = [f"{solution['kind']}: Gauss-Newton in {solution['iterations']} iterations, "
              f"{solution['solve_time_s']:.3f} s; {solution['windows']} quiet-phase windows "
              f"({solution['quiet_samples']} samples); marker cut-off "
              f"{solution['marker_cutoff_hz']:.3g} Hz",
              "  " + cycle_words(solution),
              f"  angle RMS error of the simulated windows: ankle {rms['ankle']:.3f} deg, "
              f"knee {rms['knee']:.3f} deg"]
+    if solution.get("moment_noise_sd_n_m"):
+        lines.append("  moment residual SD (the moments' weight): " + ", ".join(
+            f"{j} {v:.3g} N m" for j, v in solution["moment_noise_sd_n_m"].items()))
+    lines += [f"  {joint}: {answer['text']}" for joint, answer in solution["answers"].items()]
     lines += parameter_lines(solution["parameters"])
     lines += cutoff_lines(solution["cutoff_sensitivity"])
     lines += window_lines(solution["window_sensitivity"])

@@ -53,9 +53,9 @@ def window_sensitivity(fit_over: Callable[[tuple], tuple], phases, windows, main
         windows: The other windows, each one (start, end) pair.
         main: The main fit's (model, fit) (listed first, under the user's label).
 
-    The ``statuses`` are each window's own verdicts from its Fisher information alone
-    (no bootstrap): a parameter the main fit identifies but a defensible window does not
-    rests on the samples that window leaves out.
+    The ``statuses`` and ``intervals`` are each window's own verdicts and 95 % intervals
+    from its Fisher information alone (no bootstrap): a parameter the main fit identifies
+    but a defensible window does not rests on the samples that window leaves out.
     """
     table = {label(phases): _entry(*main)}
     for window in windows:
@@ -72,9 +72,11 @@ def _entry(model, fit) -> dict:
     from predgait.problems.identifiability import assess
 
     reports = assess(model, fit, None)[0]
+    keys = {p.key for p in model.fitted}
     return {**{p.key: fit.values[p.key] for p in model.fitted},
-            "statuses": {r.key: r.status.value for r in reports if r.key in
-                         {p.key for p in model.fitted}}}
+            "statuses": {r.key: r.status.value for r in reports if r.key in keys},
+            "intervals": {r.key: list(r.interval95) if r.interval95 else None
+                          for r in reports if r.key in keys}}
 
 
 def window_lines(table: dict[str, dict], indent: str = "  ") -> list[str]:
@@ -86,6 +88,6 @@ def window_lines(table: dict[str, dict], indent: str = "  ") -> list[str]:
         what = f"fit failed ({values['failed']})" if "failed" in values else ", ".join(
             f"{k} = {v:.4g}" + (f" ({statuses[k]})" if statuses.get(k, "identified")
                                 != "identified" else "")
-            for k, v in values.items() if k != "statuses")
+            for k, v in values.items() if k not in ("statuses", "intervals"))
         lines.append(f"{indent}  over {name}{' (this fit)' if i == 0 else ''}: {what}")
     return lines
