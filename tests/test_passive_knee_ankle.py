@@ -96,3 +96,20 @@ def test_cli_on_the_bundled_trial_gives_one_answer_per_joint(tmp_path):
         assert answer["answer"] != "parameters"
         if answer["answer"] == "window_dependent":
             assert any(r["status"] == "window_dependent" for r in mine.values())
+
+
+@pytest.mark.parametrize("override, words", [
+    ("quiet_phases=[[73.0, 90.0], [85.0, 95.0]]", "overlap"),
+    ("quiet_phases=[[73.0, 101.0]]", "0 <= start < end <= 100"),
+    ("filter.marker_cutoff=40.0", "Nyquist frequency (30 Hz)"),
+    ("window_sensitivity=[[90.0, 80.0]]", "window_sensitivity"),
+])
+def test_bad_input_one_message_nothing_written(tmp_path, override, words):
+    out = tmp_path / "bad"
+    args = [sys.executable, "-m", "predgait", "solve",
+            str(REPO / "problems" / "passive_knee_ankle.toml"), "--out", str(out),
+            "--set", override, "--set", "filter.sensitivity_hz=[]"]
+    run = subprocess.run(args, capture_output=True, text=True, cwd=REPO, timeout=300)
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.startswith("predgait: error:") and words in run.stderr, run.stderr
+    assert "Traceback" not in run.stderr and not out.exists()

@@ -147,6 +147,11 @@ def parse_phases(table: Table) -> tuple[tuple[float, float], ...]:
         checked.append((float(phase[0]), float(phase[1])))
     if not checked:
         raise table.error("quiet_phases", "give at least one [start, end] phase.")
+    ordered = sorted(checked)
+    for (a0, a1), (b0, b1) in zip(ordered, ordered[1:], strict=False):
+        if b0 < a1:
+            raise table.error("quiet_phases", f"[{a0:g}, {a1:g}] and [{b0:g}, {b1:g}] overlap; "
+                                              "give each part of the cycle once.")
     return tuple(checked)
 
 
@@ -266,6 +271,17 @@ def residual_cutoff(options: InverseOptions) -> float:
     return float(residual_analysis(xyz, markers.rate).chosen)
 
 
+def check_cutoff(source: Path, options: InverseOptions, cutoff: float) -> None:
+    """Refuse a marker cut-off at or above the trial's Nyquist frequency (InputError)."""
+    from predgait.dynamics.leg_measurements import read_trial
+
+    rate = read_trial(options)[0].markers.rate
+    if cutoff >= 0.5 * rate:
+        raise InputError(f"{source}: [filter] marker_cutoff = {cutoff:g} Hz is at or above "
+                         f"the Nyquist frequency ({0.5 * rate:g} Hz) of the trial's "
+                         f"{rate:g} Hz markers; give a lower cut-off or \"residual\".")
+
+
 def inverse_samples(options: InverseOptions, cutoff: float) -> tuple[GaitSamples, object]:
     """The trial's inverse dynamics with markers and forces filtered at ``cutoff`` Hz."""
     inverse = run_inverse(replace(options, cutoff=cutoff, grf_cutoff=cutoff))
@@ -342,6 +358,7 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
     """
     options = _options(spec)
     chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
+    check_cutoff(spec.source, options, chosen)
     samples, inverse = inverse_samples(options, chosen)
     where = f"{spec.source}: quiet_phases"
     check_samples(samples, spec.model, spec.settings, where=where)

@@ -33,6 +33,7 @@ from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
     Resampling,
     bootstrap_summary,
+    check_cutoff,
     cycle_words,
     fitted_values,
     inverse_samples,
@@ -65,6 +66,8 @@ MOMENTS = ("; kind passive_knee_ankle: the quiet samples' inverse-dynamics momen
            "too, as a second residual weighted by their measured noise (1 / sigma_m^2 per "
            "joint, re-estimated after each pass); intervals from the Fisher information of "
            "both residuals")
+#: Fewest quiet swings (gait cycles with a quiet window) a fit accepts.
+MIN_SWINGS = 2
 #: Default marker cut-off of this fit, Hz (module docstring).
 DEFAULT_CUTOFF_HZ = 20.0
 
@@ -129,6 +132,13 @@ def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings):
     """Windows, decomposition start and angle fit over ``settings.quiet_phases``."""
     where = f"{spec.source}: quiet_phases"
     windows = Windows.from_inverse(inverse, samples, settings, where=where)
+    swings = samples.cycle_counts(windows_mask(samples, windows))["quiet_swings"]
+    if swings < MIN_SWINGS:
+        raise InputError(f"{where}: {settings.quiet_phases} % gait cycle holds quiet samples "
+                         f"off the ground in {swings} gait cycle(s) of "
+                         f"{samples.source or 'the trial'}; at least {MIN_SWINGS} quiet swings "
+                         "are needed (one swing cannot tell the tissue from that swing's "
+                         "noise). Use a longer trial or widen the phases.")
     try:
         start = fit_decomposition(samples, spec.model,
                                   Settings(quiet_phases=settings.quiet_phases)).values
@@ -175,6 +185,7 @@ def solve_swing(spec: SwingSpec) -> dict:
     """
     options = spec.trial.options()
     chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
+    check_cutoff(spec.source, options, chosen)
     samples, inverse, windows, fit, start = _fit_at(spec, options, chosen)
     res = spec.resampling
     # The replicates re-solve the angle residuals' Gauss-Newton model only: with the
