@@ -148,13 +148,14 @@ def test_one_answer_per_joint_parameters_curve_or_swings_needed():
     assert answer.swings_needed == int(np.ceil(3 * (150.0 / (0.5 * 200 / 1.96)) ** 2)) - 3
 
 
-def test_a_window_that_cannot_identify_the_parameter_does_not_make_it_window_dependent():
+def test_a_window_that_cannot_identify_the_parameter_is_named_with_its_verdict():
     reports = assess(MODEL, _fit({"knee.k": 12.0, "knee.c": 2.0, "knee.theta0": 0.6},
                                  {"knee.k": 2.0, "knee.c": 0.2, "knee.theta0": 0.05}),
                      None)[0]
-    windows = {"73-87 %": {"knee.k": 21.0, "knee.c": 3.0, "knee.theta0": 0.6,
-                           "intervals": {"knee.k": [0.0, 45.0], "knee.c": [2.5, 3.5],
-                                         "knee.theta0": None}}}
+    windows = {"73-87 %": {"knee.k": 21.0, "knee.c": 2.1, "knee.theta0": 0.6,
+                           "statuses": {"knee.k": "consistent_with_zero",
+                                        "knee.c": "identified", "knee.theta0": "identified"}}}
     marked = {r.key: r for r in mark_window_dependent(reports, windows)}
-    assert marked["knee.k"].status is Status.IDENTIFIED      # 12 inside [0, 45]
-    assert marked["knee.c"].status is Status.WINDOW_DEPENDENT  # 2 outside [2.5, 3.5]
+    assert marked["knee.k"].status is Status.WINDOW_DEPENDENT
+    assert "73-87 %: 21, consistent_with_zero there" in marked["knee.k"].reasons[0]
+    assert marked["knee.c"].status is Status.IDENTIFIED

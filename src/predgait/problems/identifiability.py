@@ -210,9 +210,9 @@ def mark_window_dependent(reports: list[ParameterReport], windows: dict[str, dic
     Returns:
         The reports, with every one that has an interval and a window value outside it
         turned :attr:`Status.WINDOW_DEPENDENT` (the interval kept, the windows named).
-        When a window gives its own ``intervals`` (key -> [low, high] or None), the
-        disagreement must be mutual: that window's interval must exclude the main value
-        (a window that cannot identify the parameter is uninformative, not contrary).
+        A window's own verdict (``statuses``: key -> status value), when given, is named
+        beside its value: a window that cannot identify the parameter still counts (the
+        answer then rests on which samples the user calls quiet: issue 28).
     """
     out = []
     for report in reports:
@@ -220,10 +220,10 @@ def mark_window_dependent(reports: list[ParameterReport], windows: dict[str, dic
             out.append(report)
             continue
         low, high = report.interval95
-        outside = [f"{label}: {values[report.key]:.4g}" for label, values in windows.items()
+        outside = [f"{label}: {values[report.key]:.4g}{_there(values, report.key)}"
+                   for label, values in windows.items()
                    if isinstance(values.get(report.key), float | int)
-                   and not low <= values[report.key] <= high
-                   and _excludes(values.get("intervals"), report.key, report.value)]
+                   and not low <= values[report.key] <= high]
         if outside:
             report = replace(report, status=Status.WINDOW_DEPENDENT, reasons=(
                 f"over other quiet windows it moves outside its 95 % interval "
@@ -232,12 +232,10 @@ def mark_window_dependent(reports: list[ParameterReport], windows: dict[str, dic
     return out
 
 
-def _excludes(intervals: dict | None, key: str, value: float) -> bool:
-    """Whether a window's own interval of ``key`` excludes ``value`` (True without one)."""
-    if intervals is None:
-        return True
-    interval = intervals.get(key)
-    return interval is not None and not interval[0] <= value <= interval[1]
+def _there(values: dict, key: str) -> str:
+    """", not_identifiable there" (a window's own verdict, when not identified)."""
+    status = values.get("statuses", {}).get(key, Status.IDENTIFIED.value)
+    return "" if status == Status.IDENTIFIED.value else f", {status} there"
 
 
 def cramer_rao(jacobian: np.ndarray, covariance: np.ndarray, parameters: int) -> np.ndarray:
