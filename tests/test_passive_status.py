@@ -157,5 +157,5 @@ def test_a_window_that_cannot_identify_the_parameter_is_named_with_its_verdict()
                                         "knee.c": "identified", "knee.theta0": "identified"}}}
     marked = {r.key: r for r in mark_window_dependent(reports, windows)}
     assert marked["knee.k"].status is Status.WINDOW_DEPENDENT
-    assert "73-87 %: 21, consistent_with_zero there" in marked["knee.k"].reasons[0]
+    assert "73-87 %: 21 N m/rad, consistent_with_zero there" in marked["knee.k"].reasons[0]
     assert marked["knee.c"].status is Status.IDENTIFIED

@@ -220,14 +220,15 @@ def mark_window_dependent(reports: list[ParameterReport], windows: dict[str, dic
             out.append(report)
             continue
         low, high = report.interval95
-        outside = [f"{label}: {values[report.key]:.4g}{_there(values, report.key)}"
+        outside = [f"{label}: {values[report.key]:.4g} {report.unit}"
+                   f"{_there(values, report.key)}"
                    for label, values in windows.items()
                    if isinstance(values.get(report.key), float | int)
                    and not low <= values[report.key] <= high]
         if outside:
             report = replace(report, status=Status.WINDOW_DEPENDENT, reasons=(
                 f"over other quiet windows it moves outside its 95 % interval "
-                f"[{low:.4g}, {high:.4g}] ({'; '.join(outside)} {report.unit})",))
+                f"[{low:.4g}, {high:.4g}] {report.unit} ({'; '.join(outside)})",))
         out.append(report)
     return out
 
