@@ -210,7 +210,7 @@ def solve_swing(spec: SwingSpec) -> dict:
         "angle_rms_deg": {"ankle": float(rms[0]), "knee": float(rms[1])},
         "angle_noise_sd_deg": {j: float(np.degrees(v)) for j, v in fit.noise_sd.items()},
         "moment_noise_sd_n_m": fit.moment_sd,
-        "answers": answers(spec, fit, reports, samples, windows),
+        "answers": answers(spec, fit, reports, samples, windows, over),
         "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
         "windows": len(windows), "quiet_samples": windows.samples,
         **samples.cycle_counts(windows_mask(samples, windows)),
@@ -257,13 +257,23 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
     return solution
 
 
-def answers(spec: SwingSpec, fit, reports, samples, windows) -> dict:
-    """Joint -> its one answer (:func:`~predgait.problems.passive_answer.joint_answer`)."""
+def answers(spec: SwingSpec, fit, reports, samples, windows, over: dict) -> dict:
+    """Joint -> its one answer (:func:`~predgait.problems.passive_answer.joint_answer`).
+
+    ``over``: the window sensitivity; when no other window could be fitted, the answer
+    says that it was not checked against the choice of window.
+    """
     inside = windows_mask(samples, windows)
     swings = samples.cycle_counts(inside)["quiet_swings"]
-    return {joint: joint_answer(spec.model, fit.values, fit.information, reports, joint,
-                                samples.angles[joint][inside], swings=swings).as_dict()
-            for joint in spec.model.joints}
+    out = {joint: joint_answer(spec.model, fit.values, fit.information, reports, joint,
+                               samples.angles[joint][inside], swings=swings).as_dict()
+           for joint in spec.model.joints}
+    others = list(over.values())[1:]
+    if others and all("failed" in values for values in others):
+        for answer in out.values():
+            answer["text"] += ("; not checked against the choice of quiet window (the fits "
+                               "over the other windows failed: see window sensitivity)")
+    return out
 
 
 def summary_lines(solution: dict) -> list[str]:
