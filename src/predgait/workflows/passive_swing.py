@@ -31,21 +31,23 @@ from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_sw
 from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
-    Resampling,
     bootstrap_summary,
     check_cutoff,
     cycle_words,
     fitted_values,
     inverse_samples,
+    residual_cutoff,
+    write_passive_moments,
+)
+from predgait.workflows.output import staged_output
+from predgait.workflows.passive_tables import (
+    Resampling,
     parse_filter,
     parse_joints,
     parse_passive_model,
     parse_phases,
     parse_uncertainty,
-    residual_cutoff,
-    write_passive_moments,
 )
-from predgait.workflows.output import staged_output
 from predgait.workflows.passive_windows import (
     DEFENSIBLE_WINDOWS,
     parse_windows,

@@ -37,18 +37,20 @@ from predgait.workflows.decomposition import (
     METHOD as DECOMPOSITION_METHOD,
 )
 from predgait.workflows.decomposition import (
-    Resampling,
     bootstrap_summary,
     inverse_samples,
+    residual_cutoff,
+    write_passive_moments,
+)
+from predgait.workflows.output import staged_output
+from predgait.workflows.passive_tables import (
+    Resampling,
     parse_filter,
     parse_joints,
     parse_passive_model,
     parse_phases,
     parse_uncertainty,
-    residual_cutoff,
-    write_passive_moments,
 )
-from predgait.workflows.output import staged_output
 from predgait.workflows.trials import LegTrial, leg_trial
 
 METHOD = ("multiple shooting: the leg (foot prescribed) driven by the inverse-dynamics "
