@@ -260,7 +260,7 @@ def test_cli_on_the_bundled_trial(tmp_path, assert_tidy_result):
     assert max(solution["angle_rms_deg"].values()) < 1.0
     assert set(solution["cutoff_sensitivity"]) == {"25"}
     for key, report in solution["parameters"].items():
-        if report["status"] == "not identifiable":
+        if report["status"] == "not_identifiable":
             assert report["interval95"] is None and f"{key} = " in run.stdout
     names = (out / "swing_angles.sto").read_text().splitlines()
     header = names[names.index("endheader") + 1].split("\t")
@@ -286,7 +286,7 @@ def test_cli_on_walking5_through_an_inverse_problem(tmp_path):
     out = tmp_path / "w5"
     run = _solve(REPO / "problems" / "passive_swing.toml", out,
                  'trial.inverse_problem="inverse_walking5.toml"', "uncertainty.bootstrap=20",
-                 "filter.sensitivity_hz=[]")
+                 "filter.sensitivity_hz=[]", "window_sensitivity=[]")
     assert run.returncode == 0, run.stderr
     solution = json.loads((out / "solution.json").read_text())
     assert "walking5.c3d" in solution["provenance"]["trial"]
@@ -312,3 +312,15 @@ def test_fit_that_does_not_converge_exits_3_and_writes_nothing(tmp_path):
                  "uncertainty.bootstrap=0", "filter.sensitivity_hz=[]")
     assert run.returncode == 3 and "solve failed" in run.stderr, run.stderr
     assert "Gauss-Newton did not converge" in run.stderr and not out.exists()
+
+
+def test_marker_cutoff_defaults_to_20_hz_as_documented(tmp_path):
+    """Without [filter] marker_cutoff the problem is read, at 20 Hz (issue 28: refused)."""
+    from predgait.problemfile import load_problem
+    from predgait.workflows.passive_swing import DEFAULT_CUTOFF_HZ, parse_swing
+
+    text = (REPO / "problems" / "passive_swing.toml").read_text()
+    problem = tmp_path / "swing.toml"
+    problem.write_text(text.replace("marker_cutoff = 20.0", "# marker_cutoff: default"))
+    spec = parse_swing(load_problem(problem))
+    assert spec.cutoff == DEFAULT_CUTOFF_HZ == 20.0

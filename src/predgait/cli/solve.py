@@ -40,6 +40,10 @@ Problem kinds (problems/knee_fit.toml, torque_correction.toml, feedback_gains.to
   passive_swing      passive knee/ankle fitted to the measured angles of the quiet
                      phases by simulating the shank and foot under the measured thigh
                      (problems/passive_swing.toml), with bootstrap intervals
+  passive_knee_ankle  the lab's answer per joint: the swing angles and the quiet
+                     phases' moments fitted together (problems/passive_knee_ankle.toml);
+                     parameters with intervals, a curve with a band, or how many more
+                     quiet swings an answer needs; window and cut-off sensitivity
   passive_shooting   stabilising spring-dampers added to the measured moments, fitted
                      by multiple shooting over intervals shorter than the unstable time
                      constant (problems/passive_shooting.toml), beside the decomposition
@@ -79,6 +83,8 @@ _WORKFLOWS = {
         "predgait.workflows.shooting", "parse_shooting", "run_shooting"),
     "passive_swing": _Workflow(
         "predgait.workflows.passive_swing", "parse_swing", "run_swing"),
+    "passive_knee_ankle": _Workflow(
+        "predgait.workflows.passive_swing", "parse_knee_ankle", "run_swing"),
     "torque_feedback": _Workflow(
         "predgait.workflows.torque_feedback", "parse_feedback", "run_feedback",
         exit_code=lambda result: 0 if result["holds_within_threshold"] else 3),

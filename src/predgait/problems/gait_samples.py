@@ -33,6 +33,7 @@ class GaitSamples:
         correlation_time: s, time over which samples are correlated (1 / (2 f_c)).
         source: Provenance text.
         timing: How the gait cycles were timed (see :func:`cycle_phase`).
+        strikes: Heel strikes of the analysed foot (cycles 1 .. strikes - 1 are full).
     """
 
     time: np.ndarray
@@ -44,6 +45,7 @@ class GaitSamples:
     correlation_time: float
     source: str = ""
     timing: str = ""
+    strikes: int = 0
 
     @classmethod
     def from_inverse(cls, inverse) -> GaitSamples:
@@ -63,12 +65,27 @@ class GaitSamples:
                    rates={j: rates[a] for j, a in ANGLE_NAMES.items()},
                    moments={j: moments[f"{a}_moment"] for j, a in ANGLE_NAMES.items()},
                    correlation_time=0.5 / float(cutoff),
-                   source=str(inverse.provenance.get("trial", "")), timing=how)
+                   source=str(inverse.provenance.get("trial", "")), timing=how,
+                   strikes=len(inverse.events.heel_strikes))
 
     @property
     def samples_per_correlation(self) -> float:
         """Samples per correlation time, m >= 1."""
         return max(1.0, self.correlation_time / float(np.median(np.diff(self.time))))
+
+    def cycle_counts(self, quiet: np.ndarray) -> dict[str, int]:
+        """Full and partial gait cycles of the trial, and the cycles holding ``quiet`` samples.
+
+        The one count every passive fit prints and writes: ``gait_cycles`` the full
+        cycles between consecutive heel strikes, ``partial_cycles`` those before the first
+        or after the last, ``quiet_swings`` the cycles (full or partial) with at least one
+        sample where ``quiet`` (n,) is True: the independent repeats a fit draws on.
+        """
+        present = set(np.unique(self.cycle[self.cycle >= 0]).tolist())
+        full = present & set(range(1, self.strikes))
+        swings = np.unique(self.cycle[np.asarray(quiet) & (self.cycle >= 0)])
+        return {"gait_cycles": len(full), "partial_cycles": len(present - full),
+                "quiet_swings": int(swings.size)}
 
     def in_phases(self, phases) -> np.ndarray:
         """(n,) bool: samples whose % gait cycle lies in any [start, end) of ``phases``."""

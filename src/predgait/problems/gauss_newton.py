@@ -77,7 +77,8 @@ def joint_row_weights(weights, inv_var) -> np.ndarray:
 
 
 def _cost(r, row_weights, prior) -> float:
-    return float(np.sum(row_weights * r ** 2) + np.sum(prior[0] ** 2))
+    with np.errstate(over="ignore", invalid="ignore"):   # a diverged trial step: inf, halved
+        return float(np.sum(row_weights * r ** 2) + np.sum(prior[0] ** 2))
 
 
 def gauss_newton(problem: LeastSquares, z, row_weights, max_iter: int

@@ -33,6 +33,21 @@ JOINTS = ("knee", "ankle")
 UNITS = {"k": "N m/rad", "c": "N m s/rad", "theta0": "rad", "k_lower": "N m",
          "b_lower": "1/rad", "k_upper": "N m", "b_upper": "1/rad", "c_limit": "N m s/rad"}
 
+#: Parameter name -> what it is (printed beside its value; clinical angles: knee flexion,
+#: ankle dorsiflexion; the passive moment acts toward the positive angle when positive).
+MEANINGS = {
+    "k": "linear spring stiffness, moment -k (theta - theta0)",
+    "c": "linear damping, moment -c theta'",
+    "theta0": "the linear spring's zero (rest angle), in clinical flexion / dorsiflexion",
+    "k_lower": "lower stop (knee extension / ankle plantarflexion) moment at its stop angle, "
+               "k_lower exp(-b_lower (theta - stop))",
+    "b_lower": "growth rate of the lower stop",
+    "k_upper": "upper stop (knee flexion / ankle dorsiflexion) moment at its stop angle, "
+               "-k_upper exp(-b_upper (stop - theta))",
+    "b_upper": "growth rate of the upper stop",
+    "c_limit": "damping inside the stops",
+}
+
 
 class Element(enum.Enum):
     """Passive element kinds."""
@@ -102,6 +117,11 @@ class Parameter:
     def unit(self) -> str:
         """SI unit."""
         return UNITS[self.name]
+
+    @property
+    def meaning(self) -> str:
+        """What the parameter is (:data:`MEANINGS`)."""
+        return MEANINGS[self.name]
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,7 @@ from predgait.problems.gauss_newton import (
     weighted_step,
 )
 from predgait.problems.passive_model import PassiveModel
+from predgait.problems.passive_moment_rows import with_moments
 from predgait.problems.passive_swing_dynamics import (
     INPUT_ROWS,
     thigh_kinematics,
@@ -246,6 +247,7 @@ class SwingFit:
         jacobian: (2 w L, f + 4 w) d residuals / d z at the fit.
         simulated: (w, L, 2) simulated ankle and knee angles (model coordinates), rad.
         iterations: Gauss-Newton iterations (both passes); seconds: their time.
+        moment_sd: joint -> moment residual SD, N m, when the moments were fitted too.
     """
 
     values: dict
@@ -259,11 +261,12 @@ class SwingFit:
     simulated: np.ndarray
     iterations: int
     seconds: float
+    moment_sd: dict | None = None
 
 
 def fit_swing(leg, windows: Windows, model: PassiveModel,
               settings: SwingSettings = SwingSettings(), *, start=None,
-              where: str = "passive_swing") -> SwingFit:
+              where: str = "passive_swing", moments=None) -> SwingFit:
     """Fit the passive model to the quiet phases' angles (module docstring); two passes.
 
     Args:
@@ -274,6 +277,10 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
         start: Optional key -> first guess of fitted parameters (e.g. the moment
             decomposition's values; Gauss-Newton from far away needs many step halvings).
         where: Prefix of error messages.
+        moments: Optional :class:`~predgait.problems.passive_moment_rows.MomentRows`: the
+            quiet samples' inverse-dynamics moments as a second residual (their SD
+            re-estimated after each pass, as the angles'); the Fisher information then
+            holds both.
 
     Raises:
         InputError: Fewer than 3 independent samples per unknown.
@@ -290,7 +297,8 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
                          f"{f} parameters and {4 * n} initial states (need {need}: 3 per "
                          "parameter beyond the initial states); "
                          "widen the quiet phases, use a longer trial or fit fewer parameters.")
-    problem = _SwingResiduals.problem(leg, model, windows, settings)
+    base = _SwingResiduals.problem(leg, model, windows, settings)
+    problem = base if moments is None else with_moments(base, moments)
     weights = windows.mask.ravel() / m
     guess = [min(max((start or {}).get(p.key, p.value), p.lower), p.upper) for p in fitted]
     z = np.concatenate([[(g - p.lower) / (p.upper - p.lower) for g, p in zip(guess, fitted,
@@ -312,6 +320,9 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
         r = r * windows.mask.ravel()[:, None]
         sd = np.maximum(np.sqrt(np.sum(r ** 2, axis=0) / m / dof), np.radians(1e-6))
         inv_var = 1.0 / sd ** 2
+        if moments is not None:
+            moments = moments.with_noise_of(z[:f])
+            problem = with_moments(base, moments)
     seconds = clock.perf_counter() - start
     rows = joint_row_weights(weights, inv_var)
     _, prior_j = problem.prior_rows(z)
@@ -326,7 +337,8 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
     return SwingFit(values=values, z=z, information=profiled / np.outer(spans, spans),
                     noise_sd={"ankle": float(sd[0]), "knee": float(sd[1])}, residual=r,
                     weights=weights, inv_var=inv_var, jacobian=jac, simulated=simulated,
-                    iterations=iterations, seconds=seconds)
+                    iterations=iterations, seconds=seconds,
+                    moment_sd=None if moments is None else dict(moments.sigma))
 
 
 def bootstrap_swing(windows: Windows, model: PassiveModel, fit: SwingFit, *,

@@ -6,29 +6,53 @@ angles 0.1 deg, times 1 ms, forces 1 N.
 
 from __future__ import annotations
 
+import math
+
 from predgait.report.tidy import aligned, format_number
 
 RAD_TO_DEG = 57.29577951308232
 
 
+#: What each parameter status means, as printed (problems.identifiability.Status values).
+STATUS_WORDS = {"identified": "identified",
+                "consistent_with_zero": "consistent with zero",
+                "at_bound": "at its bound",
+                "window_dependent": "window-dependent (not identified)",
+                "not_identifiable": "not identifiable"}
+
+
 def parameter_lines(parameters: dict[str, dict], *, indent: str = "  ") -> list[str]:
     """One line per fitted parameter of a ``solution.json`` (fixed ones left out).
 
-    Value and unit, then the 95 % interval or "not identifiable" with its reasons.
+    Value and unit (angles also in deg), the 95 % interval and the status in words, the
+    reasons or note, then what the parameter is; first, how the intervals were made.
     """
     lines = []
+    fitted = [r for r in parameters.values() if r["status"] != "fixed"]
+    method = next((r.get("interval_method") for r in fitted if r.get("interval_method")), "")
+    if method:
+        lines.append(f"{indent}95 % intervals: {method}")
     for key, report in parameters.items():
         if report["status"] == "fixed":
             continue
-        head = f"{indent}{key} = {report['value']:.4g} {report['unit']}"
-        if report["status"] == "not identifiable":
-            lines.append(f"{head}: not identifiable ({'; '.join(report['reasons'])})")
-        elif report["interval95"] is None:
-            lines.append(f"{head} (no bootstrap: no interval)")
+        unit = report["unit"]
+        head = f"{indent}{key} = {report['value']:.4g} {unit}"
+        if unit == "rad":
+            head += f" ({math.degrees(report['value']):.1f} deg)"
+        words = STATUS_WORDS.get(report["status"], report["status"])
+        if report["interval95"] is None:
+            line = f"{head}: {words}"
         else:
             low, high = report["interval95"]
-            note = f"; {report['note']}" if report["note"] else ""
-            lines.append(f"{head}, 95 % interval [{low:.4g}, {high:.4g}]{note}")
+            interval = f"[{low:.4g}, {high:.4g}]"
+            if unit == "rad":
+                interval += f" ([{math.degrees(low):.1f}, {math.degrees(high):.1f}] deg)"
+            line = f"{head}, 95 % interval {interval}: {words}"
+        detail = "; ".join(report.get("reasons") or ()) or report.get("note") or ""
+        line += f" ({detail})" if detail else ""
+        lines.append(line)
+        if report.get("meaning"):
+            lines.append(f"{indent}    ({key.split('.')[-1]}: {report['meaning']})")
     return lines
 
 

@@ -322,10 +322,10 @@ def _parameter_numbers(fitted: dict, suffix: str = "") -> list[tuple[str, str]]:
     numbers = []
     for key, r in list(fitted.items())[:4]:
         value = f"{r['value']:.4g} {r['unit']}"
-        if r["status"] == "not identifiable":
-            value += ", not identifiable"
-        elif r.get("interval95"):
+        if r.get("interval95"):
             value += f" [{r['interval95'][0]:.3g}, {r['interval95'][1]:.3g}]"
+        if r["status"] != "identified":
+            value += ", " + r["status"].replace("_", " ")
         numbers.append((key + suffix, value))
     return numbers
 
@@ -336,10 +336,10 @@ def _decomposition(s: dict) -> Headline:
     numbers += [("gait cycles", str(s["gait_cycles"])),
                 ("quiet-phase residual SD", format_quantity("_n_m",
                                                             s["quiet_phase_residual_sd_n_m"]))]
-    identified = [k for k, r in fitted.items() if r["status"] != "not identifiable"]
+    identified = [k for k, r in fitted.items() if r["status"] == "identified"]
     sentence = (f"Splitting the inverse-dynamics moments of {s['gait_cycles']} gait cycle(s) "
                 f"into passive and active parts (active ~ 0 in the quiet phases), "
-                f"{len(identified)} of {len(fitted)} fitted parameters are identifiable"
+                f"{len(identified)} of {len(fitted)} fitted parameters are identified"
                 + (f" ({', '.join(identified)})." if identified else "."))
     return Headline("Passive moment decomposition", trial_name(s["provenance"]),
                     s["status"], numbers, sentence)
@@ -351,10 +351,10 @@ def _swing(s: dict) -> Headline:
     numbers = _parameter_numbers(fitted) + [
         ("gait cycles / quiet-phase windows", f"{s['gait_cycles']} / {s['windows']}"),
         ("angle RMS error, ankle / knee", f"{rms['ankle']:.3f} / {rms['knee']:.3f} deg")]
-    identified = [k for k, r in fitted.items() if r["status"] != "not identifiable"]
+    identified = [k for k, r in fitted.items() if r["status"] == "identified"]
     sentence = (f"Simulating the shank and foot under the measured thigh in the quiet phases "
                 f"of {s['gait_cycles']} gait cycle(s) and fitting the measured angles, "
-                f"{len(identified)} of {len(fitted)} fitted parameters are identifiable"
+                f"{len(identified)} of {len(fitted)} fitted parameters are identified"
                 + (f" ({', '.join(identified)})." if identified else "."))
     return Headline("Passive joints from the swing angles", trial_name(s["provenance"]),
                     s["status"], numbers, sentence)
@@ -460,7 +460,7 @@ BUILDERS = {"inverse": _inverse, "inverse3d": _inverse3d, "resynthesis": _resynt
             "collapse": _collapse, "rod": _rod, "gait7": _gait7, "fullbody": _fullbody,
             "solve": _solve, "scenario": _scenario, "sweep": _sweep,
             "passive_decomposition": _decomposition, "torque_feedback": _torque_feedback,
-            "passive_shooting": _shooting, "passive_swing": _swing,
+            "passive_shooting": _shooting, "passive_swing": _swing, "passive_knee_ankle": _swing,
             "fullbody_tracking": _fullbody_tracking,
             "predict_gait7": _predict, "predict_muscles_2d": _predict_muscles}
 

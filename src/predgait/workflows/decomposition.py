@@ -29,68 +29,37 @@ from predgait.problems.decomposition import (
     fit_decomposition,
 )
 from predgait.problems.gait_samples import GaitSamples
-from predgait.problems.identifiability import assess
-from predgait.problems.passive_model import JOINTS, PassiveModel, build_model
+from predgait.problems.identifiability import (
+    assess,
+    bootstrap_usable,
+    interval_method,
+    mark_window_dependent,
+)
+from predgait.problems.passive_model import PassiveModel
 from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.workflows.output import staged_output
+from predgait.workflows.passive_tables import (
+    Resampling,
+    parse_filter,
+    parse_joints,
+    parse_passive_model,
+    parse_phases,
+    parse_uncertainty,
+)
+from predgait.workflows.passive_windows import (
+    DEFENSIBLE_WINDOWS,
+    parse_windows,
+    window_lines,
+    window_sensitivity,
+)
 from predgait.workflows.trials import LegTrial, leg_trial
 
 METHOD = ("decomposition of the inverse-dynamics moment, tau_ID = tau_active + "
           "tau_passive(theta, theta'; p), with tau_active ~ 0 in the quiet phases (no "
           "simulation); 95 % intervals from a bootstrap over gait cycles (or blocks) "
           "widened to the Fisher-information interval where that is wider")
-
-
-@dataclass(frozen=True)
-class Resampling:
-    """``[uncertainty]`` of the passive fits: bootstrap over gait cycles (or blocks).
-
-    Attributes:
-        repeats: Replicates (``bootstrap``; 0 or 1: none). seed: Random seed.
-        min_cycles: Fewest gait cycles to resample cycles (else blocks of ``block_s`` s).
-    """
-
-    repeats: int = 200
-    seed: int = 0
-    min_cycles: int = 6
-    block_s: float = 0.1
-
-
-def parse_uncertainty(unc: Table, *, blocks: bool = True, extra: tuple[str, ...] = ()
-                      ) -> Resampling:
-    """``[uncertainty]`` bootstrap, seed (and min_cycles, block_s with ``blocks``).
-
-    ``extra``: further keys the caller reads itself. The one parser of this table (the
-    same defaults and bounds in every passive fit).
-    """
-    unc.check_keys(("bootstrap", "seed", *(("min_cycles", "block_s") if blocks else ()),
-                    *extra))
-    default = Resampling()
-    return Resampling(
-        repeats=int(unc.number("bootstrap", default.repeats, low=0, high=10000)),
-        seed=int(unc.number("seed", default.seed, low=0)),
-        min_cycles=int(unc.number("min_cycles", default.min_cycles, low=2, high=1000))
-        if blocks else default.min_cycles,
-        block_s=unc.number("block_s", default.block_s, low=0.01, high=2.0, unit="s")
-        if blocks else default.block_s)
-
-
-def parse_filter(filt: Table, *, default_cutoff: float | str = "residual",
-                 sensitivity: tuple[float, ...] | None = None
-                 ) -> tuple[float | None, tuple[float, ...]]:
-    """``[filter]``: marker_cutoff (:func:`parse_cutoff`) and the sensitivity cut-offs.
-
-    ``sensitivity``: default of the ``sensitivity_hz`` key (Hz); None when the fit has
-    no such key (then the second value is empty).
-    """
-    filt.check_keys(("marker_cutoff", *(("sensitivity_hz",) if sensitivity else ())))
-    cutoff = parse_cutoff(filt, default_cutoff)
-    if not sensitivity:
-        return cutoff, ()
-    return cutoff, tuple(filt.numbers("sensitivity_hz", list(sensitivity), low=0.5, high=100,
-                                      unit="Hz", increasing=True))
 
 
 @dataclass(frozen=True)
@@ -109,43 +78,7 @@ class DecompositionSpec:
     noise_marker_mm: float = 1.0
     noise_force_percent: float = 1.0
     trial: LegTrial | None = None
-
-
-def parse_joints(table: Table) -> tuple[str, ...]:
-    """The ``joints`` key (knee, ankle or both)."""
-    joints = table.strings("joints", ("knee", "ankle"))
-    for joint in joints:
-        if joint not in JOINTS:
-            raise table.error("joints", f"'{joint}' is not one of: {', '.join(JOINTS)}.")
-    if not joints:
-        raise table.error("joints", "give at least one joint (knee, ankle).")
-    return tuple(joints)
-
-
-def parse_phases(table: Table) -> tuple[tuple[float, float], ...]:
-    """The ``quiet_phases`` key: [start, end] pairs in % gait cycle."""
-    phases = table.get("quiet_phases", list, [[73.0, 100.0]])
-    checked = []
-    for phase in phases:
-        if not (isinstance(phase, list) and len(phase) == 2
-                and all(isinstance(v, int | float) and not isinstance(v, bool) for v in phase)
-                and 0 <= phase[0] < phase[1] <= 100):
-            raise table.error("quiet_phases", f"{phase!r}: give [start, end] pairs in % gait "
-                                              "cycle with 0 <= start < end <= 100.")
-        checked.append((float(phase[0]), float(phase[1])))
-    if not checked:
-        raise table.error("quiet_phases", "give at least one [start, end] phase.")
-    return tuple(checked)
-
-
-def parse_cutoff(filt: Table, default: float | str = "residual") -> float | None:
-    """``marker_cutoff``: Hz, or None for "residual" (Winter's residual analysis)."""
-    cutoff = filt.get("marker_cutoff", (str, float), default)
-    if isinstance(cutoff, str) and cutoff != "residual":
-        raise filt.error("marker_cutoff", f"'{cutoff}': give a cut-off in Hz or \"residual\".")
-    if isinstance(cutoff, str):
-        return None
-    return filt.number("marker_cutoff", low=0.5, high=100, unit="Hz")
+    windows: tuple[tuple[float, float], ...] = DEFENSIBLE_WINDOWS
 
 
 def write_passive_moments(path: Path, samples, joints, parts: dict, *, what: str,
@@ -175,7 +108,7 @@ def write_passive_moments(path: Path, samples, joints, parts: dict, *, what: str
 def parse_decomposition(table: Table) -> DecompositionSpec:
     """DecompositionSpec from a problem file (errors name the file, key and line)."""
     table.check_keys(("kind", "joints", "quiet_phases", "smoothness_weight", "trial", "filter",
-                      "uncertainty", "passive", "solver"))
+                      "uncertainty", "passive", "solver", "window_sensitivity"))
     joints = parse_joints(table)
     checked = parse_phases(table)
     trial = leg_trial(table.table("trial"))
@@ -196,35 +129,24 @@ def parse_decomposition(table: Table) -> DecompositionSpec:
         noise_repeats=int(unc.number("noise_repeats", 0, low=0, high=1000)),
         noise_marker_mm=unc.number("noise_marker_mm", 1.0, low=0.0, high=50.0, unit="mm"),
         noise_force_percent=unc.number("noise_force_percent", 1.0, low=0.0, high=50.0,
-                                       unit="%"), trial=trial)
-
-
-def parse_passive_model(passive: Table, joints) -> PassiveModel:
-    """The ``[passive.<joint>]`` tables: elements, fit, fixed, bounds, priors, stops_deg."""
-    passive.check_keys(JOINTS)
-    choices = {"elements": {}, "fit": {}, "fixed": {}, "bounds": {}, "priors": {}, "stops": {}}
-    for joint in joints:
-        sub = passive.table(joint)
-        sub.check_keys(("elements", "fit", "fixed", "bounds", "priors", "stops_deg"))
-        if sub.has("elements"):
-            choices["elements"][joint] = sub.strings("elements")
-        if sub.has("fit"):
-            choices["fit"][joint] = sub.strings("fit")
-        choices["fixed"][joint] = {k: sub.table("fixed").number(k) for k in sub.table("fixed").data}
-        for key, length in (("bounds", 2), ("priors", 2)):
-            inner = sub.table(key)
-            choices[key][joint] = {k: inner.numbers(k, length=length) for k in inner.data}
-        if sub.has("stops_deg"):
-            lower, upper = sub.numbers("stops_deg", length=2, increasing=True, unit="deg")
-            choices["stops"][joint] = (np.radians(lower), np.radians(upper))
-    try:
-        return build_model(joints, where="passive", **choices)
-    except InputError as exc:
-        raise InputError(f"{passive.path}: {exc}") from None
+                                       unit="%"), trial=trial, windows=parse_windows(table))
 
 
 def _options(spec: DecompositionSpec) -> InverseOptions:
     return (spec.trial or LegTrial(spec.side, spec.inverse_problem)).options()
+
+
+def bootstrap_summary(boot, seed: int) -> dict | None:
+    """solution.json's ``bootstrap`` of a passive fit (None without one).
+
+    What was resampled, and whether the intervals use it (``used``; see
+    :func:`~predgait.problems.identifiability.assess`).
+    """
+    if boot is None:
+        return None
+    return {"repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
+            "units": boot.n_units, "seed": seed, "used": bootstrap_usable(boot),
+            "intervals": interval_method(boot)}
 
 
 def residual_cutoff(options: InverseOptions) -> float:
@@ -239,6 +161,17 @@ def residual_cutoff(options: InverseOptions) -> float:
     columns = [markers.names.index(n) for n in names]
     xyz = markers.xyz[:, columns, :].reshape(markers.n_frames, -1)
     return float(residual_analysis(xyz, markers.rate).chosen)
+
+
+def check_cutoff(source: Path, options: InverseOptions, cutoff: float) -> None:
+    """Refuse a marker cut-off at or above the trial's Nyquist frequency (InputError)."""
+    from predgait.dynamics.leg_measurements import read_trial
+
+    rate = read_trial(options)[0].markers.rate
+    if cutoff >= 0.5 * rate:
+        raise InputError(f"{source}: [filter] marker_cutoff = {cutoff:g} Hz is at or above "
+                         f"the Nyquist frequency ({0.5 * rate:g} Hz) of the trial's "
+                         f"{rate:g} Hz markers; give a lower cut-off or \"residual\".")
 
 
 def inverse_samples(options: InverseOptions, cutoff: float) -> tuple[GaitSamples, object]:
@@ -257,8 +190,13 @@ def cutoff_sensitivity(spec: DecompositionSpec, options: InverseOptions) -> dict
         except (InputError, SolveFailed) as exc:
             table[f"{cutoff:g}"] = {"failed": str(exc)}
             continue
-        table[f"{cutoff:g}"] = {p.key: fit.values[p.key] for p in spec.model.fitted}
+        table[f"{cutoff:g}"] = fitted_values(spec.model, fit.values)
     return table
+
+
+def fitted_values(model: PassiveModel, values: dict) -> dict:
+    """The fitted parameters' values (``joint.name`` -> SI) of a fit's ``values``."""
+    return {p.key: values[p.key] for p in model.fitted}
 
 
 def noise_sensitivity(spec: DecompositionSpec, options: InverseOptions, cutoff: float
@@ -312,6 +250,7 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
     """
     options = _options(spec)
     chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
+    check_cutoff(spec.source, options, chosen)
     samples, inverse = inverse_samples(options, chosen)
     where = f"{spec.source}: quiet_phases"
     check_samples(samples, spec.model, spec.settings, where=where)
@@ -321,6 +260,11 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
                      seed=res.seed, min_cycles=res.min_cycles, block_s=res.block_s) \
         if res.repeats > 1 else None
     reports, correlation = assess(spec.model, fit, boot)
+    windows = window_sensitivity(
+        lambda phases: (spec.model, fit_decomposition(
+            samples, spec.model, replace(spec.settings, quiet_phases=phases))),
+        spec.settings.quiet_phases, spec.windows, (spec.model, fit))
+    reports = mark_window_dependent(reports, windows)
     sensitivity = cutoff_sensitivity(spec, options)
     noise = noise_sensitivity(spec, options, chosen)
     quiet = fit.quiet
@@ -335,15 +279,14 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
         "quiet_phase_residual_sd_n_m": fit.noise_sd,
         "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
         "quiet_samples": int(quiet.sum()),
-        "gait_cycles": int(np.unique(samples.cycle[samples.cycle >= 0]).size),
+        **samples.cycle_counts(quiet),
         "cycle_timing": samples.timing,
-        "bootstrap": None if boot is None else {
-            "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
-            "units": boot.n_units, "seed": spec.resampling.seed},
+        "bootstrap": bootstrap_summary(boot, spec.resampling.seed),
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
         "cutoff_sensitivity": sensitivity,
+        "window_sensitivity": windows,
         "noise_sensitivity": noise,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
@@ -362,12 +305,18 @@ def run_decomposition(spec: DecompositionSpec, out: Path, *, force: bool = False
     return solution
 
 
+def cycle_words(solution: dict) -> str:
+    """The cycle counts of a passive fit's solution.json, as printed."""
+    return (f"{solution['gait_cycles']} full gait cycle(s) + {solution['partial_cycles']} "
+            f"partial; {solution['quiet_swings']} quiet swing(s) in the fit")
+
+
 def summary_lines(solution: dict) -> list[str]:
     """What the CLI prints: one line per fitted parameter, then the cut-off sensitivity."""
     lines = [f"passive_decomposition: {solution['ipopt_status']} in {solution['iterations']} "
              f"iterations, {solution['solve_time_s']:.3f} s; marker cut-off "
-             f"{solution['marker_cutoff_hz']:.3g} Hz; {solution['gait_cycles']} gait cycle(s), "
-             f"{solution['quiet_samples']} quiet samples"]
+             f"{solution['marker_cutoff_hz']:.3g} Hz",
+             "  " + cycle_words(solution) + f", {solution['quiet_samples']} quiet samples"]
     lines += parameter_lines(solution["parameters"])
     noise = solution.get("noise_sensitivity")
     if noise:
@@ -377,4 +326,5 @@ def summary_lines(solution: dict) -> list[str]:
                      f"{forces}, {noise['repeats']} refits), SD: "
                      + ", ".join(f"{k} {v:.3g}" for k, v in noise["sd"].items()))
     lines += cutoff_lines(solution["cutoff_sensitivity"])
+    lines += window_lines(solution["window_sensitivity"])
     return lines

@@ -13,7 +13,7 @@ Writes solution.json, passive_moments.sto and swing_angles.sto.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -22,23 +22,38 @@ from predgait.data import write_storage
 from predgait.errors import InputError, SolveFailed
 from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, fit_decomposition
-from predgait.problems.identifiability import assess
+from predgait.problems.gait_samples import GaitSamples
+from predgait.problems.identifiability import assess, mark_window_dependent
+from predgait.problems.passive_answer import joint_answer
 from predgait.problems.passive_model import PassiveModel
+from predgait.problems.passive_moment_rows import MomentRows
 from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_swing, fit_swing
 from predgait.report.console import cutoff_lines, parameter_lines
 from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
-    Resampling,
+    bootstrap_summary,
+    check_cutoff,
+    cycle_words,
+    fitted_values,
     inverse_samples,
+    residual_cutoff,
+    write_passive_moments,
+)
+from predgait.workflows.output import staged_output
+from predgait.workflows.passive_tables import (
+    Resampling,
     parse_filter,
     parse_joints,
     parse_passive_model,
     parse_phases,
     parse_uncertainty,
-    residual_cutoff,
-    write_passive_moments,
 )
-from predgait.workflows.output import staged_output
+from predgait.workflows.passive_windows import (
+    DEFENSIBLE_WINDOWS,
+    parse_windows,
+    window_lines,
+    window_sensitivity,
+)
 from predgait.workflows.trials import LegTrial, leg_trial
 
 METHOD = ("simulation of each quiet phase (muscles quiet, foot off the ground) of every "
@@ -49,6 +64,12 @@ METHOD = ("simulation of each quiet phase (muscles quiet, foot off the ground) o
           "over gait cycles widened to the Fisher-information interval where that is wider")
 WHAT = ("passive joint moments (tissue properties under the quiet-muscle assumption), "
         "identified from the measured angles rather than from the inverse-dynamics moments")
+MOMENTS = ("; kind passive_knee_ankle: the quiet samples' inverse-dynamics moments fitted "
+           "too, as a second residual weighted by their measured noise (1 / sigma_m^2 per "
+           "joint, re-estimated after each pass); intervals from the Fisher information of "
+           "both residuals")
+#: Fewest quiet swings (gait cycles with a quiet window) a fit accepts.
+MIN_SWINGS = 2
 #: Default marker cut-off of this fit, Hz (module docstring).
 DEFAULT_CUTOFF_HZ = 20.0
 
@@ -64,12 +85,22 @@ class SwingSpec:
     cutoff: float | None            # Hz; None: residual analysis
     sensitivity_hz: tuple[float, ...]
     resampling: Resampling
+    windows: tuple[tuple[float, float], ...] = DEFENSIBLE_WINDOWS
+    moments: bool = False           # kind passive_knee_ankle: the moments fitted too
+
+
+def parse_knee_ankle(table: Table) -> SwingSpec:
+    """Kind ``passive_knee_ankle`` (problems/passive_knee_ankle.toml), same keys.
+
+    The swing fit with the quiet samples' inverse-dynamics moments as a second residual.
+    """
+    return replace(parse_swing(table), moments=True)
 
 
 def parse_swing(table: Table) -> SwingSpec:
     """SwingSpec from a problem file (errors name the file, key and line)."""
     table.check_keys(("kind", "joints", "quiet_phases", "trial", "filter", "simulation",
-                      "uncertainty", "passive"))
+                      "uncertainty", "passive", "window_sensitivity"))
     joints = parse_joints(table)
     trial = leg_trial(table.table("trial"))
     cutoff, sensitivity = parse_filter(table.table("filter"), default_cutoff=DEFAULT_CUTOFF_HZ,
@@ -89,22 +120,49 @@ def parse_swing(table: Table) -> SwingSpec:
             initial_rate_span=np.radians(sim.number("initial_rate_span_deg_s", 172.0,
                                                     low=1.0, high=2000.0, unit="deg/s"))),
         cutoff=cutoff, sensitivity_hz=sensitivity,
-        resampling=parse_uncertainty(table.table("uncertainty"), blocks=False))
+        resampling=parse_uncertainty(table.table("uncertainty"), blocks=False),
+        windows=parse_windows(table))
 
 
 def _fit_at(spec: SwingSpec, options, cutoff: float):
     """Inverse dynamics at ``cutoff``, windows, decomposition start, angle fit."""
     samples, inverse = inverse_samples(options, cutoff)
+    return (samples, inverse, *_fit_over(spec, samples, inverse, spec.settings))
+
+
+def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings):
+    """Windows, decomposition start and angle fit over ``settings.quiet_phases``."""
     where = f"{spec.source}: quiet_phases"
-    windows = Windows.from_inverse(inverse, samples, spec.settings, where=where)
+    windows = Windows.from_inverse(inverse, samples, settings, where=where)
+    swings = samples.cycle_counts(windows_mask(samples, windows))["quiet_swings"]
+    if swings < MIN_SWINGS:
+        raise InputError(f"{where}: {settings.quiet_phases} % gait cycle holds quiet samples "
+                         f"off the ground in {swings} gait cycle(s) of "
+                         f"{samples.source or 'the trial'}; at least {MIN_SWINGS} quiet swings "
+                         "are needed (one swing cannot tell the tissue from that swing's "
+                         "noise). Use a longer trial or widen the phases.")
     try:
         start = fit_decomposition(samples, spec.model,
-                                  Settings(quiet_phases=spec.settings.quiet_phases)).values
+                                  Settings(quiet_phases=settings.quiet_phases)).values
     except (InputError, SolveFailed):
         start = None
-    fit = fit_swing(inverse.model, windows, spec.model, spec.settings, start=start,
-                    where=f"{spec.source}: passive_swing")
-    return samples, inverse, windows, fit, start
+    rows = MomentRows.of(samples, windows_mask(samples, windows), spec.model) \
+        if spec.moments else None
+    fit = fit_swing(inverse.model, windows, spec.model, settings, start=start,
+                    where=f"{spec.source}: {_kind(spec)}", moments=rows)
+    return windows, fit, start
+
+
+def _kind(spec: SwingSpec) -> str:
+    return "passive_knee_ankle" if spec.moments else "passive_swing"
+
+
+def windows_mask(samples: GaitSamples, windows: Windows) -> np.ndarray:
+    """(n,) bool: the trial's samples inside the fit's windows."""
+    index = (windows.first[:, None] + np.arange(windows.mask.shape[1]))[windows.mask]
+    inside = np.zeros(len(samples.time), dtype=bool)
+    inside[index] = True
+    return inside
 
 
 def sensitivity(spec: SwingSpec, options) -> dict:
@@ -116,7 +174,7 @@ def sensitivity(spec: SwingSpec, options) -> dict:
         except (InputError, SolveFailed) as exc:
             table[f"{cutoff:g}"] = {"failed": str(exc)}
             continue
-        table[f"{cutoff:g}"] = {p.key: fit.values[p.key] for p in spec.model.fitted}
+        table[f"{cutoff:g}"] = fitted_values(spec.model, fit.values)
     return table
 
 
@@ -129,34 +187,44 @@ def solve_swing(spec: SwingSpec) -> dict:
     """
     options = spec.trial.options()
     chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
+    check_cutoff(spec.source, options, chosen)
     samples, inverse, windows, fit, start = _fit_at(spec, options, chosen)
     res = spec.resampling
+    # The replicates re-solve the angle residuals' Gauss-Newton model only: with the
+    # moments fitted too, the intervals are the Fisher information's of both.
     boot = bootstrap_swing(windows, spec.model, fit, repeats=res.repeats, seed=res.seed) \
-        if res.repeats > 1 else None
+        if res.repeats > 1 and not spec.moments else None
     reports, correlation = assess(spec.model, fit, boot)
+    over = window_sensitivity(
+        lambda phases: (spec.model, _fit_over(
+            spec, samples, inverse, replace(spec.settings, quiet_phases=phases))[1]),
+        spec.settings.quiet_phases, spec.windows, (spec.model, fit))
+    reports = mark_window_dependent(reports, over)
     residual = fit.residual.reshape(len(windows), -1, 2)[windows.mask]
     rms = np.degrees(np.sqrt(np.mean(residual ** 2, axis=0)))
     solution = {
-        "status": "solved", "kind": "passive_swing", "method": METHOD, "what": WHAT,
+        "status": "solved", "kind": _kind(spec),
+        "method": METHOD + (MOMENTS if spec.moments else ""), "what": WHAT,
         "iterations": fit.iterations, "solve_time_s": fit.seconds,
         "parameters": {r.key: r.as_dict() for r in reports},
         "fitted_correlation": {"parameters": [p.key for p in spec.model.fitted],
                                "matrix": np.round(correlation, 4).tolist()},
         "angle_rms_deg": {"ankle": float(rms[0]), "knee": float(rms[1])},
         "angle_noise_sd_deg": {j: float(np.degrees(v)) for j, v in fit.noise_sd.items()},
+        "moment_noise_sd_n_m": fit.moment_sd,
+        "answers": answers(spec, fit, reports, samples, windows, over),
         "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
         "windows": len(windows), "quiet_samples": windows.samples,
-        "gait_cycles": int(np.unique(windows.cycle).size),
+        **samples.cycle_counts(windows_mask(samples, windows)),
         "rk4_steps_per_sample": windows.substeps,
         "start_from_decomposition": None if start is None else {
             p.key: start[p.key] for p in spec.model.fitted},
-        "bootstrap": None if boot is None else {
-            "repeats": int(len(boot.values)), "failed": boot.failed, "unit": boot.unit,
-            "units": boot.n_units, "seed": spec.resampling.seed},
+        "bootstrap": bootstrap_summary(boot, spec.resampling.seed),
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
         "cutoff_sensitivity": sensitivity(spec, options),
+        "window_sensitivity": over,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
@@ -191,15 +259,40 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
     return solution
 
 
+def answers(spec: SwingSpec, fit, reports, samples, windows, over: dict) -> dict:
+    """Joint -> its one answer (:func:`~predgait.problems.passive_answer.joint_answer`).
+
+    ``over``: the window sensitivity; when no other window could be fitted, the answer
+    says that it was not checked against the choice of window.
+    """
+    inside = windows_mask(samples, windows)
+    swings = samples.cycle_counts(inside)["quiet_swings"]
+    out = {joint: joint_answer(spec.model, fit.values, fit.information, reports, joint,
+                               samples.angles[joint][inside], swings=swings).as_dict()
+           for joint in spec.model.joints}
+    others = list(over.values())[1:]
+    if others and all("failed" in values for values in others):
+        for answer in out.values():
+            answer["text"] += ("; not checked against the choice of quiet window (the fits "
+                               "over the other windows failed: see window sensitivity)")
+    return out
+
+
 def summary_lines(solution: dict) -> list[str]:
-    """What the CLI prints: one line per fitted parameter, then the cut-off sensitivity."""
+    """What the CLI prints: one answer per joint, each fitted parameter, the sensitivities."""
     rms = solution["angle_rms_deg"]
-    lines = [f"passive_swing: Gauss-Newton in {solution['iterations']} iterations, "
+    lines = [f"{solution['kind']}: Gauss-Newton in {solution['iterations']} iterations, "
              f"{solution['solve_time_s']:.3f} s; {solution['windows']} quiet-phase windows "
-             f"({solution['quiet_samples']} samples, {solution['gait_cycles']} gait cycles); "
-             f"marker cut-off {solution['marker_cutoff_hz']:.3g} Hz",
+             f"({solution['quiet_samples']} samples); marker cut-off "
+             f"{solution['marker_cutoff_hz']:.3g} Hz",
+             "  " + cycle_words(solution),
              f"  angle RMS error of the simulated windows: ankle {rms['ankle']:.3f} deg, "
              f"knee {rms['knee']:.3f} deg"]
+    if solution.get("moment_noise_sd_n_m"):
+        lines.append("  moment residual SD (the moments' weight): " + ", ".join(
+            f"{j} {v:.3g} N m" for j, v in solution["moment_noise_sd_n_m"].items()))
+    lines += [f"  {joint}: {answer['text']}" for joint, answer in solution["answers"].items()]
     lines += parameter_lines(solution["parameters"])
     lines += cutoff_lines(solution["cutoff_sensitivity"])
+    lines += window_lines(solution["window_sensitivity"])
     return lines

@@ -37,17 +37,20 @@ from predgait.workflows.decomposition import (
     METHOD as DECOMPOSITION_METHOD,
 )
 from predgait.workflows.decomposition import (
-    Resampling,
+    bootstrap_summary,
     inverse_samples,
+    residual_cutoff,
+    write_passive_moments,
+)
+from predgait.workflows.output import staged_output
+from predgait.workflows.passive_tables import (
+    Resampling,
     parse_filter,
     parse_joints,
     parse_passive_model,
     parse_phases,
     parse_uncertainty,
-    residual_cutoff,
-    write_passive_moments,
 )
-from predgait.workflows.output import staged_output
 from predgait.workflows.trials import LegTrial, leg_trial
 
 METHOD = ("multiple shooting: the leg (foot prescribed) driven by the inverse-dynamics "
@@ -112,11 +115,6 @@ def _assessed(model, fit, boot) -> tuple[dict, dict]:
              "matrix": np.round(correlation, 4).tolist()})
 
 
-def _boot_summary(boot, seed) -> dict | None:
-    return None if boot is None else {"repeats": int(len(boot.values)), "failed": boot.failed,
-                                      "unit": boot.unit, "units": boot.n_units, "seed": seed}
-
-
 #: Deviation (deg) and RK4 step (s) of the whole-cycle re-simulation check.
 CHECK_THRESHOLD_DEG, CHECK_STEP = 2.0, 5e-4
 
@@ -176,9 +174,9 @@ def solve_shooting(spec: ShootingSpec) -> dict:
         "rk4_steps_per_interval": intervals.substeps,
         "interval_end_rms_deg": {"with_elements": _rms_deg(fit.residual),
                                  "without_elements": _rms_deg(fit.residual_none)},
-        "gait_cycles": int(np.unique(samples.cycle[samples.cycle >= 0]).size),
+        **samples.cycle_counts(split.quiet),
         "whole_cycle_resimulation": check,
-        "bootstrap": _boot_summary(boot, spec.resampling.seed),
+        "bootstrap": bootstrap_summary(boot, spec.resampling.seed),
         "marker_cutoff_hz": chosen,
         "marker_cutoff_choice": "given" if spec.cutoff is not None else
         "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
@@ -188,7 +186,7 @@ def solve_shooting(spec: ShootingSpec) -> dict:
             "ipopt_status": split.status, "parameters": split_parameters,
             "quiet_phases_percent": [list(p) for p in spec.decomposition.quiet_phases],
             "quiet_phase_residual_sd_n_m": split.noise_sd,
-            "bootstrap": _boot_summary(split_boot, spec.resampling.seed)},
+            "bootstrap": bootstrap_summary(split_boot, spec.resampling.seed)},
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
                        **inverse.provenance},
     }
