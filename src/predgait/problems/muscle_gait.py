@@ -51,10 +51,12 @@ README.md): without those rows (``periodic_activations=False``) this NLP reaches
 Moco's solution at 50 intervals; the rest of the gap goes with the impact transcription.
 
 Decision vector (scaled; :meth:`MuscleGaitProblem.unpack` is the only place that slices
-it): w = [h, vec(Q), vec(V), vec(A)/10, vec(ACT), vec(EXC), vec(U)/10, E/0.01], each block
-(rows, N+1) column-major (node by node); h (1, N) is one step per interval, chained
-equal, and E the running effort integral (E_0 = 0): the distance q_tx(N), the duration
-N h_N and the effort E_N are last-point values, so no term couples every node (a dense
+it): w = [h, vec(Q), vec(V), vec(A)/10, vec(ACT), vec(EXC), vec(U)/10, W/100, E/0.01], each
+block (rows, N+1) column-major (node by node); h (1, N) is one step per interval, chained
+equal, W the muscles' metabolic energy (J, W_0 = 0; the ``metabolic_weight`` term divides
+it by distance and body mass) and E the running effort integral (E_0 = 0): the distance
+q_tx(N), the duration N h_N and the effort E_N are last-point values, so no term couples
+every node (a dense
 row made MUMPS 4x slower: 0.35 s per factorisation at 50 intervals). Constraints:
 residuals / 100, defects / h_0, periodicity, the average speed; box bounds on everything
 (Moco's coordinate bounds).
@@ -74,7 +76,7 @@ from predgait.problems.muscle_gait_dynamics import MusclePlant, node_function
 
 #: Scale of each block of the decision vector (physical = scale * scaled).
 SCALES = {"h": 0.01, "q": 1.0, "v": 1.0, "a": 10.0, "act": 1.0, "exc": 1.0, "u": 10.0,
-          "E": 0.01}
+          "W": 100.0, "E": 0.01}
 NEVER_INLINE = False
 #: Residual scale (N, N m per unit of the scaled constraint).
 RESIDUAL_SCALE = 100.0
@@ -95,6 +97,7 @@ class Goal:
     effort_weight: float = 10.0   # per (unit control)^3 s / m
     tracking_weight: float = 0.0  # per rad^2 (m^2)
     acceleration_weight: float = 0.0  # per (rad/s^2)^2 s (Falisse et al. 2019's term)
+    metabolic_weight: float = 0.0  # per J/kg/m of the muscles' metabolic energy (Bhargava)
 
 
 @dataclass(frozen=True)
@@ -212,21 +215,23 @@ class MuscleGaitProblem:
         self.mesh, self.transcription = mesh, transcription
         nq, m, n1 = plant.model.nq, plant.n_muscles, intervals + 1
         self.sizes = (("h", 1, intervals), ("q", nq, n1), ("v", nq, n1), ("a", nq, n1),
-                      ("act", m, n1), ("exc", m, n1), ("u", 1, n1), ("E", 1, n1))
+                      ("act", m, n1), ("exc", m, n1), ("u", 1, n1), ("W", 1, n1),
+                      ("E", 1, n1))
         self.w = symbol.sym("w", sum(r * c for _, r, c in self.sizes))
         x = self.unpack(self.w)
-        h, q, v, a, act, exc, u, running = (x[k] for k in ("h", "q", "v", "a", "act", "exc",
-                                                           "u", "E"))
-        self.p_sizes = (("goal", 5), ("q_ref", nq * n1))
-        self.p = symbol.sym("p", 5 + nq * n1)
-        goal, q_ref = self.p[:5], cs.reshape(self.p[5:], nq, n1)
+        h, q, v, a, act, exc, u, energy, running = (
+            x[k] for k in ("h", "q", "v", "a", "act", "exc", "u", "W", "E"))
+        self.p_sizes = (("goal", 6), ("q_ref", nq * n1))
+        self.p = symbol.sym("p", 6 + nq * n1)
+        goal, q_ref = self.p[:6], cs.reshape(self.p[6:], nq, n1)
         node = node_function(plant) if node is None else node
+        self.node = node
         # one call per node (not a map): MX differentiates each call through the node's
         # own symbolic SX derivatives, as fast as an SX graph and built in ~1 s
         calls = [node.call([q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k]],
                            False, NEVER_INLINE) for k in range(n1)]
-        r, act_dot, grf, points, force, fibre, muscle_tau = (
-            cs.horzcat(*(c[i] for c in calls)) for i in range(7))
+        r, act_dot, grf, points, force, fibre, muscle_tau, metabolic = (
+            cs.horzcat(*(c[i] for c in calls)) for i in range(8))
         scale = intervals / NOMINAL_DURATION       # 1 / h_0
 
         def defect(y, ydot):
@@ -255,9 +260,10 @@ class MuscleGaitProblem:
              u[:, -1] - u[:, 0],
              cs.vec(h[:, 1:] - h[:, :-1]) * scale,
              q[tx_row, -1] - goal[0] * intervals * h[0, -1],
+             defect(energy, metabolic) / SCALES["W"],
              defect(running, cs.sum1(exc ** 3) + cs.fabs(u) ** 3) / SCALES["E"]]
         self.ng = sum(e.shape[0] for e in g)
-        self.speed_row = sum(e.shape[0] for e in g[:-1])    # distance - speed * duration
+        self.speed_row = sum(e.shape[0] for e in g[:-2])    # distance - speed * duration
         quad = np.full((n1, 1), 1.0)
         quad[[0, -1]] = 0.5
         # pelvis_tx(0) = 0 (a bound) and E(0) = 0: the distance and the effort integral are
@@ -272,9 +278,11 @@ class MuscleGaitProblem:
         terms = {"speed": (distance / duration - goal[0]) ** 2,
                  "effort": running[0, -1] / distance,
                  "tracking": tracking,
-                 "acceleration": acceleration}
+                 "acceleration": acceleration,
+                 "metabolic": energy[0, -1] / distance / plant.model.total_mass()}
         objective = (goal[1] * terms["speed"] + goal[2] * terms["effort"]
-                     + goal[3] * terms["tracking"] + goal[4] * terms["acceleration"])
+                     + goal[3] * terms["tracking"] + goal[4] * terms["acceleration"]
+                     + goal[5] * terms["metabolic"])
         self.term_names = tuple(terms)
         self.outputs = cs.Function("outputs", [self.w, self.p],
                                    [r, grf, points, force, fibre, muscle_tau, *terms.values()])
@@ -299,12 +307,18 @@ class MuscleGaitProblem:
     def pack(self, path: Trajectory) -> np.ndarray:
         """The scaled decision vector of a trajectory."""
         n = self.n
-        f = (path.exc ** 3).sum(axis=1) + np.abs(path.u) ** 3
-        running = np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]))]) \
-            * path.duration / n
+        def integral(f):
+            return np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]))]) \
+                * path.duration / n
+
+        effort = (path.exc ** 3).sum(axis=1) + np.abs(path.u) ** 3
+        rates = self.node.map(n + 1)(path.q.T, path.v.T, path.a.T, path.act.T, path.exc.T,
+                                     np.reshape(path.u, (1, -1)))[7]
         blocks = {"h": np.full((1, n), path.duration / n), "q": path.q.T, "v": path.v.T,
                   "a": path.a.T, "act": path.act.T, "exc": path.exc.T,
-                  "u": np.reshape(path.u, (1, -1)), "E": running[None, :]}
+                  "u": np.reshape(path.u, (1, -1)),
+                  "W": integral(np.array(rates).ravel())[None, :],
+                  "E": integral(effort)[None, :]}
         return np.concatenate([blocks[name].T.ravel() / SCALES[name]
                                for name, _, _ in self.sizes])
 
@@ -326,6 +340,9 @@ class MuscleGaitProblem:
         e = slice(lbx.size - n1, lbx.size)       # the effort integral: 0 at the start
         lbx[e], ubx[e] = 0.0, np.inf
         ubx[e.start] = 0.0
+        w = slice(e.start - n1, e.start)         # the metabolic energy: 0 at the start
+        lbx[w], ubx[w] = -np.inf, np.inf
+        lbx[w.start] = ubx[w.start] = 0.0
         return lbx, ubx
 
     def solve(self, guess: Trajectory, bounds: Bounds, goal: Goal,
@@ -334,7 +351,8 @@ class MuscleGaitProblem:
         n1, nq = self.n + 1, self.plant.model.nq
         ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
         p = np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,
-                             goal.tracking_weight, goal.acceleration_weight], ref.ravel()])
+                             goal.tracking_weight, goal.acceleration_weight,
+                             goal.metabolic_weight], ref.ravel()])
         lbx, ubx = self.box(bounds)
         w0 = np.clip(self.pack(guess), lbx, ubx)
         clock = time.perf_counter()

@@ -84,14 +84,18 @@ def link_point(model, link: str, location) -> cs.Function:
 
 @functools.lru_cache(maxsize=4)
 def node_function(plant: MusclePlant) -> cs.Function:
-    """``node(q, v, a, act, exc, u) -> (r, act_dot, grf, points, force, fibre, tau_m)``.
+    """``node(q, v, a, act, exc, u) -> (r, act_dot, grf, points, force, fibre, tau_m, met)``.
 
     Inputs: q, v, a (nq,) model coordinates, rates, accelerations; act, exc (m,)
     activations and excitations; u (1,) lumbar control. Outputs: r (nq,) the residual
     (N, N m); act_dot (m,) 1/s; grf (3 n_spheres,) contact forces on the spheres in the lab
     frame (N); points (3 n_spheres,) where they act (m); force (m,) tendon forces (N);
-    fibre (m,) normalised fibre velocities; tau_m (nq,) muscle generalised forces (N m).
+    fibre (m,) normalised fibre velocities; tau_m (nq,) muscle generalised forces (N m);
+    met (1,) the muscles' metabolic rate, W (Bhargava 2004 as OpenSim 4.6's smoothed probe,
+    :mod:`predgait.dynamics.metabolics`; basal rate not included).
     """
+    from predgait.dynamics.metabolics import metabolic_rates
+
     model, nq, m = plant.model, plant.model.nq, plant.n_muscles
     sym = symbolic_model(model)
     q, v, a = (cs.SX.sym(n, nq) for n in ("q", "v", "a"))
@@ -102,6 +106,8 @@ def node_function(plant: MusclePlant) -> cs.Function:
     state = plant.muscle_set.rigid_tendon(length, speed, act)
     force, fibre = state.tendon_force, state.norm_fiber_velocity
     act_dot = plant.muscle_set.activation_rate(exc, act)
+    metabolic = cs.sum1(metabolic_rates(plant.muscle_set, state, exc, act,
+                                        body_mass=model.total_mass()).muscle)
     muscle_tau = arms.T @ force
     applied = muscle_tau + 0
     applied[plant.lumbar_row] += plant.lumbar_optimal_force * u
@@ -124,5 +130,6 @@ def node_function(plant: MusclePlant) -> cs.Function:
     r = sym.mass_matrix(q) @ a + sym.bias_force(q, v) - applied
     return cs.Function("muscle_gait_node", [q, v, a, act, exc, u],
                        [r, act_dot, cs.vertcat(*grf), cs.vertcat(*points), force, fibre,
-                        muscle_tau], ["q", "v", "a", "act", "exc", "u"],
-                       ["r", "act_dot", "grf", "points", "force", "fibre", "muscle_tau"])
+                        muscle_tau, metabolic], ["q", "v", "a", "act", "exc", "u"],
+                       ["r", "act_dot", "grf", "points", "force", "fibre", "muscle_tau",
+                        "metabolic"])

@@ -82,7 +82,7 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     guess.check_keys(("reference", "tracking_stage", "tracking_weight"))
     grid.check_keys(("nodes", "transcription"))
     goal.check_keys(("speed", "speed_constraint", "speed_weight", "effort_weight",
-                     "acceleration_weight", "duration"))
+                     "acceleration_weight", "metabolic_weight", "duration"))
     solver.check_keys(("max_iter",))
     compare.check_keys(("moco_solution",))
     check.check_keys(("human_likeness",))
@@ -118,7 +118,9 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
                   effort_weight=goal.number("effort_weight", d.effort_weight, low=0.0,
                                             high=1e9),
                   acceleration_weight=goal.number("acceleration_weight",
-                                                  d.acceleration_weight, low=0.0, high=1e9)),
+                                                  d.acceleration_weight, low=0.0, high=1e9),
+                  metabolic_weight=goal.number("metabolic_weight", d.metabolic_weight,
+                                               low=0.0, high=1e9)),
         duration=(duration[0], duration[1]),
         preset=bounds.choice("preset", Preset, Preset.MOCO.value), bounds=ranges,
         tracking_stage=guess.get("tracking_stage", bool, False),
