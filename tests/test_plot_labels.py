@@ -101,3 +101,24 @@ def test_plate_arrows_sample_each_plate_at_the_viewer_times():
     [(name, (force, cop))] = plate_arrows([plate], time, [0.1, 0.3]).items()
     assert name == "plate 1"
     assert np.array_equal(force, [[3, 4, 5], [9, 10, 11]]) and np.array_equal(cop, -force)
+
+
+def test_whole_body_tracking_plot_in_clinical_signs(tmp_path):
+    """hip_r_y = -0.3 rad (flexion, Y sign -1) is drawn as +17.2 deg of hip flexion."""
+    from predgait.report.fullbody_tracking_plots import PANELS, plot_tracking
+
+    names = ("pelvis_dummy", *PANELS)
+    n = 4
+    q = np.zeros((n, 7 + len(names)))
+    q[:, 7 + names.index("hip_r_y")] = -0.3
+    q[:, 7 + names.index("knee_r_y")] = 0.5
+    data = SimpleNamespace(time=np.linspace(0.0, 0.3, n), q=q, force=np.zeros((n, 2, 3)))
+    solution = SimpleNamespace(q=q, foot_forces=lambda: np.zeros((n, 2, 3)))
+    model = SimpleNamespace(kind="fullbody", joint_names=names)
+    fig = plot_tracking(model, data, solution)
+    hip, knee = fig.axes[0], fig.axes[1]
+    assert hip.get_ylabel() == "hip flexion r (deg)"
+    assert np.allclose(hip.get_lines()[0].get_ydata(), np.degrees(0.3))
+    assert np.allclose(knee.get_lines()[0].get_ydata(), np.degrees(0.5))
+    save_figure(fig, tmp_path / "t.png")
+    assert label_problems(*read_labels(tmp_path / "t.png")) == []
