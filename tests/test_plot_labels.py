@@ -122,3 +122,19 @@ def test_whole_body_tracking_plot_in_clinical_signs(tmp_path):
     assert np.allclose(knee.get_lines()[0].get_ydata(), np.degrees(0.5))
     save_figure(fig, tmp_path / "t.png")
     assert label_problems(*read_labels(tmp_path / "t.png")) == []
+
+
+def test_collapse_plots_state_the_time_zero_and_clinical_angles(tmp_path):
+    """The collapse test (thesis 4.2): the knee folds, drawn as growing knee flexion."""
+    from pathlib import Path
+
+    from predgait.cli import main
+    from predgait.report.plot_labels import read_labels
+
+    problem = Path(__file__).resolve().parents[1] / "problems" / "collapse.toml"
+    assert main(["simulate", str(problem), "--out", str(tmp_path / "c")]) == 0
+    for png in sorted((tmp_path / "c").glob("*.png")):
+        assert label_problems(*read_labels(png)) == [], png.name
+    x_axis, labels = read_labels(tmp_path / "c" / "angles.png")
+    assert x_axis == ["time from the start of the run (s)"]
+    assert labels == ["ankle dorsiflexion (deg)", "knee flexion (deg)"]
