@@ -28,10 +28,10 @@ def test_a_line_every_n_iterations_with_objective_and_violation():
     stats, _ = solve(lines, every=3)
     count = stats["iter_count"]
     iters = [line for line in lines if ": iter " in line]
-    assert [int(line.split()[-6]) for line in iters] == list(range(0, count + 1, 3))
+    assert [int(line.split()[-7]) for line in iters] == list(range(0, count + 1, 3))
     first = iters[0].split()
     # At the start (-1, 1): objective (-1 - 1)^2 + 100 (1 - 1)^2 = 4, violation 0.5 - 0 = 0.5.
-    assert float(first[-4]) == pytest.approx(4.0) and float(first[-1]) == pytest.approx(0.5)
+    assert float(first[-5]) == pytest.approx(4.0) and float(first[-1]) == pytest.approx(0.5)
     assert lines[0] == "stage 1/1: a test" and lines[1] == "rosenbrock: Ipopt started"
     assert lines[-1].startswith(f"rosenbrock: Ipopt stopped after {count} iterations")
 

@@ -128,7 +128,7 @@ def test_infeasible_bounds_exit_3_with_a_partial_point(tmp_path):
     assert "solve failed" in result.stderr and "not a gait" in result.stderr
     # Live progress every 10 iterations (solve --every 10), each line with both measures.
     iters = [line for line in result.stdout.splitlines() if ": iter " in line]
-    assert [int(line.split()[-6]) for line in iters] == [0, 10, 20, 30, 40], result.stdout
+    assert [int(line.split()[-7]) for line in iters] == [0, 10, 20, 30, 40], result.stdout
     assert all("objective" in line and "constraint violation" in line for line in iters)
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "not converged"

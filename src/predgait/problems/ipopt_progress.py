@@ -6,11 +6,13 @@ The command (``predgait solve``, ``predgait scenario``) turns reporting on with
 :func:`callback_options` to their ``nlpsol`` options when they are built and wrap each solve
 in :func:`solving`, which names the stage and gives the constraint bounds. A line reads::
 
-    stage 2/3 full stride: iter   20  objective  1.2345e+00  constraint violation  3.1e-04
+    stage 2/3 full stride: iter   20  objective  1.2345e+00  max constraint violation  3.1e-04
 
 The objective is the NLP's (unscaled); the constraint violation is the largest violation
-of the constraint bounds ``lbg <= g <= ubg`` at the iterate (Ipopt's ``inf_pr`` of the
-unscaled problem, bounds on the variables excepted). Outside :func:`reporting` nothing is
+of the constraint bounds ``lbg <= g <= ubg`` at the iterate, in the constraints' own units,
+the measure of ``constraint_violation`` in the results (Ipopt's own ``inf_pr``, in
+``ipopt_history`` and the convergence plots, is that of its scaled problem: often 10-1000x
+smaller). The objective equals the history's at the same iteration. Outside :func:`reporting` nothing is
 attached and nothing printed. Library code never prints: the command gives ``write``.
 """
 
@@ -102,7 +104,7 @@ def _report(f: float, g: np.ndarray) -> None:
     k = state.calls
     state.calls += 1
     if k % state.every == 0:
-        state.write(f"  {state.label}: iter {k:4d}  objective {f:11.4e}  constraint "
+        state.write(f"  {state.label}: iter {k:4d}  objective {f:11.4e}  max constraint "
                     f"violation {violation(g, state.lbg, state.ubg):9.2e}")
 
 
