@@ -12,8 +12,9 @@ The objective is the NLP's (unscaled); the constraint violation is the largest v
 of the constraint bounds ``lbg <= g <= ubg`` at the iterate, in the constraints' own units,
 the measure of ``constraint_violation`` in the results (Ipopt's own ``inf_pr``, in
 ``ipopt_history`` and the convergence plots, is that of its scaled problem: often 10-1000x
-smaller). The objective equals the history's at the same iteration. Outside :func:`reporting` nothing is
-attached and nothing printed. Library code never prints: the command gives ``write``.
+smaller). The objective equals the history's at the same iteration. Outside
+:func:`reporting` nothing is attached and nothing printed. Library code never prints: the
+command gives ``write``.
 """
 
 from __future__ import annotations
