@@ -138,3 +138,35 @@ def test_collapse_plots_state_the_time_zero_and_clinical_angles(tmp_path):
     x_axis, labels = read_labels(tmp_path / "c" / "angles.png")
     assert x_axis == ["time from the start of the run (s)"]
     assert labels == ["ankle dorsiflexion (deg)", "knee flexion (deg)"]
+
+
+def test_whole_body_tracking_viewer_draws_each_foot_at_its_centre_of_pressure(tmp_path):
+    """Right heel 600 N, right toe 200 N: one right-foot arrow of 800 N from the point a
+    quarter of the way from the heel to the toe; an unloaded left foot draws nothing."""
+    import pinocchio as pin
+
+    from predgait.models.loading3d import load_fullbody
+    from predgait.problems.fullbody_tracking_stage import POINTS
+    from predgait.report.fullbody_tracking_plots import save_tracking_plots
+
+    model = load_fullbody()
+    n = 3
+    q = np.tile(model.neutral(), (n, 1))
+    forces = np.zeros((n, len(POINTS), 3))
+    forces[:, POINTS.index("heel_contact_r"), 2] = 600.0
+    forces[:, POINTS.index("toe_contact_r"), 2] = 200.0
+    data = SimpleNamespace(time=np.linspace(0.0, 0.2, n), q=q, force=np.zeros((n, 2, 3)))
+    solution = SimpleNamespace(time=data.time, q=q, forces=forces, points=POINTS,
+                               foot_forces=lambda: np.zeros((n, 2, 3)))
+    save_tracking_plots(tmp_path, model, data, solution)
+    arrows = {a["name"]: a for a in json.loads((tmp_path / "viewer.json").read_text())
+              ["arrows"]}
+    assert set(arrows) == {"ground reaction, right foot", "ground reaction, left foot"}
+    pin_data = model.pin_model.createData()
+    pin.framesForwardKinematics(model.pin_model, pin_data, q[0])
+    heel, toe = (pin_data.oMf[model.frame_id(f"{p}_contact_r")].translation
+                 for p in ("heel", "toe"))
+    right = arrows["ground reaction, right foot"]
+    assert np.allclose(right["origin"], [0.75 * heel + 0.25 * toe] * n, atol=1e-4)
+    assert np.allclose(right["vector"], [[0.0, 0.0, 0.8]] * n)
+    assert all(o[0] is None for o in arrows["ground reaction, left foot"]["origin"])

@@ -52,11 +52,21 @@ def plot_tracking(model, data, solution, *, simulated=None):
 
 
 def save_tracking_plots(folder: Path, model, data, solution, *, simulated=None) -> None:
-    """``tracking.png`` and the stick figure / 3D viewer of the corrected motion."""
+    """``tracking.png`` and the stick figure / 3D viewer of the corrected motion.
+
+    The viewer draws each foot's contact force (the sum over its sole points) at the
+    centre of pressure of those points.
+    """
+    from predgait.problems.fullbody_tracking_stage import point_feet
     from predgait.report.figures import save_figure
-    from predgait.report.viewer import write_motion
+    from predgait.report.viewer import contact_grf, write_motion
 
     save_figure(plot_tracking(model, data, solution, simulated=simulated),
                 Path(folder) / "tracking.png")
+    points = list(solution.points)
+    feet = point_feet(solution.points)
+    groups = [tuple(p for p, f in zip(points, feet, strict=True) if f == j) for j in (0, 1)]
+    right, left = contact_grf(model, solution.q, solution.forces, points, groups)
     write_motion(folder, model, solution.time, solution.q, reference_q=data.q,
-                 label="dynamically consistent")
+                 label="dynamically consistent",
+                 grf={"right foot": right, "left foot": left})
