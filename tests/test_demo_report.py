@@ -9,6 +9,7 @@ import pytest
 from conftest import check_report_page
 from predgait.errors import InputError
 from predgait.report.html import build_report
+from predgait.report.plot_labels import SIGN_CONVENTION, gif_caption, label_problems, read_labels
 
 
 def run_cli(*args, cwd):
@@ -67,3 +68,26 @@ def test_report_command(demo_folder, tmp_path):
     empty.mkdir()
     with pytest.raises(InputError, match="no results"):
         build_report(empty)
+
+
+def test_every_report_plot_states_its_x_axis_and_signs(demo_folder):
+    """One convention at the top; each plot names its x axis and shows clinical signs."""
+    import html as html_lib
+
+    page = (demo_folder / "report.html").read_text()
+    assert page.count(html_lib.escape(SIGN_CONVENTION)) == 1
+    assert page.index("class='convention'") < page.index("<h2>")
+    pngs = sorted(demo_folder.rglob("*.png"))
+    assert len(pngs) >= 15
+    problems = {str(p.relative_to(demo_folder)): label_problems(*read_labels(p)) for p in pngs}
+    assert not any(problems.values()), problems
+    assert page.count("(x: ") == len(pngs)
+    assert "(x: time from heel strike (s))" in page and "(x: % gait cycle)" in page
+    # Re-synthesis: knee flexion positive in mid-swing (about 60 deg), as everywhere else.
+    x_axis, labels = read_labels(demo_folder / "02_resynthesis" / "angles.png")
+    assert "knee flexion (deg)" in labels and x_axis == ["time from heel strike (s)"]
+    # GIF captions say what is drawn: grey only where a measured figure is drawn behind.
+    captions = {p.parent.name: gif_caption(p) for p in demo_folder.rglob("stick.gif")}
+    assert "measured in grey" in captions["02_resynthesis"]
+    assert "measured in grey" not in captions["01_inverse_dynamics"]
+    assert all(c in page for c in captions.values())

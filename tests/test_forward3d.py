@@ -10,6 +10,7 @@ thesis' kinematic experiment (2.4) falls with the pelvis orientation free but no
 only its translation free.
 """
 
+import json
 import re
 from dataclasses import replace
 from pathlib import Path
@@ -254,6 +255,10 @@ def test_cli_writes_states_summary_and_plot(tmp_path, capsys, assert_tidy_result
     assert first["status"] == "event" and first["deviation"]["joint_leaves_band_s"] is not None
     assert (out / "fullbody.png").stat().st_size > 10_000
     assert (out / "stick.gif").read_bytes()[:6] == b"GIF89a"
+    viewer = json.loads((out / "viewer.json").read_text())   # the measured plates' arrows
+    assert {a["name"] for a in viewer["arrows"]} == {"ground reaction, measured plate 0",
+                                                     "ground reaction, measured plate 1"}
+    assert len(viewer["arrows"][0]["origin"]) == len(viewer["time"])
     sto = read_storage(out / "states_pelvis_free_moments.sto")
     assert {"pelvis_tz", "pelvis_ry", "knee_r_y"} <= set(sto.columns)
     # In the stated unit (deg): the run starts on the measured right knee (the whole-body

@@ -48,6 +48,22 @@ def test_subject01_whole_body(tmp_path, assert_tidy_result):
     # Sagittal peaks within walking ranges (ankle ~1-1.6 N m/kg, knee and hip < 1.5 N m/kg).
     assert 0.7 * 72.6 < peaks["ankle_r_y"] < 1.8 * 72.6
     assert peaks["knee_r_y"] < 1.5 * 72.6 and peaks["hip_r_y"] < 1.5 * 72.6
+    # The 3D viewer draws each plate's ground reaction at its COP, under the loaded foot:
+    # within 0.15 m (horizontally) of a point of that foot's stick lines.
+    viewer = json.loads((out / "viewer.json").read_text())
+    arrows = {a["name"]: a for a in viewer["arrows"]}
+    assert set(arrows) == {"ground reaction, plate 0", "ground reaction, plate 1"}
+    body = viewer["bodies"][0]["lines"]
+    near = 0
+    for arrow in arrows.values():
+        for k, origin in enumerate(arrow["origin"]):
+            if origin is None or origin[0] is None:
+                continue
+            points = np.array([p for line in body for p in line[k]], dtype=float)
+            gap = np.min(np.hypot(points[:, 0] - origin[0], points[:, 1] - origin[1]))
+            assert gap < 0.15, (arrow["name"], viewer["time"][k], gap)
+            near += 1
+    assert near > 20
 
 
 def test_marker_map_naming_missing_markers(tmp_path):

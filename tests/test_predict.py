@@ -196,6 +196,15 @@ def test_cli_solve_writes_a_tracking_prediction(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "Pinocchio at every node" in printed
     assert "not for clinical prediction" in printed and "stiff-legged" in summary["model_note"]
+    # Live progress (solve --every 5, the default): a line every 5 Ipopt iterations.
+    label = f"predictive on {NODES} intervals"
+    iterations = summary["iterations"]
+    lines = [x for x in printed.splitlines() if x.startswith(f"  {label}: iter ")]
+    assert [int(x.split()[-7]) for x in lines] == list(range(0, iterations + 1, 5))
+    history = summary["ipopt_history"]["objective"]   # the same iterates as Ipopt's history
+    assert [float(x.split()[-5]) for x in lines] == pytest.approx(
+        history[::5], rel=1e-3, abs=1e-9)
+    assert f"{label}: Ipopt stopped after {iterations} iterations" in printed
     steps = summary["gait"]["right"]["step_length_m"], summary["gait"]["left"]["step_length_m"]
     assert f"steps right {steps[0]:.3f} m / left {steps[1]:.3f} m" in printed
     from predgait.report.headline import headline

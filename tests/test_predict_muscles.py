@@ -121,11 +121,15 @@ def test_infeasible_bounds_exit_3_with_a_partial_point(tmp_path):
     out = tmp_path / "out"
     result = run_cli("solve", str(REPO / "problems" / "predict_2d_muscles.toml"), "--out",
                      str(out), "--no-plots", "--set", "grid.nodes=8",
-                     "--set", "solver.max_iter=40",
+                     "--set", "solver.max_iter=40", "--every", "10",
                      "--set", "bounds.knee_angle_r=[10, 20]",     # symmetry: knee_l(T) =
                      "--set", "bounds.knee_angle_l=[-50, -40]")   # knee_r(0): impossible
     assert result.returncode == 3, result.stderr
     assert "solve failed" in result.stderr and "not a gait" in result.stderr
+    # Live progress every 10 iterations (solve --every 10), each line with both measures.
+    iters = [line for line in result.stdout.splitlines() if ": iter " in line]
+    assert [int(line.split()[-7]) for line in iters] == [0, 10, 20, 30, 40], result.stdout
+    assert all("objective" in line and "constraint violation" in line for line in iters)
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "not converged"
     assert not summary["ipopt"]["success"]

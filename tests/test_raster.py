@@ -51,7 +51,7 @@ def test_chart_file_has_the_figure_size(tmp_path):
 
 def test_deviation_panel_clips_to_five_thresholds_and_shades_the_band(tmp_path):
     """A diverging run's deviation is cut at ±5 thresholds; the ±threshold band is shaded
-    and the deviation is simulated minus measured, in degrees."""
+    and the deviation is simulated minus measured, in degrees of the clinical angle."""
     from predgait.report.raster import BAND
     from predgait.report.simulation_plots import deviation_panel
 
@@ -63,7 +63,7 @@ def test_deviation_panel_clips_to_five_thresholds_and_shades_the_band(tmp_path):
     assert panel.ylim[1] == pytest.approx(25.0)
     assert panel.ylim[0] == pytest.approx(-5.0 * 1.05)
     np.testing.assert_allclose(panel.lines[0].y, np.minimum(100.0 * t, 25.0))
-    np.testing.assert_allclose(panel.lines[1].y, -2.0 * t)
+    np.testing.assert_allclose(panel.lines[1].y, 2.0 * t)   # q_knee -2t: knee flexion +2t
     assert panel.vlines == (0.05, 0.9) and "0.900 s" in panel.title
     path = save_chart(tmp_path / "d.png", [panel], size=(7.0, 3.8))
     canvas = Canvas((7.0, 3.8), scale=1)

@@ -37,7 +37,7 @@ FULL = os.environ.get("PREDGAIT_README_FULL") == "1"
 #: Commands (by a fragment) that take minutes: run only with PREDGAIT_README_FULL=1.
 SLOW = ("--model fullbody", "gait7_contact.toml", "fullbody_resynthesis.toml",
         "resynthesis.toml", "predgait scenario", "predgait sweep", "predgait solve",
-        "pytest notebooks", "benchmarks/")
+        "pytest notebooks", "notebooks/regenerate.py", "benchmarks/")
 #: Commands that change the environment rather than use predgait: never run here.
 NOT_RUN = {"pip install": "installs packages (CI installs '.[test]', which has dask)"}
 
@@ -94,8 +94,8 @@ def test_readme_usage_runs_as_written(fresh_clone):
             continue
         if any(fragment in command for fragment in NOT_RUN):
             continue
-        if "--scheduler" in command and not FULL:
-            continue  # needs a running Dask cluster: started below in the full run
+        if not FULL and ("--scheduler" in command or command.startswith(("dask ", "kill "))):
+            continue  # the README's own Dask scheduler, workers and sweep: the full run
         if not FULL and any(fragment in command for fragment in SLOW):
             inputs, outputs = _paths(command, variables)
             for path in inputs:
@@ -105,10 +105,9 @@ def test_readme_usage_runs_as_written(fresh_clone):
                 assert not (fresh_clone / path).exists(), f"{command}: {path} already written"
             continue
         started = time.perf_counter()
-        with _dask_cluster(command):
-            result = subprocess.run(["bash", "-c", f"{prefix} && {command}"], cwd=fresh_clone,
-                                    capture_output=True, text=True, timeout=1800,
-                                    env={**os.environ, "MPLBACKEND": "Agg"})
+        result = subprocess.run(["bash", "-c", f"{prefix} && {command}"], cwd=fresh_clone,
+                                capture_output=True, text=True, timeout=1800,
+                                env={**os.environ, "MPLBACKEND": "Agg"})
         timings.append((time.perf_counter() - started, command))
         assert result.returncode == 0, f"{command}\n{result.stdout[-1500:]}{result.stderr[-3000:]}"
         assert "Traceback" not in result.stderr, result.stderr[-3000:]
@@ -116,24 +115,3 @@ def test_readme_usage_runs_as_written(fresh_clone):
             assert (fresh_clone / path).exists(), f"{command} did not write {path}"
     for seconds, command in sorted(timings, reverse=True)[:5]:
         print(f"{seconds:7.1f} s  {command[:90]}")
-
-
-class _dask_cluster:
-    """A local Dask scheduler on the README's address for the --scheduler command."""
-
-    def __init__(self, command: str):
-        self.wanted = "--scheduler tcp://127.0.0.1:8786" in command
-        self.cluster = None
-
-    def __enter__(self):
-        if self.wanted:
-            from dask import distributed
-
-            self.cluster = distributed.LocalCluster(
-                n_workers=2, threads_per_worker=1, scheduler_port=8786,
-                dashboard_address=None)
-        return self
-
-    def __exit__(self, *exc):
-        if self.cluster is not None:
-            self.cluster.close()

@@ -95,8 +95,11 @@ def register(commands: argparse._SubParsersAction) -> None:
     demo.set_defaults(run=run)
 
 
-def _stage(name: str, started: float) -> None:
-    print(f"  {name:<38} {time.perf_counter() - started:6.1f} s")
+def _stage(name: str, started: float, last: list[float]) -> None:
+    """Print a stage's own time and the total so far (``last`` holds the previous end)."""
+    now = time.perf_counter()
+    print(f"  {name:<38} {now - last[0]:6.1f} s  (total {now - started:6.1f} s)")
+    last[0] = now
 
 
 def run(args: argparse.Namespace) -> int:
@@ -121,9 +124,10 @@ def run(args: argparse.Namespace) -> int:
     with staged_output(out, force=replace) as stage:
         (stage / MARKER).write_text("written by predgait demo; replaced by the next demo\n")
         started = time.perf_counter()
+        last = [started]
         result = bundled_inverse("right")
         write_inverse_outputs(result, stage / "01_inverse_dynamics")
-        _stage("1 inverse dynamics", started)
+        _stage("1 inverse dynamics", started, last)
         problems = stage / "problems"
         problems.mkdir()
         (problems / "resynthesis.toml").write_text(RESYNTHESIS)
@@ -131,15 +135,15 @@ def run(args: argparse.Namespace) -> int:
         folder = stage / "02_resynthesis"
         folder.mkdir()
         run_spec(parse_spec(problems / "resynthesis.toml"), folder)
-        _stage("2 forward re-synthesis", started)
+        _stage("2 forward re-synthesis", started, last)
         for number, kind in ((3, "knee_fit"), (4, "torque_correction")):
             path = problems / f"{kind}.toml"
             path.write_text(SOLVE.format(kind=kind))
             run_solve(parse_solve(load_problem(path)), stage / f"0{number}_{kind}")
-            _stage(f"{number} {kind.replace('_', ' ')}", started)
+            _stage(f"{number} {kind.replace('_', ' ')}", started, last)
         write_scenario(run_scenario(load_scenario(problems / "scenario_stiff_knee.toml")),
                        stage / "05_scenario_stiff_knee")
-        _stage("5 scenario: stiffer knee", started)
+        _stage("5 scenario: stiffer knee", started, last)
         write_text_atomic(build_report(stage, title="predgait demo: subject01 right leg",
                                        source=out.name, intro=INTRO), stage / "report.html")
     print(f"wrote {out}/report.html (open it in a browser)")

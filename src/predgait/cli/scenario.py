@@ -33,6 +33,9 @@ def register(commands: argparse._SubParsersAction) -> None:
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("scenario", type=Path, help="SCENARIO.toml")
     add_output_options(cmd, overrides="edit.0.k=200")
+    cmd.add_argument("--every", type=int, default=20, metavar="N",
+                     help="predicted scenarios: show Ipopt's progress (objective, constraint "
+                          "violation) every N iterations and each stage (0: none)")
     cmd.set_defaults(run=run)
 
 
@@ -93,6 +96,10 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _progress_line(line: str) -> None:
+    print(line, flush=True)
+
+
 def _kind(path: Path) -> str | None:
     """The file's top-level ``kind`` (None when absent; syntax errors surface later)."""
     from predgait.problemfile import load_problem
@@ -105,12 +112,14 @@ def _run_muscle(args) -> int:
     import sys
 
     from predgait.errors import SolveFailed
+    from predgait.problems.ipopt_progress import reporting
     from predgait.scenarios.muscle_predict import load_muscle_scenario
     from predgait.workflows.muscle_scenario import run_muscle_scenario, summary_lines
 
     run = load_muscle_scenario(args.scenario, args.set)
     try:
-        summary = run_muscle_scenario(run, args.out, force=args.force)
+        with reporting(args.every, _progress_line):
+            summary = run_muscle_scenario(run, args.out, force=args.force)
     except SolveFailed as exc:
         print(f"predgait: solve failed: {exc}", file=sys.stderr)
         return 3
@@ -152,10 +161,12 @@ def _run_predicted(spec, args) -> int:
     import sys
 
     from predgait.errors import SolveFailed
+    from predgait.problems.ipopt_progress import reporting
     from predgait.scenarios.predict import ANGLES, run_predicted_scenario
 
     try:
-        result = run_predicted_scenario(spec, spec.predict)
+        with reporting(args.every, _progress_line):
+            result = run_predicted_scenario(spec, spec.predict)
     except SolveFailed as exc:
         print(f"predgait: solve failed: {exc}", file=sys.stderr)
         return 3

@@ -62,7 +62,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("problem", type=Path, help="PROBLEM.toml")
     add_output_options(cmd, overrides="nodes=200")
     cmd.add_argument("--every", type=int, default=5, metavar="N",
-                     help="show Ipopt's progress every N iterations (0: summary only)")
+                     help="show Ipopt's progress every N iterations, live for the long "
+                          "solves (predict_gait7, predict_muscles_2d, fullbody_tracking) "
+                          "(0: summary only)")
     cmd.set_defaults(run=run)
 
 
@@ -110,6 +112,10 @@ def run(args: argparse.Namespace) -> int:
     return _run_collocation(table, args)
 
 
+def _progress_line(line: str) -> None:
+    print(line, flush=True)
+
+
 def _run_workflow(workflow: _Workflow, table, args) -> int:
     """Parse, run, print the workflow's summary; a failed solve exits 3 and writes nothing."""
     from predgait.errors import SolveFailed
@@ -121,8 +127,11 @@ def _run_workflow(workflow: _Workflow, table, args) -> int:
     inverse_problem = getattr(trial, "inverse_problem", None)
     if inverse_problem is not None:   # --out must not be where an input lives
         check_out(args.out, force=args.force, inputs=[args.problem, inverse_problem])
+    from predgait.problems.ipopt_progress import reporting
+
     try:
-        result = getattr(module, workflow.run)(spec, args.out, force=args.force)
+        with reporting(args.every, _progress_line):   # live Ipopt lines of long solves
+            result = getattr(module, workflow.run)(spec, args.out, force=args.force)
     except SolveFailed as exc:
         print(f"predgait: solve failed: {exc}", file=sys.stderr)
         return 3

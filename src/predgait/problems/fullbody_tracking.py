@@ -54,6 +54,7 @@ import pinocchio as pin
 from predgait.blas_threads import one_blas_thread
 from predgait.errors import SolveFailed
 from predgait.models.loading3d import Model3D
+from predgait.problems import ipopt_progress
 from predgait.problems.fullbody_tracking_stage import (
     FORCE_UNIT,
     NI,
@@ -321,8 +322,11 @@ def tracking_nlp(model: Model3D, data: TrackingData,
 def solve_tracking(model: Model3D, data: TrackingData,
                    weights: TrackingWeights = TrackingWeights(), *,
                    max_iter: int = 200, tol: float = 1e-8,
-                   print_level: int = 0) -> TrackingSolution:
+                   print_level: int = 0,
+                   label: str = "whole-body tracking") -> TrackingSolution:
     """Solve the tracking problem (:func:`tracking_nlp`) with Ipopt, exact Hessian.
+
+    ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
 
     Raises:
         SolveFailed: Ipopt did not converge (``best`` is the last iterate's solution).
@@ -335,10 +339,13 @@ def solve_tracking(model: Model3D, data: TrackingData,
                          "tol": tol, "constr_viol_tol": 1e-9, "mu_strategy": "adaptive",
                          # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
                          # 20 -> 11 s CPU
-                         "mumps_pivot_order": 5}}
+                         "mumps_pivot_order": 5},
+               **ipopt_progress.callback_options("fullbody_tracking", problem.nlp["x"].numel(),
+                                                 problem.nlp["g"].numel())}
     solver = cs.nlpsol("fullbody_tracking", "ipopt", problem.nlp, options)
     built = time.perf_counter()
-    with one_blas_thread():  # MUMPS' fronts are small: BLAS threads only cost here
+    with one_blas_thread(), ipopt_progress.solving(label, problem.lbg, problem.ubg):
+        # one BLAS thread: MUMPS' fronts are small, BLAS threads only cost here
         result = solver(x0=problem.x0, lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg,
                         ubg=problem.ubg)
     seconds = time.perf_counter() - built

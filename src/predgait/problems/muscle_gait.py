@@ -71,6 +71,7 @@ import casadi as cs
 import numpy as np
 
 from predgait.errors import InputError
+from predgait.problems import ipopt_progress
 from predgait.problems.collocation import Solved, Transcription, _history
 from predgait.problems.muscle_gait_dynamics import MusclePlant, node_function
 
@@ -289,6 +290,8 @@ class MuscleGaitProblem:
         opts = {"ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
                           **IPOPT_OPTIONS, **(ipopt_options or {})}, "print_time": False}
         self.nlp = {"x": self.w, "p": self.p, "f": objective, "g": cs.vertcat(*g)}
+        opts |= ipopt_progress.callback_options("muscle_gait", self.nlp["x"].numel(),
+                                                self.nlp["g"].numel(), self.nlp["p"].numel())
         self.solver = cs.nlpsol("muscle_gait", "ipopt", self.nlp, opts)
 
     def unpack(self, w) -> dict:
@@ -346,8 +349,12 @@ class MuscleGaitProblem:
         return lbx, ubx
 
     def solve(self, guess: Trajectory, bounds: Bounds, goal: Goal,
-              reference: np.ndarray | None = None) -> MuscleGait:
-        """Solve from ``guess``; ``reference`` (N+1, nq) for a tracking goal."""
+              reference: np.ndarray | None = None, *,
+              label: str = "muscle-driven gait") -> MuscleGait:
+        """Solve from ``guess``; ``reference`` (N+1, nq) for a tracking goal.
+
+        ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
+        """
         n1, nq = self.n + 1, self.plant.model.nq
         ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
         p = np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,
@@ -359,7 +366,8 @@ class MuscleGaitProblem:
         lbg, ubg = np.zeros(self.ng), np.zeros(self.ng)
         if not goal.speed_constraint:
             lbg[self.speed_row], ubg[self.speed_row] = -np.inf, np.inf
-        out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        with ipopt_progress.solving(label, lbg, ubg):
+            out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         seconds = time.perf_counter() - clock
         stats = self.solver.stats()
         g = np.clip(np.array(out["g"]).ravel(), lbg, ubg) - np.array(out["g"]).ravel()

@@ -206,7 +206,8 @@ def multistart(problem, plant, planar, storage, bounds, goal, options: MultiStar
     runs = [first]
     for label, guess in start_guesses(problem, plant, planar, storage, bounds, goal,
                                       options, max_iter=max_iter):
-        runs.append(StartRun(label, problem.solve(guess, bounds, goal)))
+        runs.append(StartRun(label, problem.solve(guess, bounds, goal,
+                                                  label=f"multistart: {label}")))
     converged = [i for i, r in enumerate(runs) if r.gait.solved.success]
     best = min(converged, key=lambda i: runs[i].gait.solved.objective) if converged else 0
     spread = spread_of(runs, best, plant, planar)

@@ -177,11 +177,12 @@ def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
     if spec.tracking_stage:
         tracked = problem.solve(guess, bounds,
                                 replace(spec.goal, tracking_weight=spec.tracking_weight),
-                                reference)
+                                reference, label="stage 1/2 tracking the reference")
         stages.append((f"tracking referenceCoordinates on {spec.nodes} intervals", tracked))
         if tracked.solved.success:
             start = tracked.path
-    gait = problem.solve(start, bounds, spec.goal)
+    gait = problem.solve(start, bounds, spec.goal, label="stage 2/2 predictive"
+                         if spec.tracking_stage else "predictive")
     spread = None
     if spec.multistart.starts > 1:
         from predgait.problems.muscle_multistart import StartRun, multistart

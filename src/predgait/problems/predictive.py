@@ -67,6 +67,7 @@ from predgait.kinematics.clinical import clinical_joint
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.models.loading import Model
 from predgait.models.symbolic import symbolic_model
+from predgait.problems import ipopt_progress
 from predgait.problems.collocation import Solved, _history
 
 #: Coordinates compared by the tracking term (the HAT height is left to the contact).
@@ -322,13 +323,17 @@ class PredictiveProblem:
 
     def solver(self, start: Start) -> cs.Function:
         """The Ipopt solver (exact Hessian) for solves from ``start`` (built once each)."""
-        if start not in self._solvers:
+        key = (start, ipopt_progress.active())
+        if key not in self._solvers:
+            nlp = self._nlp
             opts = {"ipopt": {"print_level": 0, "sb": "yes", "max_iter": self._max_iter,
                               "linear_solver": "mumps", "hessian_approximation": "exact",
                               **BARRIER[start], **IPOPT_OPTIONS},
-                    "print_time": False}
-            self._solvers[start] = cs.nlpsol("gait7_predictive", "ipopt", self._nlp, opts)
-        return self._solvers[start]
+                    "print_time": False,
+                    **ipopt_progress.callback_options("gait7_predictive", nlp["x"].numel(),
+                                                      nlp["g"].numel(), nlp["p"].numel())}
+            self._solvers[key] = cs.nlpsol("gait7_predictive", "ipopt", nlp, opts)
+        return self._solvers[key]
 
     def unpack(self, w):
         """(Q, V, A), each (nq, N+1), from a decision vector (symbolic or numeric)."""
@@ -383,10 +388,12 @@ class PredictiveProblem:
 
     def solve(self, guess: Guess, reference: Reference, weights: Weights, *, speed: float,
               duration: float, bounds: dict[str, tuple[float, float]],
-              springs=(), start: Start = Start.MEASURED) -> PredictedGait:
+              springs=(), start: Start = Start.MEASURED,
+              label: str = "predictive gait") -> PredictedGait:
         """Solve from ``guess``; ``bounds``: coordinate -> (lower, upper) (model units).
 
-        ``start``: whether ``guess`` is measured or a solution (see :class:`Start`).
+        ``start``: whether ``guess`` is measured or a solution (see :class:`Start`);
+        ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
         """
         n1 = self.n + 1
         params = {"weights": weights.vector(), "duration": [duration],
@@ -403,7 +410,8 @@ class PredictiveProblem:
         w0 = np.clip(w0, lbx, ubx)
         solver = self.solver(start)
         clock = time.perf_counter()
-        out = solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=self.lbg, ubg=self.ubg)
+        with ipopt_progress.solving(label, self.lbg, self.ubg):
+            out = solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=self.lbg, ubg=self.ubg)
         seconds = time.perf_counter() - clock
         stats = solver.stats()
         g = np.array(out["g"]).ravel()

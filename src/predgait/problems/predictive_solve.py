@@ -143,7 +143,8 @@ def staged_guess(spec: PredictSpec, model: Model, kw: dict) -> tuple[Guess, list
     measured = measured_for(coarse, model)
     problem = problem_for(model, coarse.nodes, spec.cycle, spec.contact, spec.ground_z,
                           spec.max_penetration, spec.max_iter)
-    first = problem.solve(measured.guess, measured.reference, TRACKING_STAGE, **kw)
+    first = problem.solve(measured.guess, measured.reference, TRACKING_STAGE, **kw,
+                          label=f"tracking on {coarse.nodes} intervals")
     check_solved(first, "tracking stage")
     stages = [(f"tracking on {coarse.nodes} intervals", first.solved)]
     guess = Guess(first.q, first.v, first.a)
@@ -170,7 +171,9 @@ def solve_with_restarts(problem, guess, reference, weights, kw: dict, *, start: 
     """
     tries = RESTARTS[start]
     for attempt in tries:
-        gait = problem.solve(guess, reference, weights, start=attempt, **kw)
+        gait = problem.solve(guess, reference, weights, start=attempt, **kw,
+                             label=what if attempt is tries[0] else
+                             f"{what}, again from a {attempt.value} start")
         if gait.solved.success or attempt is tries[-1]:
             return gait
         failed.append((f"{what} from a {attempt.value} start (failed)", gait.solved))

@@ -17,6 +17,8 @@ import numpy as np
 from predgait.kinematics.clinical import LEG_FREE_JOINTS, clinical_joint
 from predgait.report.figures import new_figure, save_figure
 
+#: Lowest value drawn on a log axis: machine precision (double).
+FLOOR = float(np.finfo(float).eps)
 #: Free joint -> (column in the full coordinates, column in the free state).
 JOINTS = {joint: (3 + i, i) for i, joint in enumerate(LEG_FREE_JOINTS)}
 
@@ -27,30 +29,48 @@ def _axes(ax):
     return ax
 
 
-def plot_history(solved, ax=None):
-    """Objective and constraint violation (log scale) per Ipopt iteration.
+def plot_history(solved, axes=None):
+    """Objective and infeasibility per Ipopt iteration, each on its own labelled log axis.
+
+    Top: |objective| (its sign in the legend when it goes negative). Bottom: the primal
+    infeasibility (constraint violation, inf_pr) and the dual infeasibility (inf_du). Values
+    below :data:`FLOOR` (machine precision, ~2.2e-16) are drawn at it: an exact zero would
+    stretch a log axis down to 1e-300.
 
     Args:
         solved: A :class:`predgait.problems.collocation.Solved` (its ``history``).
-        ax: Axes to draw on; None makes a figure.
+        axes: Two axes (top, bottom) to draw on; None makes a figure.
 
     Returns:
-        The axes (objective on the left scale; a twin axis holds the violation).
+        The two axes.
     """
-    ax = _axes(ax)
+    if axes is None:
+        _, axes = new_figure(2, 1, figsize=(6, 5.2), sharex=True, hspace=0.3, title=True)
+    top, bottom = axes
     history = solved.history
     objective = np.asarray(history.get("objective", ()), dtype=float)
-    violation = np.asarray(history.get("constraint_violation", ()), dtype=float)
-    ax.semilogy(np.maximum(np.abs(objective), 1e-300), "C0.-", label="objective")
-    ax.set_xlabel("Ipopt iteration")
-    ax.set_ylabel("|objective|", color="C0")
-    twin = ax.twinx()
-    twin.semilogy(np.maximum(violation, 1e-300), "C3.-", label="constraint violation")
-    twin.set_ylabel("constraint violation (inf_pr)", color="C3")
-    ax.set_title(f"{solved.status}, {solved.iterations} iterations, "
-                 f"{solved.seconds * 1e3:.0f} ms")
-    ax.grid(alpha=0.3)
-    return ax
+    iterations = np.arange(objective.size)
+    negative = bool(np.any(objective < 0))
+    top.semilogy(iterations, np.maximum(np.abs(objective), FLOOR), "C0.-",
+                 label="|objective| (negative values occur)" if negative else "objective")
+    top.set_ylabel("objective")
+    for key, style, label in (("constraint_violation", "C3.-", "primal infeasibility (inf_pr)"),
+                              ("dual_infeasibility", "C2.--", "dual infeasibility (inf_du)")):
+        values = np.asarray(history.get(key, ()), dtype=float)
+        if values.size:
+            bottom.semilogy(np.arange(values.size), np.maximum(values, FLOOR), style,
+                            label=label)
+    bottom.set_ylabel("infeasibility")
+    bottom.set_xlabel("Ipopt iteration")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.set_ylim(bottom=FLOOR / 3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="upper right")
+    top.figure.suptitle(f"Ipopt: {solved.status}, {solved.iterations} iterations, "
+                        f"{solved.seconds * 1e3:.0f} ms (values below {FLOOR:.1e} drawn "
+                        "at it)", fontsize=9)
+    return axes
 
 
 def plot_angles(joint: str, measured_t, measured_q, *, fit=None, simulations=None,
@@ -137,7 +157,7 @@ def save_diagnostics(folder, measured_t, measured_q, fit, simulations) -> list[s
     fig.suptitle(f"{fit.kind.replace('_', ' ')}: measured vs synthesized before/after")
     save_figure(fig, folder / "before_after.png")
     written.append("before_after.png")
-    ax = plot_history(fit.solved)
-    save_figure(ax.figure, folder / "convergence.png")
+    axes = plot_history(fit.solved)
+    save_figure(axes[0].figure, folder / "convergence.png")
     written.append("convergence.png")
     return written

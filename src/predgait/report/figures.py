@@ -72,8 +72,14 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float],
 
 
 def save_figure(fig, path: str | Path) -> Path:
-    """Write ``fig`` as PNG (one draw) and release it."""
+    """Write ``fig`` as PNG (one draw) and release it.
+
+    The PNG carries the figure's x-axis labels and its other labels as text chunks
+    (:mod:`predgait.report.plot_labels`), read by the HTML report and its tests.
+    """
+    from predgait.report.plot_labels import figure_text
+
     path = Path(path)
-    fig.savefig(path, dpi=DPI)
+    fig.savefig(path, dpi=DPI, metadata=figure_text(fig))
     fig.clear()
     return path

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from predgait.kinematics.clinical import clinical_joint
+
 PANELS = ("hip_r_y", "knee_r_y", "ankle_r_y", "hip_l_y", "knee_l_y", "ankle_l_y")
 
 
@@ -30,29 +32,41 @@ def plot_tracking(model, data, solution, *, simulated=None):
     t = data.time
     for ax, joint in zip(axes[:6], PANELS, strict=True):
         i = 7 + names.index(joint)
-        ax.plot(t, np.degrees(data.q[:, i]), "k--", lw=1, label="measured (IK)")
-        ax.plot(t, np.degrees(solution.q[:, i]), "C0", label="dynamically consistent")
+        sign = clinical_joint(model.kind, joint)   # clinical angle and sign
+        ax.plot(t, np.degrees(sign.clinical(data.q[:, i])), "k--", lw=1, label="measured (IK)")
+        ax.plot(t, np.degrees(sign.clinical(solution.q[:, i])), "C0",
+                label="dynamically consistent")
         if simulated is not None:
-            ax.plot(simulated[0], np.degrees(simulated[1][:, i]), "C1", lw=1,
+            ax.plot(simulated[0], np.degrees(sign.clinical(simulated[1][:, i])), "C1", lw=1,
                     label="re-simulated with feedback")
-        ax.set_ylabel(f"{joint} (deg)", fontsize=8)
+        ax.set_ylabel(f"{sign.angle.replace('_', ' ')} (deg)", fontsize=8)
     feet = solution.foot_forces()
     for j, (ax, side) in enumerate(zip(axes[6:], "rl", strict=True)):
         ax.plot(t, data.force[:, j, 2], "k--", lw=1)
         ax.plot(t, feet[:, j, 2], "C0")
         ax.set_ylabel(f"vertical GRF {side} (N)", fontsize=8)
-        ax.set_xlabel("time (s)")
+        ax.set_xlabel("trial time (s)")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
     return fig
 
 
 def save_tracking_plots(folder: Path, model, data, solution, *, simulated=None) -> None:
-    """``tracking.png`` and the stick figure / 3D viewer of the corrected motion."""
+    """``tracking.png`` and the stick figure / 3D viewer of the corrected motion.
+
+    The viewer draws each foot's contact force (the sum over its sole points) at the
+    centre of pressure of those points.
+    """
+    from predgait.problems.fullbody_tracking_stage import point_feet
     from predgait.report.figures import save_figure
-    from predgait.report.viewer import write_motion
+    from predgait.report.viewer import contact_grf, write_motion
 
     save_figure(plot_tracking(model, data, solution, simulated=simulated),
                 Path(folder) / "tracking.png")
+    points = list(solution.points)
+    feet = point_feet(solution.points)
+    groups = [tuple(p for p, f in zip(points, feet, strict=True) if f == j) for j in (0, 1)]
+    right, left = contact_grf(model, solution.q, solution.forces, points, groups)
     write_motion(folder, model, solution.time, solution.q, reference_q=data.q,
-                 label="dynamically consistent")
+                 label="dynamically consistent",
+                 grf={"right foot": right, "left foot": left})

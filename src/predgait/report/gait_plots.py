@@ -18,7 +18,7 @@ def cycle_axis(result) -> tuple[np.ndarray, np.ndarray, str]:
     """Selection mask and x values: % of the first gait cycle, or time if there is none."""
     cycle = result.first_cycle()
     if cycle is None:
-        return np.ones(result.time.size, dtype=bool), result.time, "time (s)"
+        return np.ones(result.time.size, dtype=bool), result.time, "trial time (s)"
     start, stop = cycle
     mask = (result.time >= start - 1e-9) & (result.time <= stop + 1e-9)
     return mask, 100.0 * (result.time[mask] - start) / (stop - start), "% gait cycle"

@@ -27,6 +27,7 @@ import numpy as np
 from predgait import __version__
 from predgait.errors import InputError
 from predgait.report.headline import GOOD, Headline, headline, summary_file
+from predgait.report.plot_labels import SIGN_CONVENTION, gif_caption, read_labels
 from predgait.report.tidy import format_quantity, label_of, unit_of
 from predgait.report.viewer import viewer_markup, viewer_script
 
@@ -48,7 +49,7 @@ font-size:.85rem;font-weight:600}.ok{background:#d8f0df;color:#1b5e20}
 .finding{background:#fff1cc;color:#6d4c00}.bad{background:#fbd9dc;color:#8e0015}
 details{margin:1rem 0;border:1px solid #ddd;border-radius:.3rem;padding:.3rem .8rem}
 summary{cursor:pointer;color:#2a6f97;font-weight:600}
-ol.walk li{margin:.4rem 0}
+ol.walk li{margin:.4rem 0}.convention{background:#eef4f8;padding:.4rem .8rem;font-size:.92rem}
 """
 
 #: Caption of a plot by its file stem (prefix match for heat maps and outcome plots).
@@ -201,7 +202,7 @@ def _table_summary(path: Path, anonymise: bool = False) -> str:
 def _caption(path: Path) -> str:
     stem = path.stem
     if path.suffix == ".gif":
-        return "Stick figure over the trial, sagittal plane (animation; measured in grey)"
+        return gif_caption(path) or "Stick figure, sagittal plane (animation)"
     for key, text in CAPTIONS.items():
         if stem == key or (key.endswith("_") and stem.startswith(key)):
             extra = stem[len(key):] if key.endswith("_") else ""
@@ -224,8 +225,11 @@ def _figures(folder: Path) -> str:
         mime = "image/gif" if path.suffix == ".gif" else "image/png"
         data = base64.b64encode(path.read_bytes()).decode("ascii")
         caption = _caption(path)
+        x_axis = read_labels(path)[0] if path.suffix == ".png" else []
+        stated = f" (x: {'; '.join(x_axis)})" if x_axis else ""
         parts.append(f"<figure><img alt='{_esc(caption)}' src='data:{mime};base64,{data}'>"
-                     f"<figcaption>{_esc(caption)} — {_esc(path.name)}</figcaption></figure>")
+                     f"<figcaption>{_esc(caption)}{_esc(stated)} — {_esc(path.name)}"
+                     "</figcaption></figure>")
     return f"<div class='figures'>{''.join(parts)}</div>" if parts else ""
 
 
@@ -338,6 +342,7 @@ def build_report(result_dir: str | Path, *, title: str | None = None,
             + ("Anonymised: trial, input file and folder names are left out."
                if anonymise else "Files are named by their file name only, without folders.")
             + "</p>"
+            + f"<p class='convention'>{_esc(SIGN_CONVENTION)}</p>"
             + (f"<p>{_esc(intro)}</p>" if intro else "")
             + overview + "".join(sections)
             + (f"<script>{viewer_script()}</script>" if "pg-viewer" in "".join(sections)

@@ -129,6 +129,8 @@ class Canvas:
             self.image.putpalette(rgb)
         self.draw = ImageDraw.Draw(self.image)
         self._texts: list[tuple] = []   # written at the final size (see text())
+        self.x_labels: list[str] = []   # what the plot states (report.plot_labels)
+        self.labels: list[str] = []
 
     def copy(self) -> Canvas:
         """A canvas of the same size and palette holding a copy of this image."""
@@ -140,6 +142,7 @@ class Canvas:
         other.image = self.image.copy()
         other.draw = ImageDraw.Draw(other.image)
         other._texts = []
+        other.x_labels, other.labels = list(self.x_labels), list(self.labels)
         return other
 
     def ink(self, color: str):
@@ -185,12 +188,19 @@ class Canvas:
     def save_png(self, path: str | Path) -> Path:
         """Write the image halved ``scale`` times to its final size, then its texts."""
         path = Path(path)
+        from PIL.PngImagePlugin import PngInfo
+
+        from predgait.report.plot_labels import png_text
+
         image = self.image.reduce(self.scale) if self.scale > 1 else self.image
         self._write_texts(image, self.scale)
+        info = PngInfo()
+        for key, value in png_text(self.x_labels, self.labels).items():
+            info.add_itxt(key, value)
         # Without format=, Pillow loads only its PNG plugin for a .png name (format= loads
         # the BMP, GIF, JPEG and PPM plugins too: start-up time for nothing).
         image.save(path, format=None if path.suffix.lower() == ".png" else "PNG",
-                   compress_level=1)
+                   compress_level=1, pnginfo=info)
         return path
 
 
@@ -223,6 +233,8 @@ class Axes:
               grid: bool = True) -> None:
         """Grid, box, ticks with labels, axis labels and the title."""
         c, (x0, y0, x1, y1) = self.canvas, self.box
+        c.x_labels.append(xlabel)
+        c.labels += [title, ylabel]
         tick, pad = c.px(3.5), c.px(2.0)
         xticks = nice_ticks(*self.xlim)
         yticks = nice_ticks(*self.ylim)

@@ -35,7 +35,7 @@ def save_scenario_plot(folder: Path, result) -> str:
             if sim.time_to_fall is not None:
                 top.axvline(sim.time_to_fall, color=colour, ls="--", lw=1)
         top.set_title(f"{joint} (deg)", fontsize=10)
-        bottom.set_title(f"PD feedback torque toward the measured motion, {joint.split()[0]} "
+        bottom.set_title(f"PD feedback torque toward the measured motion, {joint} "
                          "(N m)", fontsize=9)
         bottom.axhline(0.0, color="0.4", lw=0.5)
         bottom.set_xlabel("time from heel strike (s)")

@@ -137,8 +137,11 @@ def save_stick_chart(path: str | Path, model, t, runs: Mapping[str, np.ndarray],
 
 
 def write_gif(path: str | Path, model, t, q, *, reference_q=None, fps: int = 20,
-              max_frames: int = 80) -> Path:
+              max_frames: int = 80, label: str = "simulated") -> Path:
     """Animated stick figure (Pillow GIF); the reference motion in grey if given.
+
+    The GIF's comment is its caption, naming what is drawn in which colour (the report
+    shows it; :func:`predgait.report.plot_labels.gif_caption`).
 
     Args:
         path: Output .gif.
@@ -148,16 +151,20 @@ def write_gif(path: str | Path, model, t, q, *, reference_q=None, fps: int = 20,
         reference_q: Optional (n, nq) measured motion drawn behind.
         fps: Frames per second of the animation.
         max_frames: At most this many frames (the trial is subsampled).
+        label: What ``q`` is ("simulated", "measured (IK)", ...), for the caption.
     """
     t, q = np.asarray(t), np.asarray(q)
     rows = sample_times(t, max(1.0 / fps, (t[-1] - t[0]) / max_frames))
     sim = stick_points(model, q[rows])
     ref = stick_points(model, np.asarray(reference_q)[rows]) if reference_q is not None else []
-    return write_polyline_gif(path, t[rows], sim, ref, fps=fps)
+    caption = (f"Stick figure, sagittal plane (animation): {label} in blue"
+               + (", measured in grey behind" if ref else ""))
+    return write_polyline_gif(path, t[rows], sim, ref, fps=fps, caption=caption)
 
 
 def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
-                       fps: int = 20, size: tuple[float, float] | None = None) -> Path:
+                       fps: int = 20, size: tuple[float, float] | None = None,
+                       caption: str = "") -> Path:
     """GIF of polylines in the X-Z plane, one frame per time.
 
     Args:
@@ -167,6 +174,7 @@ def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
         reference_lines: Same layout, drawn grey behind (the measured motion).
         fps: Frames per second.
         size: Figure size, inches (None: from the extent of the motion).
+        caption: Stored as the GIF comment (what is drawn, in which colour).
     """
     from predgait.report.raster import MARGINS, TEXT, Axes, Canvas
 
@@ -197,5 +205,5 @@ def write_polyline_gif(path: str | Path, times, lines, reference_lines=(), *,
         frames.append(canvas.image)
     path = Path(path)
     frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(1000 / fps),
-                   loop=0, optimize=False)
+                   loop=0, optimize=False, comment=caption.encode("utf-8"))
     return path

@@ -10,6 +10,7 @@ draws.
 
 from __future__ import annotations
 
+import html
 import json
 from pathlib import Path
 
@@ -21,6 +22,8 @@ from predgait.report.stick import sample_times, stick_points
 SIMULATED, MEASURED, GRF = "#1f5fa8", "#a0a7ad", "#c62828"
 #: Length of a ground-reaction arrow per newton, m/N (body weight ~ 0.7 m).
 GRF_SCALE = 0.001
+#: Planar models: drawn in their sagittal plane (lab Y = 0), as are their arrows.
+PLANAR = ("leg", "rod", "gait7")
 
 
 def _round(array) -> list:
@@ -37,8 +40,12 @@ def viewer_data(model, t, q, *, reference_q=None, grf=None, measured_grf=None,
         q: (n, nq) configurations of the main motion.
         reference_q: Optional (n, nq) measured motion at the same times (drawn grey).
         grf: Optional (force (n, 3) N, point (n, 3) m) drawn from the point (the main
-            motion's ground reaction), or a mapping name -> such a pair (e.g. per foot).
+            motion's ground reaction at its centre of pressure), or a mapping name -> such
+            a pair (e.g. per foot or plate).
         measured_grf: Optional (force, point) of the measured ground reaction.
+        A planar model's figure lies in the lab's X-Z plane, so its arrows are drawn there:
+        the centre of pressure's lateral (Y) position and the lateral force are dropped
+        (a plate's COP lies ~0.1 m beside the planar figure otherwise).
         label: Name of the main motion ("simulated", "measured", ...).
         max_frames: At most this many frames (the motion is subsampled).
     """
@@ -58,7 +65,9 @@ def viewer_data(model, t, q, *, reference_q=None, grf=None, measured_grf=None,
     for name, colour, pair in [*sets, ("measured ground reaction", MEASURED, measured_grf)]:
         if pair is None:
             continue
-        force, point = (np.asarray(a, dtype=float)[rows] for a in pair)
+        force, point = (np.array(np.asarray(a, dtype=float)[rows]) for a in pair)
+        if model.kind in PLANAR:
+            force[:, 1], point[:, 1] = 0.0, 0.0
         loaded = np.abs(force[:, 2]) > 20.0
         point = np.where(loaded[:, None], point, np.nan)
         arrows.append({"name": name, "color": colour, "origin": _round(point),
@@ -101,6 +110,21 @@ def contact_grf(model, q, forces, frames, groups) -> list[tuple[np.ndarray, np.n
     return out
 
 
+def plate_arrows(plates, time, t, *, prefix: str = "plate") -> dict:
+    """Per force plate, (force (m, 3) N, COP (m, 3) m) at the times ``t`` (nearest frame).
+
+    Args:
+        plates: Force plates resampled at ``time`` (e.g. ``Inverse3DResult.plates``).
+        time: (n,) s, the plates' rows.
+        t: (m,) s wanted (within ``time``).
+        prefix: Arrow name before the plate's name.
+    """
+    time, t = np.asarray(time, dtype=float), np.asarray(t, dtype=float)
+    rows = np.clip(np.searchsorted(time, t - 1e-9), 0, time.size - 1)
+    return {f"{prefix} {plate.name}": (np.asarray(plate.force)[rows],
+                                       np.asarray(plate.cop)[rows]) for plate in plates}
+
+
 def write_viewer(path: str | Path, data: dict) -> Path:
     """Write viewer data as JSON (NaN as null)."""
     text = json.dumps(data, separators=(",", ":")).replace("NaN", "null")
@@ -118,12 +142,18 @@ def viewer_script() -> str:
 def viewer_markup(data_text: str, title: str) -> str:
     """A viewer block: canvas, controls and the frames as inline JSON."""
     safe = data_text.strip().replace("</", "<\\/")
+    try:
+        arrows = [a.get("name", "") for a in json.loads(data_text).get("arrows", ())]
+    except (ValueError, AttributeError):
+        arrows = []
+    shown = html.escape(f"arrows: {', '.join(arrows)} at the centre of pressure, 1 m per "
+                        "1000 N" if arrows else "no ground reaction arrows in this result")
     return ("<figure class='pg-viewer'><canvas width='720' height='440' "
             "style='border:1px solid #ddd;max-width:100%;cursor:grab'></canvas>"
             "<div><button type='button'>pause</button> <input type='range' min='0' "
             "value='0' style='width:60%'> <span class='pg-time'></span></div>"
             f"<figcaption>{title} — 3D view: drag to turn, wheel to zoom; "
-            "ground reaction arrows 1 m per 1000 N</figcaption>"
+            f"{shown}</figcaption>"
             f"<script type='application/json'>{safe}</script></figure>")
 
 
@@ -136,7 +166,7 @@ def write_motion(folder: str | Path, model, t, q, *, reference_q=None, grf=None,
     from predgait.report.stick import write_gif
 
     folder = Path(folder)
-    write_gif(folder / "stick.gif", model, t, q, reference_q=reference_q)
+    write_gif(folder / "stick.gif", model, t, q, reference_q=reference_q, label=label)
     write_viewer(folder / "viewer.json", viewer_data(
         model, t, q, reference_q=reference_q, grf=grf, measured_grf=measured_grf,
         label=label))

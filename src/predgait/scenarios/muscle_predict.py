@@ -106,6 +106,9 @@ def baseline_prediction(run: MuscleScenarioRun):
 
     key = (str(run.baseline.source), run.overrides, repr(run.baseline))
     if key not in _BASELINES:
+        from predgait.problems.ipopt_progress import stage
+
+        stage("part 1/2: the unedited model's gait (baseline)")
         _BASELINES[key] = solve_prediction(run.baseline)
     return _BASELINES[key]
 
@@ -222,6 +225,9 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
         raise SolveFailed(f"Ipopt (baseline {Path(str(run.baseline.source)).name}): "
                           f"{s.status} after {s.iterations} iterations; no scenario is "
                           "solved without a baseline gait", best=base.gait)
+    from predgait.problems.ipopt_progress import stage
+
+    stage("part 2/2: the edited model's gait")
     clock = time.perf_counter()
     scenario = muscle_scenario(run.spec.edits, base.planar, base.plant.muscle_set)
     plant = scenario.edited_plant(base.plant)
@@ -240,7 +246,7 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
     bounds = scenario_bounds(plant, planar, spec, scenario, whole=whole)
     guess = whole_stride_guess(base.plant, base.gait.path) if whole else base.gait.path
     build_s = time.perf_counter() - clock
-    gait = problem.solve(guess, bounds, spec.goal)
+    gait = problem.solve(guess, bounds, spec.goal, label="edited model")
     check = scenario_check(plant, planar, scenario, gait)
     stride = edited_stride(plant, gait, check, whole=whole)
     edited = MusclePrediction(plant, planar, gait, (), check, stride, build_s)

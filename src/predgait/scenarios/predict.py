@@ -205,13 +205,17 @@ def run_predicted_scenario(scenario, spec: PredictSpec) -> PredictedScenario:
     Raises:
         SolveFailed: Ipopt did not converge on either (status and violation).
     """
+    from predgait.problems.ipopt_progress import stage
+
     sides = SIDE_SUFFIX[scenario.side]
     cycle = Cycle.HALF if len(sides) == 2 else Cycle.FULL
+    stage(f"scenario '{scenario.name}', part 1/2: the unedited 7-link model's gait")
     baseline = baseline_prediction(spec, cycle)
     model = edited_gait7(spec, (), ())
     edited_model = edited_gait7(spec, scenario.edits, sides)
     bounds, springs = joint_constraints(edited_model, scenario.edits, sides)
     full = replace(spec, cycle=cycle, nodes=spec.nodes * (1 if cycle is Cycle.HALF else 2))
+    stage(f"scenario '{scenario.name}', part 2/2: the edited model's gait")
     edited = edited_prediction(full, edited_model, bounds, springs, baseline)
     return PredictedScenario(scenario, baseline, edited, model, edited_model,
                              predicted_metrics(model, baseline, edited, sides))

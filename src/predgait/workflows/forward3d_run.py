@@ -104,7 +104,7 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
 
     from predgait.report.figures import plots_wanted, save_figure
     from predgait.report.fullbody_plots import plot_fullbody_runs
-    from predgait.report.viewer import write_motion
+    from predgait.report.viewer import plate_arrows, write_motion
 
     # One bar for the whole command (IK + ID, then each variant); hidden when stderr is
     # not a terminal.
@@ -122,7 +122,9 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
         save_figure(plot_fullbody_runs(runs, names, t0=t0), folder / "fullbody.png")
         longest = max(runs, key=lambda run: run.t[-1])  # the first of the longest runs
         write_motion(folder, drive.model, longest.t, longest.q, reference_q=longest.measured,
-                     label=f"simulated: {longest.mode.name}")
+                     label=f"simulated: {longest.mode.name}",
+                     grf=plate_arrows(inverse.plates, inverse.ik.time, longest.t,
+                                      prefix="measured plate") or None)
     rows = [_row(run, t0) for run in runs]
     options = spec.integrator
     summary = {

@@ -39,13 +39,19 @@ def solve_spec(spec: TrackingSpec) -> tuple[FullbodyDrive, TrackingData, Trackin
     Raises:
         SolveFailed: Ipopt did not converge.
     """
+    from predgait.problems.ipopt_progress import stage
+
+    stage("stage 1/3: whole-body IK + inverse dynamics of the trial")
     inverse = inverse_for(spec.trial)
     drive = FullbodyDrive.from_inverse(inverse)
     window = spec.window or gait_cycle(drive, inverse.stances)
     data = tracking_data(drive, plate_height(inverse), window, contact=spec.contact,
                          contact_height=spec.contact_height, stride=spec.stride)
+    stage(f"stage 2/3: tracking problem on {window[0]:.3f}..{window[1]:.3f} s "
+          "(building it takes a while)")
     return drive, data, solve_tracking(drive.model, data, spec.weights,
-                                       max_iter=spec.max_iter)
+                                       max_iter=spec.max_iter,
+                                       label="stage 2/3 whole-body tracking")
 
 
 def write_solution(folder: Path, drive: FullbodyDrive, solution: TrackingSolution,
@@ -139,9 +145,11 @@ def run_tracking(spec: TrackingSpec, out: Path, *, force: bool = False) -> dict:
     Raises:
         SolveFailed: Ipopt did not converge (nothing written).
     """
+    from predgait.problems.ipopt_progress import stage
     from predgait.report.figures import plots_wanted
 
     drive, data, solution = solve_spec(spec)
+    stage("stage 3/3: LQR gains and re-simulation without and with feedback")
     feedback, lqr, run = hold_with_feedback(spec, drive, data, solution)
     header = {"provenance": f"problem={spec.source}; trial={drive.source}; "
                             f"predgait={__version__}"}

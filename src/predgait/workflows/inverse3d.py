@@ -164,11 +164,12 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     info = summary(result)
     if plots_wanted():
         from predgait.report.clinical_plots import save_clinical_plots
-        from predgait.report.viewer import write_motion
+        from predgait.report.viewer import plate_arrows, write_motion
 
         save_clinical_plots(folder, time, angles, moments, info["stances"],
                             body_mass=result.model.total_mass())
-        write_motion(folder, result.model, time, result.q, label="measured (IK)")
+        write_motion(folder, result.model, time, result.q, label="measured (IK)",
+                     grf=plate_arrows(result.plates, time, time) or None)
     return write_summary(folder / "summary.json", info)
 
 

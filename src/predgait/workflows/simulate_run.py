@@ -147,7 +147,7 @@ def _plot_rod(folder: Path, spec: RodSpec, model, trial, runs: dict, main, study
     names = model.coordinate_names
     save_chart(folder / "rod_trajectories.png",
                coordinate_panels({k: (s.t, s.q) for k, s in runs.items()}, names,
-                                 reference=(trial.time, trial.q)),
+                                 reference=(trial.time, trial.q), xlabel="trial time (s)"),
                size=(6, 2.2 * len(names)), columns=1, hspace=0.3)
     if study:
         from predgait.report.figures import new_figure
@@ -179,7 +179,7 @@ def _variant_options(base, variant: Variant):
 
 def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
     from predgait.report.raster import save_chart
-    from predgait.report.simulation_plots import coordinate_panels
+    from predgait.report.simulation_plots import FROM_START, coordinate_panels
     from predgait.report.stick import save_stick_chart
     from predgait.report.viewer import write_motion
 
@@ -207,7 +207,8 @@ def _run_collapse(spec: CollapseSpec, folder: Path, progress: bool) -> dict:
     if plots_wanted():
         save_chart(folder / "angles.png",
                    coordinate_panels({k: (s.t, s.q[:, 3:]) for k, s in runs.items()},
-                                     ("ankle", "knee")), size=(6, 4.4), columns=1, hspace=0.3)
+                                     ("ankle", "knee"), kind="leg", xlabel=FROM_START),
+                   size=(6, 4.4), columns=1, hspace=0.3)
         longest = max(runs.values(), key=lambda s: len(s.t))
         save_stick_chart(folder / "stick.png", model, longest.t,
                          {name: sim.q for name, sim in runs.items()},
@@ -302,7 +303,7 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
         save_chart(folder / "angles.png",
                    coordinate_panels({k: (s.t, s.q[:, 3:]) for k, s in runs.items()}, joints,
                                      reference=(inv.time[inv.time <= t1],
-                                                inv.q[inv.time <= t1, 3:])),
+                                                inv.q[inv.time <= t1, 3:]), kind="leg"),
                    size=(6, 4.4), columns=1, hspace=0.3)
         save_chart(folder / "deviation.png",
                    [deviation_panel(main.t, main.q[:, 3:], (inv.time, inv.q[:, 3:]), joints,
@@ -313,7 +314,8 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
         save_chart(folder / "grf.png", grf_panels(main.t, main.grf, main.cop,
                                                   measured=measured_grf),
                    size=(6, 7), columns=1, hspace=0.3)
-        save_chart(folder / "contributions.png", contribution_panels(main.t, parts, joints),
+        save_chart(folder / "contributions.png", contribution_panels(main.t, parts, joints,
+                                                                      kind="leg"),
                    size=(6, 5.2), columns=1, hspace=0.3)
         save_stick_chart(folder / "stick.png", model, main.t,
                          {"measured": ref_q, "synthesized": main.q},
