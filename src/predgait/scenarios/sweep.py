@@ -143,7 +143,8 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
             ``dask.distributed.Client``.
         progress: Show a progress bar.
         connect_timeout: Seconds to wait for the Dask scheduler.
-        desc, unit: The progress bar's label and unit.
+        desc: The progress bar's label.
+        unit: The progress bar's unit.
     """
     if workers < 1:
         raise InputError(f"--workers = {workers}: give at least 1.")

@@ -52,8 +52,11 @@ class BatchRun:
 
 
 def check_results_folder(out: Path, dataset: Dataset, *, resume: bool, force: bool) -> None:
-    """Refuse ``out`` before any work: another dataset's results, foreign files, or a
-    finished run of this dataset without ``resume`` / ``force``; claim it."""
+    """Refuse a bad ``out`` before any work, then claim it.
+
+    Refused: another dataset's results, files predgait did not write, or results of this
+    dataset without ``resume`` / ``force``.
+    """
     from predgait.workflows.output import check_out
 
     inputs = [dataset.path, *(p for job in dataset.trials for p in (job.markers, job.grf) if p)]
@@ -74,8 +77,11 @@ def check_results_folder(out: Path, dataset: Dataset, *, resume: bool, force: bo
 
 
 def _publish(out: Path, fill) -> None:
-    """Write the dataset files: ``fill(folder)`` into a temporary folder in ``out``, then
-    each file renamed into ``out`` (each one whole)."""
+    """Write the dataset files, each one whole.
+
+    ``fill(folder)`` writes them into a temporary folder in ``out``; each file is then
+    renamed into ``out``.
+    """
     stage = Path(tempfile.mkdtemp(prefix=".dataset-", dir=out))
     try:
         fill(stage)
@@ -87,8 +93,10 @@ def _publish(out: Path, fill) -> None:
 
 @contextlib.contextmanager
 def _local_cluster(workers: int):
-    """A local Dask cluster's client (``workers`` processes, one thread each), or None
-    (the runner's local processes: one worker, or dask is not installed)."""
+    """A local Dask cluster's client (``workers`` processes, one thread each), or None.
+
+    None: the runner's local processes (one worker, or dask is not installed).
+    """
     if workers <= 1:
         yield None
         return

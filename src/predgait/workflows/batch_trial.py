@@ -55,8 +55,10 @@ def _side_of(name: str) -> tuple[str, str]:
 
 
 def _fullbody(body: dict, stage: Path, key: dict) -> tuple[list, dict]:
-    """Full-body inverse into ``stage/fullbody``; tidy rows of the cycles between the
-    starts of consecutive stances of the same foot on the plates."""
+    """Full-body inverse into ``stage/fullbody``; its tidy rows and notes.
+
+    Cycles: between the starts of consecutive stances of the same foot on the plates.
+    """
     from predgait.data import read_trc
     from predgait.dynamics.inverse3d_trial import (
         clinical,
