@@ -34,14 +34,14 @@ def _panels(cycles: Mapping[tuple, dict], curves: Mapping[tuple, tuple], band, u
             percent, mean, sd = band
             lines += [Line(percent, mean - sd, color=NORM, width=1.0),
                       Line(percent, mean + sd, color=NORM, width=1.0),
-                      Line(percent, mean, color=NORM, width=2.0, label="normative")]
+                      Line(percent, mean, color=NORM, width=2.0)]
         for values, flagged in cycles[group].values():
             lines.append(Line(PERCENT, values, color=RED if flagged else GREY, width=0.7))
         if group in curves:
             mean, sd = curves[group]
             lines += [Line(PERCENT, mean - sd, color=BLUE, width=0.8),
                       Line(PERCENT, mean + sd, color=BLUE, width=0.8),
-                      Line(PERCENT, mean, color=BLUE, width=2.0, label="mean +- SD")]
+                      Line(PERCENT, mean, color=BLUE, width=2.0)]
         subject, condition, side = group
         panels.append(Panel(tuple(lines), title=f"{subject}, {condition}, {side}",
                             xlabel="% gait cycle", ylabel=unit, hlines=(0.0,)))

@@ -121,7 +121,8 @@ def _local_cluster(workers: int):
 
 def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
               scheduler: str | None = None, resume: bool = False, force: bool = False,
-              normative: Path | None = None, progress: bool = True) -> BatchRun:
+              normative: Path | None = None, progress: bool = True,
+              connect_timeout: float = 10.0) -> BatchRun:
     """Run the dataset's trials and write the results folder (see the module docstring).
 
     Raises:
@@ -138,7 +139,8 @@ def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
         from predgait.report.dataset_tables import read_normative
 
         bands = read_normative(normative)
-    client = _dask_client(scheduler, 10.0) if scheduler else None   # unreachable: error now
+    # An unreachable scheduler is an error now, before any work.
+    client = _dask_client(scheduler, connect_timeout) if scheduler else None
     (out / "trials").mkdir(parents=True, exist_ok=True)
     (out / BATCH_JSON).write_text(json.dumps({"dataset": dataset.name,
                                               "predgait": __version__}) + "\n")
