@@ -258,3 +258,50 @@ def test_a_killed_worker_loses_no_trial(batch):
         assert json.loads((out / "trials" / killed[0] / "trial.json").read_text())["cycles"] > 0
     assert [r["status"] for r in rows.values()].count("ok") == 3
     assert not list((out / "trials").glob(".*"))   # the killed stage was cleaned up
+
+
+def test_fullbody_trial_equals_the_single_trial_command_and_the_report(tmp_path):
+    """analyses = ["fullbody"] on the bundled walk, with a normative band drawn."""
+    from predgait.data.bundled import bundled_path
+
+    text = (REPO / "problems" / "batch_subject01.toml").read_text()
+    text = text.replace('analyses = ["leg"]', 'analyses = ["fullbody"]').replace(
+        '"inverse_subject01', f'"{REPO}/problems/inverse_subject01').replace(
+        '"markers_fullbody', f'"{REPO}/problems/markers_fullbody')
+    dataset = tmp_path / "fullbody.toml"
+    dataset.write_text(text)
+    band = tmp_path / "band.csv"
+    band.write_text("# normative\nvariable,percent,mean,sd\n"
+                    + "".join(f"knee_flexion,{p},{30 * np.sin(np.pi * p / 100)},5\n"
+                              for p in range(0, 101, 10)))
+    out = tmp_path / "out"
+    assert main(["batch", str(dataset), "--out", str(out), "--workers", "1",
+                 "--normative", str(band)]) == 0
+    walk = bundled_path("subject01_walk1")
+    single = tmp_path / "single"
+    assert main(["inverse", str(walk / "subject01_walk1.trc"), "--grf",
+                 str(walk / "subject01_walk1_grf.mot"), "--static",
+                 str(walk / "subject01_static.trc"), "--mass", "72.6", "--height", "1.8034",
+                 "--model", "fullbody", "--marker-map",
+                 str(REPO / "problems" / "markers_fullbody_subject01.toml"), "--out",
+                 str(single), "--no-plots"]) == 0
+    trial = out / "trials" / "subject01__self-selected__subject01_walk1" / "fullbody"
+    for table in ("clinical.csv", "inverse_dynamics3d.csv"):
+        assert (trial / table).read_text() == (single / table).read_text(), table
+    with (out / "results.csv").open() as handle:
+        rows = [r for r in csv.DictReader(handle) if r["variable"] == "knee_flexion"]
+    assert {(r["side"], r["cycle"]) for r in rows} == {("right", "1"), ("right", "2"),
+                                                      ("left", "1"), ("left", "2")}
+    page = (out / "report.html").read_text()
+    assert "curves_fullbody_knee_flexion" in page and "normative band" in page
+    assert "subject01__self-selected__subject01_walk1</td>" in page
+
+
+def test_a_bad_normative_band_is_refused_before_any_work(batch, tmp_path, capsys):
+    _, dataset, _, _, _ = batch
+    band = tmp_path / "band.csv"
+    band.write_text("variable,percent,mean\nknee_flexion,0,1\n")
+    assert main(["batch", str(dataset), "--out", str(tmp_path / "out"), "--normative",
+                 str(band)]) == 2
+    assert "needs the columns mean, percent, sd, variable" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

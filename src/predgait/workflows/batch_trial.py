@@ -48,9 +48,11 @@ def _leg(options, stage: Path, key: dict) -> tuple[list, dict]:
 
 def _side_of(name: str) -> tuple[str, str]:
     """(variable, side) of a full-body clinical column (``hip_flexion_r`` -> right)."""
+    stem, moment = (name.removesuffix("_moment"), "_moment") if name.endswith("_moment") \
+        else (name, "")
     for suffix, side in (("_r", "right"), ("_l", "left")):
-        if name.endswith(suffix) or f"{suffix}_" in name:
-            return name.replace(suffix, "", 1), side
+        if stem.endswith(suffix):
+            return stem.removesuffix(suffix) + moment, side
     return name, "both"
 
 
@@ -80,20 +82,19 @@ def _fullbody(body: dict, stage: Path, key: dict) -> tuple[list, dict]:
         (folder / "scaled_model.urdf").write_text(result.model.urdf)
     angles, moments = clinical(result)
     mass = result.model.total_mass()
-    by_side: dict[str, dict] = {"right": {}, "left": {}}
+    by_side: dict[str, dict] = {"right": {}, "left": {}, "both": {}}
     for name, values in angles.items():
         variable, side = _side_of(name)
-        for target in (side,) if side != "both" else ("right", "left"):
-            by_side[target][variable] = (values, "deg")
+        by_side[side][variable] = (values, "deg")
     for name, values in moments.items():
         variable, side = _side_of(name)
-        if side != "both":
-            by_side[side][variable] = (values / mass, "N m/kg")
+        by_side[side][variable] = (values / mass, "N m/kg")
     rows, count = [], 0
-    for side, columns in by_side.items():
-        starts = sorted(s.start for s in result.stances if s.side == side[0])
+    for side, columns in by_side.items():   # pelvis and trunk ("both"): right-foot cycles
+        foot = "r" if side == "both" else side[0]
+        starts = sorted(s.start for s in result.stances if s.side == foot)
         cycles = list(zip(starts[:-1], starts[1:], strict=True))
-        count += len(cycles)
+        count += len(cycles) if side != "both" else 0
         rows += cycle_rows(key | {"analysis": "fullbody", "side": side}, result.ik.time,
                            cycles, columns)
     return rows, {"status": result.status(), "frames": int(result.ik.time.size),
