@@ -29,7 +29,7 @@ from predgait.errors import InputError
 from predgait.report.dataset_tables import CURVES, TIDY, mean_curves, read_rows, write_rows
 from predgait.textfile import check_not_input
 from predgait.workflows.batch_spec import Dataset
-from predgait.workflows.batch_trial import finished_digest, run_trial
+from predgait.workflows.batch_trial import TrialPoint, finished_digest, run_trial
 
 BATCH_JSON = "batch.json"
 STATUS = ("trial", "subject", "condition", "status", "cycles", "flagged_frames", "seconds",
@@ -128,7 +128,7 @@ def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
     Raises:
         InputError: a bad results folder, normative file or scheduler, before any work.
     """
-    from predgait.scenarios.sweep import SweepInterrupted, SweepPoint, _dask_client, run_sweep
+    from predgait.scenarios.sweep import SweepInterrupted, _dask_client, run_sweep
 
     out = Path(out)
     if workers < 1:
@@ -150,8 +150,8 @@ def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
         if resume and finished_digest(out / "trials" / job.id) == job.digest:
             run.rows[job.id] = _row(job, "unchanged", out=out)
         else:
-            todo.append(SweepPoint(index, {}))
-    task = functools.partial(run_trial, dataset.trials, str(out.resolve()))
+            todo.append(TrialPoint(index, {}, job))
+    task = functools.partial(run_trial, str(out.resolve()))
     started = time.perf_counter()
     given = contextlib.nullcontext(client) if client is not None else None
     try:

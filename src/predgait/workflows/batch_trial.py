@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from predgait.report.dataset_tables import TIDY, cycle_rows, write_rows
 from predgait.report.figures import plots_off
+from predgait.scenarios.sweep import SweepPoint
 from predgait.textfile import source_name
 from predgait.workflows.batch_spec import TrialJob
 
@@ -101,8 +102,15 @@ def _fullbody(body: dict, stage: Path, key: dict) -> tuple[list, dict]:
                   "flagged_frames": len(result.ik.failed_frames), "cycles": count}
 
 
-def run_trial(jobs: Sequence[TrialJob], out: str, point) -> dict[str, float]:
-    """Analyse ``jobs[point.index]`` and write ``<out>/trials/<id>/`` whole (the batch task).
+@dataclass(frozen=True)
+class TrialPoint(SweepPoint):
+    """A batch trial as a point of the sweep runner: its index in the dataset and job."""
+
+    job: TrialJob | None = None
+
+
+def run_trial(out: str, point: TrialPoint) -> dict[str, float]:
+    """Analyse ``point.job`` and write ``<out>/trials/<id>/`` whole (the batch task).
 
     Returns:
         Metrics: ``cycles`` (all analyses), ``flagged_frames``, ``seconds``.
@@ -112,7 +120,7 @@ def run_trial(jobs: Sequence[TrialJob], out: str, point) -> dict[str, float]:
     """
     from predgait.workflows.output import staged_output
 
-    job = jobs[point.index]
+    job = point.job
     start = time.perf_counter()
     key = {"subject": job.subject, "condition": job.condition, "trial": job.id}
     inputs = [job.markers, job.grf]
