@@ -56,8 +56,14 @@ def run(args: argparse.Namespace) -> int:
     from predgait.workflows.batch_spec import read_dataset
 
     dataset = read_dataset(args.dataset)
-    batch = run_batch(dataset, args.out, workers=args.workers, scheduler=args.scheduler,
-                      resume=args.resume, force=args.force, normative=args.normative)
+    try:
+        batch = run_batch(dataset, args.out, workers=args.workers, scheduler=args.scheduler,
+                          resume=args.resume, force=args.force, normative=args.normative)
+    except KeyboardInterrupt:   # every finished trial's folder is whole
+        whole = len(list((args.out / "trials").glob("*/trial.json")))
+        print(f"predgait: interrupted; {whole} finished trials are whole in {args.out}/trials; "
+              "run the same command with --resume to finish the rest.", file=sys.stderr)
+        return 130
     counts = ", ".join(f"{batch.count(s)} {s}" for s in ("ok", "flagged", "unchanged",
                                                           "failed", "not run")
                        if batch.count(s))
