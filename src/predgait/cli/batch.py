@@ -37,7 +37,8 @@ def register(commands: argparse._SubParsersAction) -> None:
                      help="local Dask worker processes (default 2; 1: in this process)")
     cmd.add_argument("--scheduler", metavar="ADDRESS",
                      help="an existing Dask scheduler, tcp://HOST:PORT (its workers need "
-                          "predgait and the trial files)")
+                          "predgait, and the trial files and --out at the same paths: one "
+                          "machine or a shared file system)")
     cmd.add_argument("--resume", action="store_true",
                      help="keep the whole results of unchanged trials in --out; run the rest")
     cmd.add_argument("--normative", type=Path, metavar="BAND.csv",
