@@ -55,7 +55,8 @@ def leg_motion(t: np.ndarray, walk: SyntheticWalk):
     return q, v, a
 
 
-def _frames(model, q: np.ndarray) -> dict[str, np.ndarray]:
+def frame_positions(model, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Lab positions (n, 3) m of the leg points' frames at each configuration (n, 5)."""
     import pinocchio as pin
 
     pm = model.pin_model
@@ -111,7 +112,7 @@ def write_synthetic_trial(folder: str | Path, walk: SyntheticWalk) -> dict[str, 
     duration = walk.cycles / walk.cadence + 0.5
     t = np.arange(0.0, duration + 1e-9, 1 / MARKER_RATE)
     q, v, a = leg_motion(t, walk)
-    positions = _frames(model, q)
+    positions = frame_positions(model, q)
     paths = {name: folder / file for name, file in (
         ("urdf", "leg.urdf"), ("markers", "markers.csv"), ("grf", "grf.mot"),
         ("problem", "inverse.toml"), ("answers", "answers.csv"))}
@@ -119,7 +120,7 @@ def write_synthetic_trial(folder: str | Path, walk: SyntheticWalk) -> dict[str, 
     write_csv(paths["markers"], t, {p: positions[f] for p, f in POINT_FRAMES.items()},
               units=dict.fromkeys(POINT_FRAMES, "m"), provenance=f"synthetic {walk}")
     t_plate = np.arange(0.0, duration + 1e-9, 1 / PLATE_RATE)
-    feet = _frames(model, leg_motion(t_plate, walk)[0])
+    feet = frame_positions(model, leg_motion(t_plate, walk)[0])
     _write_grf_mot(paths["grf"], t_plate, *ground_reaction(t_plate, feet["heel"], feet["toe"],
                                                            walk))
     exact = ground_reaction(t, positions["heel"], positions["toe"], walk)
