@@ -1,5 +1,6 @@
 """The tidy cycle table and the mean +- SD curves of a dataset (issue 31), on known signals."""
 
+import csv
 import math
 
 import numpy as np
@@ -8,12 +9,11 @@ import pytest
 from predgait.errors import InputError
 from predgait.report.dataset_tables import (
     ALL,
-    TIDY,
-    cycle_rows,
+    cycles_of,
     mean_curves,
+    read_cycles,
     read_normative,
-    read_rows,
-    write_rows,
+    write_cycles,
 )
 
 
@@ -25,31 +25,33 @@ def rows_of(trial: str, subject: str, amplitude: float, *, flag_cycle: int | Non
         values[int((flag_cycle - 0.5) * 100)] = np.nan
     key = {"subject": subject, "condition": "c", "trial": trial, "analysis": "leg",
            "side": "right"}
-    return cycle_rows(key, time, [(0.0, 1.0), (1.0, 2.0)], {"knee_flexion": (values, "deg")})
-
-
-def as_dicts(rows):
-    return [dict(zip(TIDY, r, strict=True)) for r in rows]
+    return cycles_of(key, time, [(0.0, 1.0), (1.0, 2.0)], {"knee_flexion": (values, "deg")})
 
 
 def test_cycles_are_resampled_to_percent_and_flagged(tmp_path):
-    rows = rows_of("t1", "s1", 10.0, flag_cycle=2)
-    assert len(rows) == 2 * 101
-    first = [r for r in as_dicts(rows) if r["cycle"] == 1]
-    np.testing.assert_allclose([r["value"] for r in first],
-                               10 * np.sin(2 * np.pi * np.arange(101) / 100), atol=0.02)
-    assert {r["flagged"] for r in as_dicts(rows) if r["cycle"] == 2} == {1}
-    assert {r["flagged"] for r in first} == {0}
-    write_rows(tmp_path / "t.csv", TIDY, rows)   # round trip, NaN as an empty cell
-    back = read_rows(tmp_path / "t.csv")
-    assert [r["percent"] for r in back[:3]] == [0, 1, 2]
-    assert sum(math.isnan(r["value"]) for r in back) == sum(math.isnan(r[8]) for r in rows)
+    first, second = rows_of("t1", "s1", 10.0, flag_cycle=2)
+    np.testing.assert_allclose(first.values, 10 * np.sin(2 * np.pi * np.arange(101) / 100),
+                               atol=0.02)
+    assert (first.cycle, first.flagged, second.cycle, second.flagged) == (1, False, 2, True)
+    assert np.flatnonzero(np.isnan(second.values)).tolist() == [50]   # the flagged frame
+    write_cycles(tmp_path, [first, second])      # round trips: the npz and the tidy CSV
+    back = read_cycles(tmp_path)
+    assert [(c.key, c.cycle, c.variable, c.unit, c.flagged) for c in back] == \
+        [(c.key, c.cycle, c.variable, c.unit, c.flagged) for c in (first, second)]
+    np.testing.assert_array_equal(back[1].values, second.values)
+    with (tmp_path / "cycles.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 202 and rows[101]["cycle"] == "2" and rows[101]["percent"] == "0"
+    values = [float(r["value"]) if r["value"] else math.nan for r in rows]
+    np.testing.assert_allclose(values, np.concatenate([first.values, second.values]),
+                               rtol=1e-9, atol=1e-12)
+    assert {r["flagged"] for r in rows[101:]} == {"1"} and rows[0]["subject"] == "s1"
 
 
 def test_mean_and_sd_over_cycles_leave_flagged_cycles_out():
-    rows = as_dicts(rows_of("t1", "s1", 10.0, flag_cycle=2) + rows_of("t2", "s1", 20.0)
-                    + rows_of("t3", "s2", 30.0))
-    curves = {(c[0], c[6]): c for c in mean_curves(rows)}
+    cycles = (rows_of("t1", "s1", 10.0, flag_cycle=2) + rows_of("t2", "s1", 20.0)
+              + rows_of("t3", "s2", 30.0))
+    curves = {(c[0], c[6]): c for c in mean_curves(cycles)}
     # s1 at 25 %: cycles 10 (t1 cycle 1), 20, 20 (t2): mean 16.67, SD 5.77; n = 3.
     subject, *_, mean, sd, n = curves[("s1", 25)]
     assert (mean, n) == (pytest.approx(50 / 3, abs=0.05), 3)

@@ -48,18 +48,20 @@ def _panels(cycles: Mapping[tuple, dict], curves: Mapping[tuple, tuple], band, u
     return panels
 
 
-def save_figures(folder: Path, rows: Sequence[Mapping], curves: Sequence[Sequence],
+def save_figures(folder: Path, cycles: Sequence, curves: Sequence[Sequence],
                  bands: Mapping | None = None) -> list[Path]:
-    """The small-multiples PNGs (see the module docstring); returns their paths."""
-    cycles: dict = defaultdict(lambda: defaultdict(dict))
+    """The small-multiples PNGs (see the module docstring); returns their paths.
+
+    ``cycles``: :class:`predgait.report.dataset_tables.Cycle`; ``curves``: rows of
+    :func:`predgait.report.dataset_tables.mean_curves`.
+    """
+    cycles_by: dict = defaultdict(lambda: defaultdict(dict))
     units = {}
-    for row in rows:
-        figure = (row["analysis"], row["variable"])
-        units[figure] = row["unit"]
-        group = (row["subject"], row["condition"], row["side"])
-        entry = cycles[figure][group].setdefault((row["trial"], row["cycle"]),
-                                                 (np.full(PERCENT.size, np.nan), row["flagged"]))
-        entry[0][row["percent"]] = row["value"]
+    for c in cycles:
+        subject, condition, trial, analysis, side = c.key
+        figure = (analysis, c.variable)
+        units[figure] = c.unit
+        cycles_by[figure][(subject, condition, side)][(trial, c.cycle)] = (c.values, c.flagged)
     means: dict = defaultdict(dict)
     collected: dict = defaultdict(lambda: (np.full(PERCENT.size, np.nan),
                                            np.full(PERCENT.size, np.nan)))
@@ -70,10 +72,10 @@ def save_figures(folder: Path, rows: Sequence[Mapping], curves: Sequence[Sequenc
     for (analysis, variable, *group), arrays in collected.items():
         means[(analysis, variable)][tuple(group)] = arrays
     paths = []
-    for figure in sorted(cycles):
+    for figure in sorted(cycles_by):
         analysis, variable = figure
         band = (bands or {}).get(variable)
-        panels = _panels(cycles[figure], means[figure], band, units[figure])
+        panels = _panels(cycles_by[figure], means[figure], band, units[figure])
         columns = min(len(panels), 3)
         rows_needed = -(-len(panels) // columns)
         path = folder / f"curves_{analysis}_{variable}.png"
@@ -83,10 +85,10 @@ def save_figures(folder: Path, rows: Sequence[Mapping], curves: Sequence[Sequenc
     return paths
 
 
-def write_report(folder: Path, name: str, status: Sequence[Mapping], rows: Sequence[Mapping],
+def write_report(folder: Path, name: str, status: Sequence[Mapping], cycles: Sequence,
                  curves: Sequence[Sequence], bands: Mapping | None = None) -> Path:
     """Write the figures and ``report.html`` into ``folder``; returns the page's path."""
-    figures = save_figures(folder, rows, curves, bands) if plots_wanted() else []
+    figures = save_figures(folder, cycles, curves, bands) if plots_wanted() else []
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     counts = defaultdict(int)
     for row in status:

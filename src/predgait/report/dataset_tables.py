@@ -10,9 +10,11 @@ not flagged (mean and sample SD, ddof = 1, with their count ``n``).
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -28,9 +30,26 @@ PERCENT = np.arange(101.0)
 ALL = "all"
 
 
-def cycle_rows(key: Mapping[str, str], time: np.ndarray, cycles: Sequence[tuple[float, float]],
-               columns: Mapping[str, tuple[np.ndarray, str]]) -> list[list]:
-    """Tidy rows of the cycles of one trial, analysis and side.
+@dataclass(frozen=True)
+class Cycle:
+    """One variable over one gait cycle of one trial, at 0, 1, ..., 100 %.
+
+    ``key``: subject, condition, trial, analysis, side; ``values`` (101,) in ``unit``
+    (NaN where a flagged frame was); ``flagged``: the cycle holds a flagged frame.
+    """
+
+    key: tuple[str, str, str, str, str]
+    cycle: int
+    variable: str
+    unit: str
+    flagged: bool
+    values: np.ndarray
+
+
+def cycles_of(key: Mapping[str, str], time: np.ndarray,
+              cycles: Sequence[tuple[float, float]],
+              columns: Mapping[str, tuple[np.ndarray, str]]) -> list[Cycle]:
+    """The cycles of one trial, analysis and side, resampled to % of the cycle.
 
     Args:
         key: subject, condition, trial, analysis, side.
@@ -38,21 +57,54 @@ def cycle_rows(key: Mapping[str, str], time: np.ndarray, cycles: Sequence[tuple[
         cycles: (start, end) times (s) of each gait cycle.
         columns: variable -> ((n,) values, unit).
     """
-    rows = []
+    ident = tuple(str(key[k]) for k in TIDY[:5])
+    out = []
     for number, (start, end) in enumerate(cycles, start=1):
         inside = (time >= start - 1e-9) & (time <= end + 1e-9)
         if inside.sum() < 3:
             continue
         at = start + PERCENT / 100.0 * (end - start)
-        sampled = {name: np.interp(at, time[inside], values[inside])
-                   for name, (values, _) in columns.items()}
         flagged = any(not np.isfinite(values[inside]).all() for values, _ in columns.values())
-        for name, (_, unit) in columns.items():
-            for percent, value in zip(PERCENT, sampled[name], strict=True):
-                rows.append([key["subject"], key["condition"], key["trial"], key["analysis"],
-                             key["side"], number, int(percent), name, float(value), unit,
-                             int(flagged)])
-    return rows
+        out += [Cycle(ident, number, name, unit, flagged,
+                      np.interp(at, time[inside], values[inside]))
+                for name, (values, unit) in columns.items()]
+    return out
+
+
+def _csv_cells(*cells) -> str:
+    handle = io.StringIO()
+    csv.writer(handle, lineterminator="").writerow(cells)
+    return handle.getvalue()
+
+
+def tidy_text(cycles: Sequence[Cycle]) -> str:
+    """The tidy table's rows (no header) of ``cycles``: one line per cycle and percent."""
+    parts = []
+    for c in cycles:
+        numbers = np.char.mod("%.10g", c.values)
+        numbers = np.where(np.isnan(c.values), "", numbers)
+        head = _csv_cells(*c.key, c.cycle) + ","
+        middle = "," + _csv_cells(c.variable) + ","
+        tail = "," + _csv_cells(c.unit, int(c.flagged)) + "\n"
+        parts += [f"{head}{p}{middle}{v}{tail}" for p, v in enumerate(numbers)]
+    return "".join(parts)
+
+
+def write_cycles(folder: Path, cycles: Sequence[Cycle]) -> None:
+    """``cycles.csv`` (tidy, :data:`TIDY`) and ``cycles.npz`` (the same numbers) in ``folder``."""
+    (folder / "cycles.csv").write_text(",".join(TIDY) + "\n" + tidy_text(cycles))
+    keys = np.array([[*c.key, str(c.cycle), c.variable, c.unit] for c in cycles], dtype=str)
+    np.savez(folder / "cycles.npz", keys=keys.reshape(-1, 8),
+             flagged=np.array([c.flagged for c in cycles], dtype=bool),
+             values=np.array([c.values for c in cycles], dtype=float).reshape(-1, PERCENT.size))
+
+
+def read_cycles(folder: Path) -> list[Cycle]:
+    """The cycles :func:`write_cycles` wrote in ``folder``."""
+    with np.load(folder / "cycles.npz") as data:
+        keys, flagged, values = data["keys"], data["flagged"], data["values"]
+    return [Cycle(tuple(k[:5]), int(k[5]), str(k[6]), str(k[7]), bool(f), v)
+            for k, f, v in zip(keys, flagged, values, strict=True)]
 
 
 def write_rows(path: Path, header: Sequence[str], rows: Iterable[Sequence]) -> None:
@@ -68,34 +120,26 @@ def write_rows(path: Path, header: Sequence[str], rows: Iterable[Sequence]) -> N
         writer.writerows([cell(v) for v in row] for row in rows)
 
 
-def read_rows(path: Path) -> list[dict]:
-    """Rows of a tidy table written by :func:`write_rows` (value as float, NaN if empty)."""
-    with path.open(newline="") as handle:
-        rows = list(csv.DictReader(handle))
-    for row in rows:
-        row["value"] = float(row["value"]) if row["value"] else math.nan
-        row["percent"], row["cycle"] = int(row["percent"]), int(row["cycle"])
-        row["flagged"] = int(row["flagged"])
-    return rows
-
-
-def mean_curves(rows: Sequence[Mapping]) -> list[list]:
+def mean_curves(cycles: Sequence[Cycle]) -> list[list]:
     """Mean +- SD over cycles and trials per subject and condition (and over all subjects).
 
-    Flagged cycles are left out; ``n`` counts the cycles averaged.
+    Flagged cycles are left out; ``n`` counts the cycles averaged. Rows: :data:`CURVES`.
     """
-    groups: dict[tuple, list[float]] = defaultdict(list)
-    for row in rows:
-        if row["flagged"]:
+    groups: dict[tuple, list[np.ndarray]] = defaultdict(list)
+    for c in cycles:
+        if c.flagged:
             continue
-        tail = (row["analysis"], row["side"], row["variable"], row["unit"], row["percent"])
-        groups[(row["subject"], row["condition"], *tail)].append(row["value"])
-        groups[(ALL, row["condition"], *tail)].append(row["value"])
+        subject, condition, _, analysis, side = c.key
+        tail = (analysis, side, c.variable, c.unit)
+        groups[(subject, condition, *tail)].append(c.values)
+        groups[(ALL, condition, *tail)].append(c.values)
     out = []
     for key in sorted(groups, key=lambda k: (k[0] == ALL, *k)):
         values = np.array(groups[key])
-        sd = float(values.std(ddof=1)) if values.size > 1 else math.nan
-        out.append([*key, float(values.mean()), sd, int(values.size)])
+        mean = values.mean(axis=0)
+        sd = values.std(axis=0, ddof=1) if len(values) > 1 else np.full(PERCENT.size, math.nan)
+        out += [[*key, int(p), float(m), float(d), len(values)]
+                for p, m, d in zip(PERCENT, mean, sd, strict=True)]
     return out
 
 

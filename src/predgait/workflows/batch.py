@@ -26,7 +26,7 @@ from pathlib import Path
 
 from predgait import __version__
 from predgait.errors import InputError
-from predgait.report.dataset_tables import CURVES, TIDY, mean_curves, read_rows, write_rows
+from predgait.report.dataset_tables import CURVES, TIDY, mean_curves, read_cycles, write_rows
 from predgait.textfile import check_not_input
 from predgait.workflows.batch_spec import Dataset
 from predgait.workflows.batch_trial import TrialPoint, finished_digest, run_trial
@@ -196,11 +196,10 @@ def _write_dataset(run: BatchRun, dataset: Dataset, bands) -> None:
     from predgait.report.dataset_report import write_report
     from predgait.report.tidy import write_summary
 
-    rows = []
-    for trial, info in run.rows.items():
-        if info["status"] in ("ok", "flagged", "unchanged"):
-            rows += read_rows(run.out / "trials" / trial / "cycles.csv")
-    curves = mean_curves(rows)
+    whole = [run.out / "trials" / trial for trial, info in run.rows.items()
+             if info["status"] in ("ok", "flagged", "unchanged")]
+    cycles = [c for folder in whole for c in read_cycles(folder)]
+    curves = mean_curves(cycles)
     failed = [r for r in run.rows.values() if r["status"] == "failed"]
     summary = {"dataset": dataset.name, "predgait": __version__,
                "status": ("incomplete: " + run.interrupted if run.interrupted else
@@ -208,22 +207,43 @@ def _write_dataset(run: BatchRun, dataset: Dataset, bands) -> None:
                           f"completed with {len(failed)} failed trials"),
                "trials": len(run.rows),
                **{k: run.count(k) for k in ("ok", "flagged", "unchanged", "failed", "not run")},
-               "cycles": len({(r["trial"], r["analysis"], r["side"], r["cycle"]) for r in rows}),
+               "cycles": len({(*c.key, c.cycle) for c in cycles}),
                "ran": run.ran, "wall_time_s": run.seconds,
                "trials_per_minute": 60 * run.ran / run.seconds if run.seconds else None,
                "failures": {r["trial"]: r["reason"] for r in failed}}
+
     def fill(stage: Path) -> None:
-        write_rows(stage / "results.csv", TIDY, ([r[k] for k in TIDY] for r in rows))
+        with (stage / "results.csv").open("w") as handle:   # the trials' tidy rows, joined
+            handle.write(",".join(TIDY) + "\n")
+            for folder in whole:
+                text = (folder / "cycles.csv").read_text()
+                handle.write(text[text.index("\n") + 1:])
         write_rows(stage / "curves.csv", CURVES, curves)
         write_rows(stage / "status.csv", STATUS, ([r[k] for k in STATUS]
                                                   for r in run.rows.values()))
         write_summary(stage / "summary.json", summary)
         with contextlib.suppress(ImportError):
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-
-            table = pa.table({k: [r[k] for r in rows] for k in TIDY})
-            pq.write_table(table, stage / "results.parquet")
-        write_report(stage, dataset.name, list(run.rows.values()), rows, curves, bands)
+            _write_parquet(stage / "results.parquet", cycles)
+        write_report(stage, dataset.name, list(run.rows.values()), cycles, curves, bands)
 
     _publish(run.out, fill)
+
+
+def _write_parquet(path: Path, cycles) -> None:
+    """The tidy table as Parquet (pyarrow; ImportError without it)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    n = 101
+
+    def each(values: list) -> list:   # one entry per cycle -> one per row
+        return [v for v in values for _ in range(n)]
+
+    columns = {name: each([c.key[i] for c in cycles]) for i, name in enumerate(TIDY[:5])}
+    columns["cycle"] = each([c.cycle for c in cycles])
+    columns["percent"] = list(range(n)) * len(cycles)
+    columns["variable"] = each([c.variable for c in cycles])
+    columns["value"] = [float(v) for c in cycles for v in c.values]
+    columns["unit"] = each([c.unit for c in cycles])
+    columns["flagged"] = each([int(c.flagged) for c in cycles])
+    pq.write_table(pa.table({k: columns[k] for k in TIDY}), path)

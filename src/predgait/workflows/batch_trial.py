@@ -3,11 +3,11 @@
 The trial's folder ``trials/<id>/`` is written whole or not at all (a staging folder
 renamed into place), so an interrupted batch leaves every finished trial whole: per leg
 side ``leg_<side>/`` (the files of ``predgait inverse``, same numbers), ``fullbody/`` (those
-of ``predgait inverse --model fullbody``), ``cycles.csv`` (the tidy rows of its gait
-cycles, :mod:`predgait.report.dataset_tables`) and ``trial.json`` (status, flags, the
-content hash that ``--resume`` compares). Models are cached per worker process
-(:func:`predgait.models.loading.load_model`, the full-body builder's caches), so a worker
-keeps them warm across trials.
+of ``predgait inverse --model fullbody``), ``cycles.csv`` and ``cycles.npz`` (its gait
+cycles: tidy rows and the same numbers, :mod:`predgait.report.dataset_tables`) and
+``trial.json`` (status, flags, the content hash that ``--resume`` compares). Models are
+cached per worker process (:func:`predgait.models.loading.load_model`, the full-body
+builder's caches), so a worker keeps them warm across trials.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from predgait.report.dataset_tables import TIDY, cycle_rows, write_rows
+from predgait.report.dataset_tables import cycles_of, write_cycles
 from predgait.report.figures import plots_off
 from predgait.scenarios.sweep import SweepPoint
 from predgait.textfile import source_name
@@ -41,7 +41,7 @@ def _leg(options, stage: Path, key: dict) -> tuple[list, dict]:
     columns = {k: (np.degrees(v), "deg") for k, v in result.anatomical_angles().items()}
     columns |= {k: (v / mass, "N m/kg") for k, v in result.clinical_moments().items()}
     cycles = result.events.cycles()
-    rows = cycle_rows(key | {"analysis": "leg", "side": str(options.side)}, result.time,
+    rows = cycles_of(key | {"analysis": "leg", "side": str(options.side)}, result.time,
                       cycles, columns)
     return rows, {"status": result.status(), "flagged_frames": int(result.ik.flagged.sum()),
                   "frames": int(result.time.size), "cycles": len(cycles)}
@@ -96,7 +96,7 @@ def _fullbody(body: dict, stage: Path, key: dict) -> tuple[list, dict]:
         starts = sorted(s.start for s in result.stances if s.side == foot)
         cycles = list(zip(starts[:-1], starts[1:], strict=True))
         count += len(cycles) if side != "both" else 0
-        rows += cycle_rows(key | {"analysis": "fullbody", "side": side}, result.ik.time,
+        rows += cycles_of(key | {"analysis": "fullbody", "side": side}, result.ik.time,
                            cycles, columns)
     return rows, {"status": result.status(), "frames": int(result.ik.time.size),
                   "flagged_frames": len(result.ik.failed_frames), "cycles": count}
@@ -133,7 +133,7 @@ def run_trial(out: str, point: TrialPoint) -> dict[str, float]:
         if job.fullbody is not None:
             part, notes["fullbody"] = _fullbody(job.fullbody, stage, key)
             rows += part
-        write_rows(stage / "cycles.csv", TIDY, rows)
+        write_cycles(stage, rows)
         flagged = sum(n["flagged_frames"] for n in notes.values())
         cycles = sum(n["cycles"] for n in notes.values())
         info = {"trial": job.id, "subject": job.subject, "condition": job.condition,
