@@ -28,6 +28,8 @@ from predgait.dynamics.inverse_trial import bundled_inverse, run_inverse
 from predgait.errors import InputError
 from predgait.kinematics import clinical
 from predgait.models.loading import load_model
+from predgait.simulations import synthetic_trials
+from predgait.simulations.synthetic_trials import SyntheticWalk
 
 POINTS = {"hip": "hip_center", "knee": "knee_center", "ankle": "ankle_center", "heel": "heel",
           "toe": "toe"}
@@ -39,29 +41,12 @@ SPEED = 0.6                # m/s, progression of the whole leg along +X
 
 def leg_motion(t):
     """Smooth coordinates (n, 5) and exact derivatives; content below 2 Hz, knee flexed."""
-    w = 2 * np.pi * 0.8
-    mean = np.array([0.3, 0.08, 0.0, 0.1, -0.5])
-    amp = np.array([0.05, 0.02, 0.15, 0.15, 0.4])
-    phase = np.array([0.0, 1.0, 0.5, 2.0, 1.0])
-    arg = w * t[:, None] + phase
-    q = mean + amp * np.sin(arg)
-    v = amp * w * np.cos(arg)
-    a = -amp * w**2 * np.sin(arg)
-    q[:, 0] += SPEED * t
-    v[:, 0] += SPEED
-    return q, v, a
+    return synthetic_trials.leg_motion(t, SyntheticWalk(cadence=0.8, speed=SPEED))
 
 
 def frame_positions(model, q):
     """Lab positions (n, 3) of the marker frames at each configuration."""
-    pm = model.pin_model
-    data = pm.createData()
-    out = {name: np.zeros((len(q), 3)) for name in POINTS.values()}
-    for k, qk in enumerate(q):
-        pin.framesForwardKinematics(pm, data, qk)
-        for name in out:
-            out[name][k] = data.oMf[model.frame_id(name)].translation
-    return out
+    return synthetic_trials.frame_positions(model, q)
 
 
 def ground_reaction(t, heel, toe):

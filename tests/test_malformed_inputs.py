@@ -52,6 +52,7 @@ PROBLEMS = {
     "scenario_cast_afo.toml": ["scenario", "{}"],
     "scenario_knee_arthrodesis.toml": ["scenario", "{}"],
     "sweep_knee_stiffness.toml": ["sweep", "{}", "--workers", "1"],
+    "batch_subject01.toml": ["batch", "{}", "--workers", "1"],
     "inverse_subject01.toml": ["inverse", "{}"],
     "inverse_winter_a1.toml": ["inverse", "{}"],
     "inverse_subject01_left.toml": ["inverse", "{}"],

@@ -20,7 +20,7 @@ from predgait.errors import PredgaitError
 
 #: Command modules, in the order they appear in ``predgait --help``.
 COMMAND_MODULES = ("demo", "model", "inverse", "simulate", "solve", "scenario", "sweep",
-                   "report")
+                   "report", "batch")
 
 DESCRIPTION = """\
 predgait: forward dynamic modelling of human walking.

@@ -131,7 +131,8 @@ def _dask_client(scheduler: str, timeout: float):
 
 def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequence[SweepPoint],
               *, workers: int = 2, scheduler: str | None = None,
-              progress: bool = True, connect_timeout: float = 10.0) -> list[SweepOutcome]:
+              progress: bool = True, connect_timeout: float = 10.0, desc: str = "sweep",
+              unit: str = "run") -> list[SweepOutcome]:
     """Run ``task`` at every point; failed points are recorded, not raised.
 
     Args:
@@ -142,6 +143,8 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
             ``dask.distributed.Client``.
         progress: Show a progress bar.
         connect_timeout: Seconds to wait for the Dask scheduler.
+        desc: The progress bar's label.
+        unit: The progress bar's unit.
     """
     if workers < 1:
         raise InputError(f"--workers = {workers}: give at least 1.")
@@ -149,7 +152,7 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
     if scheduler is not None:  # connect first: a bad address is one error line, no bar
         client = (_dask_client(scheduler, connect_timeout) if isinstance(scheduler, str)
                   else scheduler)
-    bar = tqdm(total=len(points), desc="sweep", unit="run", disable=not progress)
+    bar = tqdm(total=len(points), desc=desc, unit=unit, disable=not progress)
     try:
         if scheduler is not None:
             _run_dask(client, task, points, outcomes, bar,

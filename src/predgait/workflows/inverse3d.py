@@ -9,7 +9,8 @@ low-pass the coordinates, differentiate, assign the plates to the feet and run R
 ``kinematics3d.sto`` (deg, m), ``inverse_dynamics3d.sto`` and ``.csv`` (N m per Cardan
 axis, pelvis residual force N and moment N m in the lab), ``ik_residuals.csv`` (m per
 marker, RMS, flag), ``clinical_angles.sto`` (deg) and ``clinical_moments.sto`` (N m) with
-clinical names and signs (both also in ``clinical.csv``) and ``summary.json``.
+clinical names and signs (both also in ``clinical.csv``), ``model.osim`` and ``motion.mot``
+(the body and its motion for OpenSim) and ``summary.json``.
 
 The marker map is described in :mod:`predgait.dynamics.inverse3d_trial`.
 """
@@ -161,6 +162,7 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     res |= {"rms": result.ik.rms, "flagged": (~result.ik.converged).astype(float)}
     write_csv(folder / "ik_residuals.csv", time, res, units=dict.fromkeys(res, "m") |
               {"flagged": "1"}, provenance=prov)
+    write_opensim(result, folder)
     info = summary(result)
     if plots_wanted():
         from predgait.report.clinical_plots import save_clinical_plots
@@ -171,6 +173,23 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
         write_motion(folder, result.model, time, result.q, label="measured (IK)",
                      grf=plate_arrows(result.plates, time, time) or None)
     return write_summary(folder / "summary.json", info)
+
+
+def write_opensim(result: Inverse3DResult, folder: Path) -> None:
+    """Write ``model.osim`` and ``motion.mot`` for OpenSim into ``folder``.
+
+    The model: the scaled, calibrated body (:mod:`predgait.models.osim_write`); the motion:
+    its coordinates (deg, m) at every frame, flagged frames as fitted.
+    """
+    from predgait.models.osim_write import osim_text
+
+    markers = dict(zip(result.ik.marker_frames, result.ik.marker_names, strict=True))
+    (folder / "model.osim").write_text(osim_text(result.model, markers), encoding="utf-8")
+    prov = "; ".join(f"{k}={v}" for k, v in result.provenance.items())
+    write_storage(folder / "motion.mot", result.ik.time,
+                  coordinate_columns(result.q, result.model.joint_names), in_degrees=True,
+                  header={"units": "deg (rotations), m (pelvis_t*)", "model": "model.osim",
+                          "provenance": prov})
 
 
 def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Path, *,
