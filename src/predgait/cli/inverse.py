@@ -28,6 +28,14 @@ flagged: their results are NaN in the tables and gaps in the plots, and the run 
 after writing its outputs; --limit-margin widens the model's joint ranges.
 """
 
+#: The usage line: each way to call it with the options it requires (argparse would show
+#: --mass and --markers as optional, since a problem file gives them instead).
+USAGE = """
+  %(prog)s PROBLEM.toml --out DIR [--set KEY=VALUE] [options]
+  %(prog)s MARKERS.trc|.csv --grf GRF.mot --mass KG --markers hip=NAME,knee=NAME,... --out DIR
+  %(prog)s MARKERS.c3d --mass KG --markers hip=NAME,knee=NAME,... --out DIR [options]
+  %(prog)s MARKERS --model fullbody --marker-map FILE.toml --mass KG --height M --out DIR"""
+
 
 def _parse_markers(text: str) -> dict[str, str]:
     pairs = {}
@@ -47,7 +55,7 @@ def _parse_markers(text: str) -> dict[str, str]:
 def register(commands: argparse._SubParsersAction) -> None:
     """Add ``inverse``."""
     cmd = commands.add_parser("inverse", help="joint moments from markers and force plates",
-                              description=DESCRIPTION,
+                              description=DESCRIPTION, usage=USAGE,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("input", type=Path, help="PROBLEM.toml, or MARKERS.trc|.c3d|.csv")
     cmd.add_argument("--grf", type=Path, help="ground reactions (OpenSim .mot); none for C3D")

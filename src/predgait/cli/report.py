@@ -7,6 +7,9 @@ from pathlib import Path
 
 from predgait.models.urdf import check_output_file, write_text_atomic
 
+#: The names ``-o`` accepts: the report is HTML.
+SUFFIXES = (".html", ".htm")
+
 
 def register(commands: argparse._SubParsersAction) -> None:
     """Add ``report``."""
@@ -27,6 +30,12 @@ def run(args: argparse.Namespace) -> int:
     """Build and write the report."""
     from predgait.report.html import build_report  # not on every command's start-up path
 
+    if args.output.suffix.lower() not in SUFFIXES:
+        from predgait.errors import InputError
+
+        raise InputError(f"-o {args.output}: predgait report writes one HTML page; name it "
+                         f"{args.output.with_suffix('.html').name} (a PDF: print the page "
+                         "from a browser).")
     check_output_file(args.output, force=args.force, inputs=[args.folder])  # before work
     write_text_atomic(build_report(args.folder, anonymise=args.anonymise), args.output,
                       force=args.force, inputs=[args.folder])

@@ -98,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_out(args.out, force=args.force, inputs=[args.problem])  # before any computation
     table = load_problem(args.problem, args.set)
+    table.expect_command("solve")
     workflow = _WORKFLOWS.get(table.data.get("kind"))
     if workflow is not None:           # imports only what that kind needs
         return _run_workflow(workflow, table, args)

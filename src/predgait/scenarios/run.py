@@ -140,7 +140,9 @@ def parse_scenario(table: Table) -> ScenarioSpec:
 
 def load_scenario(path: str | Path, overrides=()) -> ScenarioSpec:
     """Read and parse a scenario file with ``--set`` overrides."""
-    return parse_scenario(load_problem(path, overrides))
+    table = load_problem(path, overrides)
+    table.expect_command("scenario")
+    return parse_scenario(table)
 
 
 def _passive_for(edits) -> dict[str, PassiveJoint]:

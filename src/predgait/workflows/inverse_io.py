@@ -63,6 +63,7 @@ def _point(table: Table, key: str):
 
 def options_from_problem(table: Table) -> InverseOptions:
     """InverseOptions from a ``problems/inverse_*.toml`` file (see those files)."""
+    table.expect_command("inverse")
     table.check_keys(("trial", "points", "options"))
     trial = table.table("trial", required=True)
     trial.check_keys(TRIAL_KEYS)
