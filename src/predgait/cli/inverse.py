@@ -200,11 +200,14 @@ def run_fullbody(args: argparse.Namespace) -> int:
                                    sex=args.sex, out_dir=args.out, static=args.static,
                                    cutoff=cutoff, grf_cutoff=grf_cutoff,
                                    limit_margin=args.limit_margin or 0.0, force=args.force)
+    from predgait.analysis.plausibility import warning_lines
     from predgait.dynamics.inverse_options import MOST_FRAMES
     from predgait.report.console import inverse3d_text
 
     print(inverse3d_text(summary, args.out))
     print(f"  status: {summary['status']}")
+    for line in warning_lines(summary):
+        print(line)
     flagged = len(summary.get("ik_flagged_frames") or [])
     if flagged > MOST_FRAMES * summary["frames"]:
         print(f"predgait: error: inverse kinematics flagged {flagged} of {summary['frames']} "
@@ -216,6 +219,7 @@ def run_fullbody(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and write the result folder."""
+    from predgait.analysis.plausibility import warning_lines
     from predgait.dynamics.inverse_options import MOST_FRAMES
     from predgait.dynamics.inverse_trial import run_inverse
     from predgait.workflows.inverse_io import summary, write_inverse_outputs
@@ -245,6 +249,8 @@ def run(args: argparse.Namespace) -> int:
         low, high = peaks[joint + "_moment_min"], peaks[joint + "_moment_max"]
         if low is not None:
             print(f"  {joint}_moment: {low:+.2f} .. {high:+.2f} N m/kg")
+    for line in warning_lines(info):
+        print(line)
     if info["flagged_frames"] > MOST_FRAMES * result.time.size:
         print(f"predgait: error: inverse kinematics flagged {info['flagged_frames']} of "
               f"{result.time.size} frames (the model cannot follow the markers there); the "

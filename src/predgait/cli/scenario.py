@@ -36,13 +36,15 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.set_defaults(run=run)
 
 
-def write_scenario(result, out: Path, *, force: bool = False) -> None:
-    """Write the scenario's result folder whole or not at all."""
+def write_scenario(result, out: Path, *, force: bool = False) -> dict:
+    """Write the scenario's result folder whole or not at all; returns its summary."""
+    from predgait.analysis.plausibility import record
     from predgait.data import write_storage
     from predgait.report.figures import plots_wanted
     from predgait.report.scenario_plots import save_scenario_plot
     from predgait.report.tidy import write_summary
     from predgait.scenarios.edits import edit_record
+    from predgait.scenarios.run import scenario_checks
     from predgait.workflows.output import staged_output
 
     with staged_output(out, force=force, inputs=[result.spec.source]) as stage:
@@ -54,6 +56,7 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
                    "control": {"kp_n_m_per_rad": result.spec.kp,
                                "kd_n_m_s_per_rad": result.spec.kd},
                    "metrics": result.metrics}
+        summary = record(summary, scenario_checks(result.metrics))
         write_summary(stage / "summary.json", summary)
         for name, sim in (("baseline", result.baseline), ("edited", result.edited)):
             columns = {n: sim.q[:, i] for i, n in enumerate(sim.coordinate_names)}
@@ -63,10 +66,12 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
         (stage / "edited_leg.urdf").write_text(result.edited_urdf)
         if plots_wanted():
             save_scenario_plot(stage, result)
+    return summary
 
 
 def run(args: argparse.Namespace) -> int:
     """Run and write a scenario."""
+    from predgait.analysis.plausibility import warning_lines
     from predgait.scenarios.run import load_scenario, run_scenario
     from predgait.workflows.output import check_out
 
@@ -77,9 +82,9 @@ def run(args: argparse.Namespace) -> int:
     if spec.predicts:
         return _run_predicted(spec, args)
     result = run_scenario(spec)
-    write_scenario(result, args.out, force=args.force)
+    summary = write_scenario(result, args.out, force=args.force)
     m = result.metrics
-    print(f"scenario '{result.spec.name}': {m['status']}; wrote {args.out}/")
+    print(f"scenario '{result.spec.name}': {summary['status']}; wrote {args.out}/")
     if m["status"].startswith("diverged"):
         import sys
 
@@ -90,6 +95,8 @@ def run(args: argparse.Namespace) -> int:
           f"{m['knee_max_change_deg']:.1f}); ankle {m['ankle_rms_change_deg']:.1f} deg")
     print(f"  extra feedback torque RMS: knee {m['knee_extra_feedback_rms_n_m']:.1f} N m, "
           f"ankle {m['ankle_extra_feedback_rms_n_m']:.1f} N m")
+    for line in warning_lines(summary):
+        print(line)
     return 0
 
 

@@ -40,6 +40,7 @@ from predgait.data import (
     read_trc,
     resample_plate,
 )
+from predgait.data.body_weight import PlateMass, plate_body_mass
 from predgait.data.trial import ForcePlate, Markers
 from predgait.dynamics.inverse3d import (
     InverseDynamics3D,
@@ -245,6 +246,8 @@ class Inverse3DResult:
     provenance: dict
     sides: np.ndarray | None = None
     scaling: Scaling | None = None
+    plate_mass: PlateMass | None = None   # body mass the plates measure (data.body_weight)
+    trusted: tuple[str, ...] = ()   # trial markers fitted with IK weight >= 1 (not down-weighted)
 
     @property
     def valid(self) -> np.ndarray:
@@ -333,7 +336,7 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
 
     ik, q = fit_walk(model)
     if grf_cutoff:
-        plates = [filter_plate(p, grf_cutoff) for p in plates]
+        plates = [filter_plate(p, grf_cutoff) for p in plates]   # a mean: same plate mass
     at_markers = tuple(resample_plate(p, ik.time) for p in plates)
     sides, stances = assign_plates(model, q, at_markers)
     feet = None
@@ -360,7 +363,9 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "window_s": [float(ik.time[0]), float(ik.time[-1])],
     }
     return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance,
-                           sides, scaling)
+                           sides, scaling, plate_body_mass(plates, gravity=model.gravity),
+                           tuple(m for f, m in zip(frames, names, strict=True)
+                                 if weights[f] >= 1.0))
 
 
 def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, *,

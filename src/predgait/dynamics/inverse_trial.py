@@ -27,6 +27,7 @@ from predgait.data import (
     lowpass,
     read_trc,
 )
+from predgait.data.body_weight import PlateMass, plate_body_mass
 from predgait.data.cutoffs import marker_cutoff, plate_cutoff
 from predgait.data.events import Events, Side
 from predgait.data.frames import rotate_markers
@@ -81,6 +82,7 @@ class InverseResult:
     leg: LegParameters | None = None
     flagged: np.ndarray | None = None
     knee_static: float = 0.0
+    plate_mass: PlateMass | None = None   # body mass the plates measure (data.body_weight)
 
     @property
     def valid(self) -> np.ndarray:
@@ -227,7 +229,8 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
         hip_force=inv.hip_force, hip_moment=inv.hip_moment, joint_force=inv.joint_force,
         grf=force, cop=cop, free_moment=free, events=events.shifted(t0), ik=ik,
         body_mass=options.mass, has_grf=has_grf, provenance=provenance, leg=leg,
-        flagged=flagged_outputs(ik.flagged), knee_static=knee_static)
+        flagged=flagged_outputs(ik.flagged), knee_static=knee_static,
+        plate_mass=plate_body_mass(trial.plates, gravity=model.gravity))
 
 
 @functools.lru_cache(maxsize=4)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from predgait import __version__
+from predgait.analysis.plausibility import record
 from predgait.data import Side, write_csv, write_storage
 from predgait.data.bundled import bundled_path
 from predgait.data.cutoffs import CutoffRule, parse_cutoff
@@ -151,7 +152,7 @@ def summary(result: InverseResult) -> dict:
     moments = result.clinical_moments()
     angles = result.anatomical_angles()
     ik = result.ik
-    return {
+    return record({
         "status": result.status(),
         "predgait": __version__,
         "window": "first gait cycle" if xlabel.startswith("%") else "whole trial",
@@ -173,7 +174,27 @@ def summary(result: InverseResult) -> dict:
         "toe_offs_s": [float(t) for t in result.events.toe_offs],
         "ground_reaction": "measured" if result.has_grf else "none (moments valid in swing only)",
         "provenance": result.provenance,
-    }
+    }, inverse_checks(result, mask))
+
+
+def inverse_checks(result: InverseResult, mask: np.ndarray) -> list:
+    """Plausibility of a leg inverse result over the analysed window (``mask``).
+
+    Peak |moment| per joint (N m/kg), the foot's peak vertical ground reaction (BW) and
+    the given mass against the plates' (:mod:`predgait.analysis.plausibility`).
+    """
+    from predgait.analysis.plausibility import grf_check, joint_moment_checks, mass_check
+
+    peaks = {k: _finite(np.nanmax, np.abs(v[mask]) / result.body_mass)
+             for k, v in result.clinical_moments().items()}
+    checks = joint_moment_checks(peaks)
+    if result.has_grf:
+        weight = result.body_mass * result.model.gravity
+        checks.append(grf_check(float(np.nanmax(result.grf[mask, 2])) / weight,
+                                f"peak vertical ground reaction ({result.side} foot)"))
+    plates = result.plate_mass
+    checks.append(mass_check(result.body_mass, plates.mass if plates else None))
+    return checks
 
 
 def _finite(reduce, values: np.ndarray) -> float | None:
