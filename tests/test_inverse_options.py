@@ -241,7 +241,7 @@ def test_fullbody_tables_are_nan_at_flagged_frames(tmp_path):
         read_marker_map,
         read_trial,
     )
-    from predgait.workflows.inverse3d import summary, write_outputs
+    from predgait.workflows.inverse3d import write_outputs
 
     data = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"
     markers, plates = read_trial([data / "subject01_walk1.trc",
