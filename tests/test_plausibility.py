@@ -183,3 +183,23 @@ def test_stiff_knee_scenario_warns_on_its_feedback(tmp_path, capsys):
     assert peaks["feedback_n_m"]["ankle"] > peaks["measured_drive_n_m"]["ankle"]
     assert any(w.startswith("peak |ankle feedback torque|") for w in summary["warnings"])
     assert "warning: peak |ankle feedback torque|" in capsys.readouterr().out
+
+
+def test_fullbody_marker_check_judges_trusted_markers_only():
+    """Down-weighted markers (IK weight < 1, e.g. subject01's arms from a T-pose static
+    trial) are not judged; a trusted one above 20 mm is."""
+    from types import SimpleNamespace
+
+    from predgait.workflows.inverse3d import inverse3d_checks
+
+    n = 20
+    residuals = np.column_stack([np.full(n, 0.008), np.full(n, 0.100), np.full(n, 0.025)])
+    result = SimpleNamespace(
+        model=SimpleNamespace(total_mass=lambda: 70.0, gravity=9.81), valid=np.ones(n, bool),
+        plates=(), plate_mass=None, trusted=("RASI", "STRN"),
+        ik=SimpleNamespace(residuals=residuals, marker_names=("RASI", "RELB", "STRN")))
+    [check] = [c for c in inverse3d_checks(result, {}, np.zeros(n), np.zeros(n, bool)) if c]
+    assert not check.passed and "STRN = 25 mm" in check.line() and "RELB" not in check.line()
+    result.trusted = ("RASI",)
+    [check] = [c for c in inverse3d_checks(result, {}, np.zeros(n), np.zeros(n, bool)) if c]
+    assert check.passed and check.value == pytest.approx(8.0)

@@ -129,20 +129,26 @@ def _run_muscle(args) -> int:
 
 def write_predicted_scenario(result, out: Path, *, force: bool = False) -> dict:
     """Write a predicted scenario's folder whole or not at all; returns the summary."""
+    from dataclasses import replace
+
+    from predgait.analysis.plausibility import record
     from predgait.report.figures import plots_wanted
     from predgait.report.tidy import write_summary
     from predgait.scenarios.edits import edit_record
     from predgait.workflows.output import staged_output
-    from predgait.workflows.predict import prediction_summary, write_prediction
+    from predgait.workflows.predict import predict_checks, prediction_summary, write_prediction
 
     spec = result.spec
+    checks = [replace(c, name=f"{which} gait: {c.name}")
+              for which, gait in (("edited", result.edited), ("unedited", result.baseline))
+              for c in predict_checks(spec.predict, gait)]
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
-        summary = write_summary(stage / "summary.json", {
+        summary = write_summary(stage / "summary.json", record({
             "status": result.metrics["status"], "scenario": spec.name, "predicts": True,
             "trial": "bundled:subject01", "side": spec.side,
             "edits": [edit_record(e) for e in spec.edits], "metrics": result.metrics,
             "baseline": prediction_summary(spec.predict, result.baseline),
-            "edited": prediction_summary(spec.predict, result.edited)})
+            "edited": prediction_summary(spec.predict, result.edited)}, checks))
         write_prediction(stage, result.model, result.baseline, prefix="baseline_")
         write_prediction(stage, result.edited_model, result.edited, prefix="edited_")
         (stage / "edited_gait7.urdf").write_text(result.edited_model.urdf)
@@ -166,10 +172,10 @@ def _run_predicted(spec, args) -> int:
     except SolveFailed as exc:
         print(f"predgait: solve failed: {exc}", file=sys.stderr)
         return 3
-    write_predicted_scenario(result, args.out, force=args.force)
+    summary = write_predicted_scenario(result, args.out, force=args.force)
     m = result.metrics
     print(f"scenario '{spec.name}' (predicted gait7, edits on {spec.side}): "
-          f"{m['status']}; wrote {args.out}/")
+          f"{summary['status']}; wrote {args.out}/")
     for s in m["edited_sides"]:
         print(f"  {s}: " + ", ".join(
             f"{j} range {m[f'{j}_{s}_range_deg']:.1f} deg (unedited "
@@ -185,4 +191,8 @@ def _run_predicted(spec, args) -> int:
         print(f"  engine re-simulation of the edited gait with TVLQR: max deviation "
               f"{m['resimulation_max_deviation_deg']:.2f} deg, feedback RMS "
               f"{m['resimulation_feedback_rms_n_m']:.2f} N m")
+    from predgait.analysis.plausibility import warning_lines
+
+    for line in warning_lines(summary):
+        print(line)
     return 0
