@@ -30,13 +30,13 @@ def run(args: argparse.Namespace) -> int:
     """Build and write the report."""
     from predgait.report.html import build_report  # not on every command's start-up path
 
+    check_output_file(args.output, force=args.force, inputs=[args.folder])  # before work
     if args.output.suffix.lower() not in SUFFIXES:
         from predgait.errors import InputError
 
         raise InputError(f"-o {args.output}: predgait report writes one HTML page; name it "
                          f"{args.output.with_suffix('.html').name} (a PDF: print the page "
                          "from a browser).")
-    check_output_file(args.output, force=args.force, inputs=[args.folder])  # before work
     write_text_atomic(build_report(args.folder, anonymise=args.anonymise), args.output,
                       force=args.force, inputs=[args.folder])
     print(f"wrote {args.output}")
