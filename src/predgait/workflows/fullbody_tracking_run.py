@@ -192,7 +192,8 @@ def summary_lines(info: dict) -> list[str]:
     """What ``predgait solve`` prints for ``kind = "fullbody_tracking"``."""
     dev = info["deviation"]
     lines = [
-        f"fullbody_tracking: {info['ipopt_status']} in {info['iterations']} iterations, "
+        f"fullbody_tracking: {info['status']}; Ipopt {info['ipopt_status']} in "
+        f"{info['iterations']} iterations, "
         f"{info['solve_time_s']:.1f} s ({info['nodes']} nodes, "
         f"{info['window_s'][0]:.3f}..{info['window_s'][1]:.3f} s)",
         f"  pelvis residual max {info['pelvis_residual_max_n']:.2e} N "

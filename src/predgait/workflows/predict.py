@@ -139,7 +139,8 @@ def run_predict(spec: PredictSpec, out: Path, *, force: bool = False) -> dict:
 def summary_lines(summary: dict) -> list[str]:
     """Console lines of a prediction summary."""
     g, chk = summary["gait"], summary["pinocchio_check"]
-    lines = [f"predict_gait7: {summary['ipopt_status']} in {summary['iterations']} iterations, "
+    lines = [f"predict_gait7: {summary['status']}; Ipopt {summary['ipopt_status']} in "
+             f"{summary['iterations']} iterations, "
              f"{summary['solve_time_s']:.1f} s ({summary['nodes']} nodes, "
              f"{summary['cycle']} cycle)" + "".join(
                  f"; before it {x['what']}: {x['iterations']} iterations, "
