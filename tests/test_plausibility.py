@@ -162,7 +162,7 @@ def test_leg_inverse_warns_on_a_wrong_mass_everywhere(tmp_path, capsys):
     assert "60 kg" in line and "--mass 72.7" in line
     assert f"  warning: {line}" in stdout and "completed with warnings" in stdout
     assert line in headline(out).warnings and headline(out).ok
-    assert "warning: given body mass" in build_report(out)
+    assert "warning: body mass = 60 kg" in build_report(out)
 
 
 def test_leg_inverse_of_subject01_has_no_warning(tmp_path, capsys):
@@ -203,3 +203,20 @@ def test_fullbody_marker_check_judges_trusted_markers_only():
     result.trusted = ("RASI",)
     [check] = [c for c in inverse3d_checks(result, {}, np.zeros(n), np.zeros(n, bool)) if c]
     assert check.passed and check.value == pytest.approx(8.0)
+
+
+def test_mass_plates_weighs_the_subject(tmp_path, capsys):
+    """``--mass plates``: subject01's plates give 72.7 kg (its README: 72.6 kg)."""
+    _, summary, _ = _inverse(tmp_path, capsys, "--mass", "plates")
+    assert summary["provenance"]["mass_kg"] == pytest.approx(72.7, abs=0.05)
+    assert summary["provenance"]["mass_from"] == "plates"
+    assert not [w for w in summary["warnings"] if "body mass" in w]
+
+
+def test_mass_plates_without_two_plates_is_refused(tmp_path, capsys):
+    from predgait.cli import main
+
+    assert main(["inverse", str(REPO / "problems" / "inverse_winter_a1.toml"), "--mass",
+                 "plates", "--out", str(tmp_path / "out")]) == 2
+    assert "cannot weigh the subject: give the body mass in kg" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

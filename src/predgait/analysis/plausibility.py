@@ -120,12 +120,12 @@ def mass_check(mass: float, plate_mass: float | None) -> Check | None:
     if plate_mass is None:
         return None
     off = abs(mass - plate_mass) / plate_mass
-    return Check("given body mass", mass,
+    return Check("body mass", mass,
                  f"{plate_mass:.1f} kg +- {100 * MAX_MASS_FRACTION:g} % (the plates' mass)",
                  MASS_SOURCE, off <= MAX_MASS_FRACTION, "kg",
                  "" if off <= MAX_MASS_FRACTION else
-                 f"check the mass; the plates' value is --mass {plate_mass:.1f} "
-                 f"(problem file: [trial] mass = {plate_mass:.1f})")
+                 f"check the mass; the plates' value is --mass {plate_mass:.1f}, or --mass "
+                 f"plates (problem file: [trial] mass = {plate_mass:.1f} or \"plates\")")
 
 
 def feedback_checks(feedback: Mapping[str, float], measured: Mapping[str, float]

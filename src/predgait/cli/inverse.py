@@ -37,6 +37,16 @@ USAGE = """
   %(prog)s MARKERS --model fullbody --marker-map FILE.toml --mass KG --height M --out DIR"""
 
 
+def _mass(text: str) -> float | str:
+    """``--mass``: a number (kg) or "plates"."""
+    if text.strip().lower() == "plates":
+        return "plates"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a mass in kg or 'plates'") from None
+
+
 def _parse_markers(text: str) -> dict[str, str]:
     pairs = {}
     for item in filter(None, (p.strip() for p in text.split(","))):
@@ -62,7 +72,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.add_argument("--static", type=Path,
                      help="static trial (TRC): segment lengths (leg) or, with --model fullbody, "
                           "marker calibration and the marker map's [scaling]")
-    cmd.add_argument("--mass", type=float, metavar="KG", help="body mass, kg (required)")
+    cmd.add_argument("--mass", type=_mass, metavar="KG|plates",
+                     help="body mass, kg (required), or 'plates': weighed on the force plates "
+                          "(mean vertical force over a step / g)")
     cmd.add_argument("--height", type=float, metavar="M", help="standing height, m")
     cmd.add_argument("--side", choices=("right", "left"), help="analysed leg (default right)")
     cmd.add_argument("--markers", metavar="hip=NAME,knee=NAME,ankle=NAME,heel=NAME,toe=NAME",
@@ -117,7 +129,7 @@ def _flag_options(args: argparse.Namespace) -> dict:
         given["side"] = Side(given["side"])
     for name, low, high, unit in (("mass", 20, 300, "kg"), ("height", 0.5, 2.5, "m"),
                                   ("threshold", 0.1, 500, "N"), ("limit_margin", 0, 180, "deg")):
-        if name in given and not low <= given[name] <= high:
+        if name in given and given[name] != "plates" and not low <= given[name] <= high:
             raise InputError(f"--{name.replace('_', '-')} {given[name]:g} {unit} is outside "
                              f"{low:g}..{high:g} {unit}.")
     return given
@@ -144,7 +156,8 @@ def options_from_args(args: argparse.Namespace):
         raise InputError("--set KEY=VALUE changes a problem file's key; give a PROBLEM.toml "
                          "or use the options directly.")
     if args.mass is None:
-        raise InputError("--mass (kg) is required: joint moments depend on the body mass.")
+        raise InputError("--mass (kg) is required: joint moments depend on the body mass "
+                         "(--mass plates weighs the subject on the force plates).")
     if not args.markers:
         raise InputError("--markers is required with a marker file, e.g. "
                          "--markers hip=RHJC,knee=RKJC,ankle=RAJC,heel=RCAL,toe=RMT2.")

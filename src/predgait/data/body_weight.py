@@ -20,6 +20,7 @@ import numpy as np
 
 from predgait.data.events import runs_of
 from predgait.data.trial import ForcePlate
+from predgait.errors import InputError
 
 #: Vertical force (N) above which a plate is in contact for this estimate.
 CONTACT_N = 50.0
@@ -78,3 +79,24 @@ def plate_body_mass(plates: Sequence[ForcePlate], *, gravity: float = 9.81
     if not steps:
         return None
     return PlateMass(float(np.mean(steps)), tuple(steps), tuple(windows))
+
+
+#: The value of ``--mass`` / ``[trial] mass`` that weighs the subject on the plates.
+PLATES = "plates"
+
+
+def resolve_mass(mass: float | str, plates: Sequence[ForcePlate], *, source: str,
+                 gravity: float = 9.81) -> float:
+    """``mass`` in kg, or for ``"plates"`` the plates' (:func:`plate_body_mass`, 0.1 kg).
+
+    Raises:
+        InputError: ``"plates"`` and the plates cannot weigh the subject.
+    """
+    if mass != PLATES:
+        return float(mass)
+    weighed = plate_body_mass(plates, gravity=gravity)
+    if weighed is None:
+        raise InputError(f"{source}: mass = \"plates\" needs two overlapping stances on "
+                         "different plates (one foot on each); these plates cannot weigh the "
+                         "subject: give the body mass in kg.")
+    return round(weighed.mass, 1)
