@@ -220,3 +220,19 @@ def test_mass_plates_without_two_plates_is_refused(tmp_path, capsys):
                  "plates", "--out", str(tmp_path / "out")]) == 2
     assert "cannot weigh the subject: give the body mass in kg" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("change", "passed"), [((20.0, 5.0), [True, True]),
+                                                ((150.0, 5.0), [False, True])])
+def test_torque_correction_larger_than_the_measured_moment_warns(change, passed):
+    """A correction of the measured drive (N m) beyond its peak |moment| is implausible."""
+    from types import SimpleNamespace
+
+    from predgait.workflows.solve import Kind, solve_checks
+
+    spec = SimpleNamespace(kind=Kind.TORQUE_CORRECTION)
+    fit = SimpleNamespace(torque_change=np.array([[0.0, 0.0], change]), parameters={})
+    drivers = SimpleNamespace(joint_torque=lambda t: np.array([-124.0 * t, 44.5 * t]))
+    checks = solve_checks(spec, fit, drivers, SimpleNamespace(t=np.array([0.0, 1.0])))
+    assert [c.passed for c in checks] == passed
+    assert checks[0].name == "peak |ankle torque correction|" and checks[0].bound == "<= 124 N m"

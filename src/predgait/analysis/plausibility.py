@@ -128,10 +128,13 @@ def mass_check(mass: float, plate_mass: float | None) -> Check | None:
                  f"plates (problem file: [trial] mass = {plate_mass:.1f} or \"plates\")")
 
 
-def feedback_checks(feedback: Mapping[str, float], measured: Mapping[str, float]
-                    ) -> list[Check]:
-    """Peak |feedback torque| per joint (N m) against the peak |measured moment| (N m)."""
-    return [at_most(f"peak |{joint} feedback torque|", value, measured[joint], unit="N m",
+def feedback_checks(feedback: Mapping[str, float], measured: Mapping[str, float], *,
+                    what: str = "feedback torque") -> list[Check]:
+    """Peak |feedback torque| per joint (N m) against the peak |measured moment| (N m).
+
+    ``what`` names the added torque (a feedback, a torque correction, a fitted spring).
+    """
+    return [at_most(f"peak |{joint} {what}|", value, measured[joint], unit="N m",
                     source=FEEDBACK_SOURCE)
             for joint, value in feedback.items()
             if joint in measured and value is not None and math.isfinite(value)]
