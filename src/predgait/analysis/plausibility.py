@@ -37,7 +37,7 @@ MOMENT_BOUNDS = {"hip": 2.0, "knee": 1.6, "ankle": 2.2}
 MOMENT_SOURCE = ("Winter 2009 ch. 5, Kadaba et al. 1989: normal peaks ankle 1.6, knee <= 1.0, "
                  "hip <= 1.2 N m/kg")
 MAX_GRF_BW = 2.0
-GRF_SOURCE = "Keller et al. 1996 (walking 1.0-1.5 BW)"
+GRF_SOURCE = "Keller et al. 1996, walking 1.0-1.5 BW"
 MAX_RESIDUAL_FRACTION = 0.05
 RESIDUAL_SOURCE = "Hicks et al. 2015, residual force < 5 % of the peak external force"
 MAX_MARKER_RMS_M = 0.020
