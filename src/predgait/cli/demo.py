@@ -95,18 +95,8 @@ def register(commands: argparse._SubParsersAction) -> None:
     demo.set_defaults(run=run)
 
 
-def _stage(name: str, started: float, folder: Path | None = None) -> None:
-    """The stage's time, then the plausibility warnings of its summary (if any)."""
+def _stage(name: str, started: float) -> None:
     print(f"  {name:<38} {time.perf_counter() - started:6.1f} s")
-    if folder is not None:
-        import json
-
-        from predgait.analysis.plausibility import warning_lines
-        from predgait.report.headline import summary_file
-
-        path = summary_file(folder)
-        for line in warning_lines(json.loads(path.read_text())) if path else ():
-            print(f"  {line}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -133,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
         started = time.perf_counter()
         result = bundled_inverse("right")
         write_inverse_outputs(result, stage / "01_inverse_dynamics")
-        _stage("1 inverse dynamics", started, stage / "01_inverse_dynamics")
+        _stage("1 inverse dynamics", started)
         problems = stage / "problems"
         problems.mkdir()
         (problems / "resynthesis.toml").write_text(RESYNTHESIS)
@@ -141,16 +131,33 @@ def run(args: argparse.Namespace) -> int:
         folder = stage / "02_resynthesis"
         folder.mkdir()
         run_spec(parse_spec(problems / "resynthesis.toml"), folder)
-        _stage("2 forward re-synthesis", started, folder)
+        _stage("2 forward re-synthesis", started)
         for number, kind in ((3, "knee_fit"), (4, "torque_correction")):
             path = problems / f"{kind}.toml"
             path.write_text(SOLVE.format(kind=kind))
             run_solve(parse_solve(load_problem(path)), stage / f"0{number}_{kind}")
-            _stage(f"{number} {kind.replace('_', ' ')}", started, stage / f"0{number}_{kind}")
+            _stage(f"{number} {kind.replace('_', ' ')}", started)
         write_scenario(run_scenario(load_scenario(problems / "scenario_stiff_knee.toml")),
                        stage / "05_scenario_stiff_knee")
-        _stage("5 scenario: stiffer knee", started, stage / "05_scenario_stiff_knee")
+        _stage("5 scenario: stiffer knee", started)
         write_text_atomic(build_report(stage, title="predgait demo: subject01 right leg",
                                        source=out.name, intro=INTRO), stage / "report.html")
     print(f"wrote {out}/report.html (open it in a browser)")
+    _print_warnings(out)
     return 0
+
+
+def _print_warnings(out: Path) -> None:
+    """Each result's plausibility warnings (analysis.plausibility), under its folder name."""
+    import json
+
+    from predgait.analysis.plausibility import warning_lines
+    from predgait.report.headline import summary_file
+
+    for folder in sorted(p for p in out.iterdir() if p.is_dir()):
+        path = summary_file(folder)
+        lines = warning_lines(json.loads(path.read_text())) if path else []
+        if lines:
+            print(f"  {folder.name}: {len(lines)} plausibility warning(s)")
+            for line in lines:
+                print(f"  {line}")
