@@ -261,7 +261,8 @@ def _set_override(data: dict, assignment: str, path: Path) -> None:
 #: The command that runs each problem ``kind`` (the file's top-level ``kind`` key).
 COMMAND_KINDS = {
     "solve": ("knee_fit", "torque_correction", "feedback_gains", "passive_decomposition",
-              "passive_shooting", "passive_swing", "torque_feedback", "predict_gait7",
+              "passive_shooting", "passive_swing", "passive_knee_ankle", "torque_feedback",
+              "predict_gait7",
               "predict_muscles_2d", "fullbody_tracking"),
     "simulate": ("rod", "collapse", "resynthesis", "gait7", "fullbody"),
     "scenario": ("muscle_scenario",),
