@@ -23,7 +23,25 @@ def demo_folder(tmp_path_factory):
     result = run_cli("demo", cwd=cwd)
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
+    (cwd / "demo_stdout.txt").write_text(result.stdout)
     return cwd / "predgait-demo"
+
+
+def test_demo_prints_and_headlines_the_warnings_of_its_results(demo_folder):
+    """The stiffer-knee scenario's feedback (peak ~480 N m at the ankle, the subject's own
+    peak moment 124 N m: issue 30) is a warning on the console and in its headline."""
+    from predgait.report.headline import headline
+
+    stdout = (demo_folder.parent / "demo_stdout.txt").read_text()
+    scenario = demo_folder / "05_scenario_stiff_knee"
+    summary = json.loads((scenario / "summary.json").read_text())
+    assert summary["status"] == "completed with warnings"
+    assert any(w.startswith("peak |ankle feedback torque|") for w in summary["warnings"])
+    for folder in sorted(demo_folder.glob("0*_*")):
+        head = headline(folder)
+        for line in head.warnings:
+            assert f"warning: {line}" in stdout
+    assert headline(scenario).warnings == tuple(summary["warnings"])
 
 
 def test_demo_writes_results_and_a_report(demo_folder, assert_tidy_result):

@@ -150,7 +150,9 @@ def test_cli_recovers_the_torques_that_moved_the_leg(aba_trial, tmp_path):
     run = run_cli(folder, tmp_path / "out", "--model", str(folder / "leg.urdf"))
     assert run.returncode == 0, run.stderr
     summary, table = read_outputs(tmp_path / "out")
-    assert summary["status"] == "completed"
+    # (the synthetic motion is no walk: its hip moment, 2.6 N m/kg, is a plausibility warning)
+    assert summary["status"] in ("completed", "completed with warnings")
+    assert summary["flagged_frames"] == 0
     lab_time = table["time"] + summary["provenance"]["time_zero_s"]
     np.testing.assert_allclose(lab_time, t, atol=1e-6)
     inner = np.zeros(t.size, dtype=bool)
@@ -180,7 +182,8 @@ def test_swing_beyond_the_knee_range_is_flagged(aba_trial, tmp_path):
     summary, table = read_outputs(tmp_path / "out")
     beyond = np.degrees(-qs[:, 4]) > max_flexion_deg
     assert summary["flagged_frames"] == beyond.sum()
-    assert summary["status"] == f"completed with {beyond.sum()} flagged frames"
+    # (plus "and warnings": the synthetic hip moment is beyond walking's)
+    assert summary["status"].startswith(f"completed with {beyond.sum()} flagged frames")
     assert summary["status"] in run.stdout
     assert summary["flagged_frames_at_joint_limits"] == {"knee": int(beyond.sum())}
     for name in ("hip_flexion_moment", "knee_flexion_moment", "ankle_dorsiflexion_moment"):

@@ -241,7 +241,7 @@ def test_fullbody_tables_are_nan_at_flagged_frames(tmp_path):
         read_marker_map,
         read_trial,
     )
-    from predgait.workflows.inverse3d import summary, write_outputs
+    from predgait.workflows.inverse3d import write_outputs
 
     data = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"
     markers, plates = read_trial([data / "subject01_walk1.trc",
@@ -249,7 +249,7 @@ def test_fullbody_tables_are_nan_at_flagged_frames(tmp_path):
     marker_map = read_marker_map(REPO / "problems" / "markers_fullbody_subject01.toml")
     result = inverse_fullbody(markers, plates, marker_map, mass=72.6, height=1.8034,
                               static=read_trc(data / "subject01_static.trc"))
-    assert summary(result)["status"] == "completed"
+    assert result.status() == "completed"   # (summary: "with warnings", residual and sternum)
     converged = result.ik.converged.copy()
     converged[40:50] = False
     flagged = dataclasses.replace(result, ik=dataclasses.replace(result.ik, converged=converged))
@@ -258,7 +258,7 @@ def test_fullbody_tables_are_nan_at_flagged_frames(tmp_path):
         assert np.isnan(values[38:52]).all() and np.isfinite(values[:38]).all()
     write_outputs(flagged, tmp_path)
     info = json.loads((tmp_path / "summary.json").read_text())
-    assert info["status"] == "completed with 10 flagged frames"
+    assert info["status"].startswith("completed with 10 flagged frames")
     table = read_storage(tmp_path / "inverse_dynamics3d.sto")
     assert np.isnan(table.column("knee_r_y_moment")[38:52]).all()
 

@@ -52,6 +52,27 @@ class Table:
             if key not in allowed:
                 raise self.error(key, f"unknown key; valid keys here: {', '.join(allowed)}.")
 
+    def expect_command(self, command: str) -> None:
+        """Refuse a problem file that belongs to another command, naming that command.
+
+        Args:
+            command: The running command ("solve", "simulate", "scenario", "sweep",
+                "inverse").
+        """
+        owner = problem_command(self.data)
+        if owner is None or owner == command:
+            return
+        kind = self.data.get("kind")
+        what = (f"kind = {kind!r}" if isinstance(kind, str) else
+                {"sweep": "a sweep ('scenario' with [grid] or [random])",
+                 "scenario": "a scenario ([[edit]] / [control] tables)",
+                 "inverse": "an inverse-dynamics problem ([trial] markers)",
+                 "inverse --model fullbody --marker-map": "a full-body marker map ([markers])"}
+                [owner])
+        key = "kind" if isinstance(kind, str) else next(iter(self.data), "kind")
+        raise self.error(key, f"{what} is a problem for 'predgait {owner}', not 'predgait "
+                              f"{command}': run 'predgait {owner} {self.path} ...'.")
+
     def table(self, key: str, *, required: bool = False) -> Table:
         """A sub-table (empty if absent and not required)."""
         value = self.data.get(key, _MISSING)
@@ -235,6 +256,38 @@ def _set_override(data: dict, assignment: str, path: Path) -> None:
     if isinstance(node, list):
         raise InputError(f"--set {assignment!r}: '{parts[-1]}' needs a key after the index.")
     node[parts[-1]] = value
+
+
+#: The command that runs each problem ``kind`` (the file's top-level ``kind`` key).
+COMMAND_KINDS = {
+    "solve": ("knee_fit", "torque_correction", "feedback_gains", "passive_decomposition",
+              "passive_shooting", "passive_swing", "passive_knee_ankle", "torque_feedback",
+              "predict_gait7",
+              "predict_muscles_2d", "fullbody_tracking"),
+    "simulate": ("rod", "collapse", "resynthesis", "gait7", "fullbody"),
+    "scenario": ("muscle_scenario",),
+}
+
+
+def problem_command(data: dict) -> str | None:
+    """The predgait command a problem file's contents belong to (None: not recognised).
+
+    By its top-level ``kind`` (:data:`COMMAND_KINDS`); without one, a sweep has
+    ``scenario`` and ``[grid]``/``[random]``, a leg scenario ``[[edit]]`` or ``[control]``,
+    an inverse problem ``[trial]`` with ``markers``, a marker map a ``[markers]`` table.
+    """
+    kind = data.get("kind")
+    if isinstance(kind, str):
+        return next((c for c, kinds in COMMAND_KINDS.items() if kind in kinds), None)
+    if "scenario" in data and ("grid" in data or "random" in data):
+        return "sweep"
+    if "edit" in data or "control" in data:
+        return "scenario"
+    if isinstance(data.get("trial"), dict) and "markers" in data["trial"]:
+        return "inverse"
+    if isinstance(data.get("markers"), dict):
+        return "inverse --model fullbody --marker-map"
+    return None
 
 
 def load_problem(path: str | Path, overrides: Sequence[str] = ()) -> Table:

@@ -48,6 +48,34 @@ def check_not_input(out: str | Path, inputs: Iterable[str | Path] = (), *,
                              "path outside it.")
 
 
+#: A C3D header block: byte 0 points to the parameter block, byte 1 is 0x50 (C3D.org,
+#: "The C3D File Format User Guide", 2008, ch. 3).
+C3D_KEY = 0x50
+#: Where predgait takes a binary file of each kind (for the message).
+BINARY_USE = {
+    "a C3D file (binary motion capture)": (
+        "predgait reads C3D as the marker input of 'predgait inverse' (the positional "
+        "MARKERS.c3d; its force plates are read from it, so give no --grf)."),
+}
+
+
+def binary_kind(path: Path, data: bytes) -> str | None:
+    """"a C3D file (...)" or "a binary file" when ``data`` is not text, else None.
+
+    A C3D is recognised by its header (second byte 0x50, first byte the parameter block
+    number 1-127) or its ``.c3d`` name; any other file holding NUL bytes in its first 8 kB,
+    or more than 30 % control bytes there, is binary (UTF-16 text included).
+    """
+    head = data[:8192]
+    if path.suffix.lower() == ".c3d" or (len(head) >= 512 and head[1] == C3D_KEY
+                                         and 1 <= head[0] <= 127 and b"\x00" in head):
+        return "a C3D file (binary motion capture)"
+    control = sum(b < 9 or 13 < b < 32 for b in head)
+    if b"\x00" in head or (head and control > 0.3 * len(head)):
+        return "a binary file"
+    return None
+
+
 def read_text(path: str | Path, *, what: str = "file", allow_empty: bool = False) -> str:
     """The text of ``path`` decoded as UTF-8 (a byte-order mark is dropped).
 
@@ -69,13 +97,18 @@ def read_text(path: str | Path, *, what: str = "file", allow_empty: bool = False
         data = path.read_bytes()
     except OSError as exc:
         raise InputError(f"{path}: cannot read it ({exc.strerror}).") from None
+    binary = binary_kind(path, data)
+    if binary:
+        raise InputError(f"{path}: this is {binary}; expected here: {what}. "
+                         f"{BINARY_USE.get(binary, '')}"
+                         .rstrip())
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         line = data[:exc.start].count(b"\n") + 1
         raise InputError(f"{path}: line {line} is not UTF-8 text (byte 0x{data[exc.start]:02x} "
                          f"at offset {exc.start}); is this a {what}? Save it as UTF-8.") from None
-    if "\x00" in text:
+    if "\x00" in text:   # a NUL past the first 8 kB
         line = text[:text.index("\x00")].count("\n") + 1
         raise InputError(f"{path}: line {line} holds a NUL byte; this is a binary file, "
                          f"not a {what}.")

@@ -24,10 +24,11 @@ loaded foot's contact points <= 2 cm per stride.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from predgait.analysis.plausibility import Check
+
+__all__ = ["Check", "human_checks", "measured_curves"]
 JOINTS = ("hip", "knee", "ankle")
 #: Stride percentages of the loading response window for the knee's first flexion peak.
 LOADING_RESPONSE = (0.0, 20.0)
@@ -40,17 +41,6 @@ MAX_SLIP_M = 0.02
 PERCENT = np.linspace(0.0, 100.0, 101)
 #: Winter's Table A.1: right heel contact frames (1-based) of one stride.
 WINTER_STRIDE = (28, 97)
-
-
-@dataclass(frozen=True)
-class Check:
-    """One human-likeness check: name, value, bound ("<= x" / ">= x"), source, passed."""
-
-    name: str
-    value: float
-    bound: str
-    source: str
-    passed: bool
 
 
 def resample_stride(t: np.ndarray, values: np.ndarray) -> np.ndarray:

@@ -147,4 +147,21 @@ def run(args: argparse.Namespace) -> int:
         write_text_atomic(build_report(stage, title="predgait demo: subject01 right leg",
                                        source=out.name, intro=INTRO), stage / "report.html")
     print(f"wrote {out}/report.html (open it in a browser)")
+    _print_warnings(out)
     return 0
+
+
+def _print_warnings(out: Path) -> None:
+    """Each result's plausibility warnings (analysis.plausibility), under its folder name."""
+    import json
+
+    from predgait.analysis.plausibility import warning_lines
+    from predgait.report.headline import summary_file
+
+    for folder in sorted(p for p in out.iterdir() if p.is_dir()):
+        path = summary_file(folder)
+        lines = warning_lines(json.loads(path.read_text())) if path else []
+        if lines:
+            print(f"  {folder.name}: {len(lines)} plausibility warning(s)")
+            for line in lines:
+                print(f"  {line}")

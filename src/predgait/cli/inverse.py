@@ -28,6 +28,24 @@ flagged: their results are NaN in the tables and gaps in the plots, and the run 
 after writing its outputs; --limit-margin widens the model's joint ranges.
 """
 
+#: The usage line: each way to call it with the options it requires (argparse would show
+#: --mass and --markers as optional, since a problem file gives them instead).
+USAGE = """
+  %(prog)s PROBLEM.toml --out DIR [--set KEY=VALUE] [options]
+  %(prog)s MARKERS.trc|.csv --grf GRF.mot --mass KG --markers hip=NAME,knee=NAME,... --out DIR
+  %(prog)s MARKERS.c3d --mass KG --markers hip=NAME,knee=NAME,... --out DIR [options]
+  %(prog)s MARKERS --model fullbody --marker-map FILE.toml --mass KG --height M --out DIR"""
+
+
+def _mass(text: str) -> float | str:
+    """``--mass``: a number (kg) or "plates"."""
+    if text.strip().lower() == "plates":
+        return "plates"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a mass in kg or 'plates'") from None
+
 
 def _parse_markers(text: str) -> dict[str, str]:
     pairs = {}
@@ -47,14 +65,16 @@ def _parse_markers(text: str) -> dict[str, str]:
 def register(commands: argparse._SubParsersAction) -> None:
     """Add ``inverse``."""
     cmd = commands.add_parser("inverse", help="joint moments from markers and force plates",
-                              description=DESCRIPTION,
+                              description=DESCRIPTION, usage=USAGE,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("input", type=Path, help="PROBLEM.toml, or MARKERS.trc|.c3d|.csv")
     cmd.add_argument("--grf", type=Path, help="ground reactions (OpenSim .mot); none for C3D")
     cmd.add_argument("--static", type=Path,
                      help="static trial (TRC): segment lengths (leg) or, with --model fullbody, "
                           "marker calibration and the marker map's [scaling]")
-    cmd.add_argument("--mass", type=float, metavar="KG", help="body mass, kg (required)")
+    cmd.add_argument("--mass", type=_mass, metavar="KG|plates",
+                     help="body mass, kg (required), or 'plates': weighed on the force plates "
+                          "(mean vertical force over a step / g)")
     cmd.add_argument("--height", type=float, metavar="M", help="standing height, m")
     cmd.add_argument("--side", choices=("right", "left"), help="analysed leg (default right)")
     cmd.add_argument("--markers", metavar="hip=NAME,knee=NAME,ankle=NAME,heel=NAME,toe=NAME",
@@ -109,7 +129,7 @@ def _flag_options(args: argparse.Namespace) -> dict:
         given["side"] = Side(given["side"])
     for name, low, high, unit in (("mass", 20, 300, "kg"), ("height", 0.5, 2.5, "m"),
                                   ("threshold", 0.1, 500, "N"), ("limit_margin", 0, 180, "deg")):
-        if name in given and not low <= given[name] <= high:
+        if name in given and given[name] != "plates" and not low <= given[name] <= high:
             raise InputError(f"--{name.replace('_', '-')} {given[name]:g} {unit} is outside "
                              f"{low:g}..{high:g} {unit}.")
     return given
@@ -136,7 +156,8 @@ def options_from_args(args: argparse.Namespace):
         raise InputError("--set KEY=VALUE changes a problem file's key; give a PROBLEM.toml "
                          "or use the options directly.")
     if args.mass is None:
-        raise InputError("--mass (kg) is required: joint moments depend on the body mass.")
+        raise InputError("--mass (kg) is required: joint moments depend on the body mass "
+                         "(--mass plates weighs the subject on the force plates).")
     if not args.markers:
         raise InputError("--markers is required with a marker file, e.g. "
                          "--markers hip=RHJC,knee=RKJC,ankle=RAJC,heel=RCAL,toe=RMT2.")
@@ -192,11 +213,14 @@ def run_fullbody(args: argparse.Namespace) -> int:
                                    sex=args.sex, out_dir=args.out, static=args.static,
                                    cutoff=cutoff, grf_cutoff=grf_cutoff,
                                    limit_margin=args.limit_margin or 0.0, force=args.force)
+    from predgait.analysis.plausibility import warning_lines
     from predgait.dynamics.inverse_options import MOST_FRAMES
     from predgait.report.console import inverse3d_text
 
     print(inverse3d_text(summary, args.out))
     print(f"  status: {summary['status']}")
+    for line in warning_lines(summary):
+        print(line)
     flagged = len(summary.get("ik_flagged_frames") or [])
     if flagged > MOST_FRAMES * summary["frames"]:
         print(f"predgait: error: inverse kinematics flagged {flagged} of {summary['frames']} "
@@ -208,6 +232,7 @@ def run_fullbody(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Run the pipeline and write the result folder."""
+    from predgait.analysis.plausibility import warning_lines
     from predgait.dynamics.inverse_options import MOST_FRAMES
     from predgait.dynamics.inverse_trial import run_inverse
     from predgait.workflows.inverse_io import summary, write_inverse_outputs
@@ -237,6 +262,8 @@ def run(args: argparse.Namespace) -> int:
         low, high = peaks[joint + "_moment_min"], peaks[joint + "_moment_max"]
         if low is not None:
             print(f"  {joint}_moment: {low:+.2f} .. {high:+.2f} N m/kg")
+    for line in warning_lines(info):
+        print(line)
     if info["flagged_frames"] > MOST_FRAMES * result.time.size:
         print(f"predgait: error: inverse kinematics flagged {info['flagged_frames']} of "
               f"{result.time.size} frames (the model cannot follow the markers there); the "

@@ -7,6 +7,9 @@ from pathlib import Path
 
 from predgait.models.urdf import check_output_file, write_text_atomic
 
+#: The names ``-o`` accepts: the report is HTML.
+SUFFIXES = (".html", ".htm")
+
 
 def register(commands: argparse._SubParsersAction) -> None:
     """Add ``report``."""
@@ -28,6 +31,12 @@ def run(args: argparse.Namespace) -> int:
     from predgait.report.html import build_report  # not on every command's start-up path
 
     check_output_file(args.output, force=args.force, inputs=[args.folder])  # before work
+    if args.output.suffix.lower() not in SUFFIXES:
+        from predgait.errors import InputError
+
+        raise InputError(f"-o {args.output}: predgait report writes one HTML page; name it "
+                         f"{args.output.with_suffix('.html').name} (a PDF: print the page "
+                         "from a browser).")
     write_text_atomic(build_report(args.folder, anonymise=args.anonymise), args.output,
                       force=args.force, inputs=[args.folder])
     print(f"wrote {args.output}")

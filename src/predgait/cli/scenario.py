@@ -39,13 +39,15 @@ def register(commands: argparse._SubParsersAction) -> None:
     cmd.set_defaults(run=run)
 
 
-def write_scenario(result, out: Path, *, force: bool = False) -> None:
-    """Write the scenario's result folder whole or not at all."""
+def write_scenario(result, out: Path, *, force: bool = False) -> dict:
+    """Write the scenario's result folder whole or not at all; returns its summary."""
+    from predgait.analysis.plausibility import record
     from predgait.data import write_storage
     from predgait.report.figures import plots_wanted
     from predgait.report.scenario_plots import save_scenario_plot
     from predgait.report.tidy import write_summary
     from predgait.scenarios.edits import edit_record
+    from predgait.scenarios.run import scenario_checks
     from predgait.workflows.output import staged_output
 
     with staged_output(out, force=force, inputs=[result.spec.source]) as stage:
@@ -57,6 +59,7 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
                    "control": {"kp_n_m_per_rad": result.spec.kp,
                                "kd_n_m_s_per_rad": result.spec.kd},
                    "metrics": result.metrics}
+        summary = record(summary, scenario_checks(result.metrics))
         write_summary(stage / "summary.json", summary)
         for name, sim in (("baseline", result.baseline), ("edited", result.edited)):
             columns = {n: sim.q[:, i] for i, n in enumerate(sim.coordinate_names)}
@@ -66,10 +69,12 @@ def write_scenario(result, out: Path, *, force: bool = False) -> None:
         (stage / "edited_leg.urdf").write_text(result.edited_urdf)
         if plots_wanted():
             save_scenario_plot(stage, result)
+    return summary
 
 
 def run(args: argparse.Namespace) -> int:
     """Run and write a scenario."""
+    from predgait.analysis.plausibility import warning_lines
     from predgait.scenarios.run import load_scenario, run_scenario
     from predgait.workflows.output import check_out
 
@@ -80,9 +85,9 @@ def run(args: argparse.Namespace) -> int:
     if spec.predicts:
         return _run_predicted(spec, args)
     result = run_scenario(spec)
-    write_scenario(result, args.out, force=args.force)
+    summary = write_scenario(result, args.out, force=args.force)
     m = result.metrics
-    print(f"scenario '{result.spec.name}': {m['status']}; wrote {args.out}/")
+    print(f"scenario '{result.spec.name}': {summary['status']}; wrote {args.out}/")
     if m["status"].startswith("diverged"):
         import sys
 
@@ -93,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
           f"{m['knee_max_change_deg']:.1f}); ankle {m['ankle_rms_change_deg']:.1f} deg")
     print(f"  extra feedback torque RMS: knee {m['knee_extra_feedback_rms_n_m']:.1f} N m, "
           f"ankle {m['ankle_extra_feedback_rms_n_m']:.1f} N m")
+    for line in warning_lines(summary):
+        print(line)
     return 0
 
 
@@ -131,20 +138,26 @@ def _run_muscle(args) -> int:
 
 def write_predicted_scenario(result, out: Path, *, force: bool = False) -> dict:
     """Write a predicted scenario's folder whole or not at all; returns the summary."""
+    from dataclasses import replace
+
+    from predgait.analysis.plausibility import record
     from predgait.report.figures import plots_wanted
     from predgait.report.tidy import write_summary
     from predgait.scenarios.edits import edit_record
     from predgait.workflows.output import staged_output
-    from predgait.workflows.predict import prediction_summary, write_prediction
+    from predgait.workflows.predict import predict_checks, prediction_summary, write_prediction
 
     spec = result.spec
+    checks = [replace(c, name=f"{which} gait: {c.name}")
+              for which, gait in (("edited", result.edited), ("unedited", result.baseline))
+              for c in predict_checks(spec.predict, gait)]
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
-        summary = write_summary(stage / "summary.json", {
+        summary = write_summary(stage / "summary.json", record({
             "status": result.metrics["status"], "scenario": spec.name, "predicts": True,
             "trial": "bundled:subject01", "side": spec.side,
             "edits": [edit_record(e) for e in spec.edits], "metrics": result.metrics,
             "baseline": prediction_summary(spec.predict, result.baseline),
-            "edited": prediction_summary(spec.predict, result.edited)})
+            "edited": prediction_summary(spec.predict, result.edited)}, checks))
         write_prediction(stage, result.model, result.baseline, prefix="baseline_")
         write_prediction(stage, result.edited_model, result.edited, prefix="edited_")
         (stage / "edited_gait7.urdf").write_text(result.edited_model.urdf)
@@ -170,10 +183,10 @@ def _run_predicted(spec, args) -> int:
     except SolveFailed as exc:
         print(f"predgait: solve failed: {exc}", file=sys.stderr)
         return 3
-    write_predicted_scenario(result, args.out, force=args.force)
+    summary = write_predicted_scenario(result, args.out, force=args.force)
     m = result.metrics
     print(f"scenario '{spec.name}' (predicted gait7, edits on {spec.side}): "
-          f"{m['status']}; wrote {args.out}/")
+          f"{summary['status']}; wrote {args.out}/")
     for s in m["edited_sides"]:
         print(f"  {s}: " + ", ".join(
             f"{j} range {m[f'{j}_{s}_range_deg']:.1f} deg (unedited "
@@ -189,4 +202,8 @@ def _run_predicted(spec, args) -> int:
         print(f"  engine re-simulation of the edited gait with TVLQR: max deviation "
               f"{m['resimulation_max_deviation_deg']:.2f} deg, feedback RMS "
               f"{m['resimulation_feedback_rms_n_m']:.2f} N m")
+    from predgait.analysis.plausibility import warning_lines
+
+    for line in warning_lines(summary):
+        print(line)
     return 0

@@ -41,6 +41,7 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Parse, run, write the folder whole; exit 1 (with partial states) on divergence."""
+    from predgait.analysis.plausibility import warning_lines
     from predgait.report.console import simulate_text
     from predgait.workflows.output import staged_output
     from predgait.workflows.simulate import parse_spec
@@ -51,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
     with staged_output(args.out, force=args.force, inputs=inputs) as stage:
         summary = run_spec(spec, stage, progress=True)
     print(simulate_text(summary, args.out))
+    for line in warning_lines(summary):
+        print(line)
     if summary["status"] == "diverged":
         print(f"predgait: error: {summary['message']} (partial states written to {args.out})",
               file=sys.stderr)

@@ -106,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_out(args.out, force=args.force, inputs=[args.problem])  # before any computation
     table = load_problem(args.problem, args.set)
+    table.expect_command("solve")
     workflow = _WORKFLOWS.get(table.data.get("kind"))
     if workflow is not None:           # imports only what that kind needs
         return _run_workflow(workflow, table, args)
@@ -166,8 +167,9 @@ def _run_collocation(table, args) -> int:
     check = solution["resimulation_check"]
     params = ", ".join(f"{k} = {v:.4g}" for k, v in solution["parameters"].items())
 
-    print(f"{spec.kind.value}: {solution['ipopt_status']} in {solution['iterations']} "
-          f"iterations, {solution['solve_time_s']:.3f} s; {params}; wrote {args.out}/")
+    print(f"{spec.kind.value}: {solution['status']}; Ipopt {solution['ipopt_status']} in "
+          f"{solution['iterations']} iterations, {solution['solve_time_s']:.3f} s; {params}; "
+          f"wrote {args.out}/")
     if "what" in solution:
         print(f"  these are a {solution['what']}")
     for name, half in solution["confidence95"].items():
@@ -176,4 +178,8 @@ def _run_collocation(table, args) -> int:
         f"{k} {v:.2f} deg" for k, v in solution["optimiser_tracking_rms_deg"].items()))
     for name, result in check.items():
         print(f"  re-simulation {name}: {deviation_wording(result, spec.threshold_deg)}")
+    from predgait.analysis.plausibility import warning_lines
+
+    for line in warning_lines(solution):
+        print(line)
     return 0

@@ -51,6 +51,7 @@ def sweep_points(path: Path):
     from predgait.scenarios.sweep import grid_points, random_points
 
     table = load_problem(path)
+    table.expect_command("sweep")
     table.check_keys(("scenario", "grid", "random"))
     scenario = table.path_value("scenario")
     if not scenario.is_file():

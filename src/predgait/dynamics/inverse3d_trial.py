@@ -40,6 +40,7 @@ from predgait.data import (
     read_trc,
     resample_plate,
 )
+from predgait.data.body_weight import PlateMass, plate_body_mass, resolve_mass
 from predgait.data.trial import ForcePlate, Markers
 from predgait.dynamics.inverse3d import (
     InverseDynamics3D,
@@ -245,6 +246,8 @@ class Inverse3DResult:
     provenance: dict
     sides: np.ndarray | None = None
     scaling: Scaling | None = None
+    plate_mass: PlateMass | None = None   # body mass the plates measure (data.body_weight)
+    trusted: tuple[str, ...] = ()   # trial markers fitted with IK weight >= 1 (not down-weighted)
 
     @property
     def valid(self) -> np.ndarray:
@@ -261,16 +264,19 @@ class Inverse3DResult:
 
 
 def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map: MarkerMap, *,
-                     mass: float, height: float, sex: str = "male",
+                     mass: float | str, height: float, sex: str = "male",
                      static: Markers | None = None, window: tuple[float, float] | None = None,
                      cutoff: float | None = 6.0, grf_cutoff: float | None = None,
                      options: IKOptions | None = None) -> Inverse3DResult:
     """IK + ID of a trial with the whole body (in memory; see :func:`run_inverse_fullbody`).
 
+    ``mass``: kg, or "plates" (weighed on the plates, :mod:`predgait.data.body_weight`).
     ``cutoff`` (Hz) low-passes the IK coordinates; ``grf_cutoff`` (Hz) the plates (None:
     unfiltered, as OpenSim's InverseDynamicsTool).
     """
     options = options or IKOptions()
+    weighed = mass == "plates"
+    mass = resolve_mass(mass, plates, source=markers.source or "the trial")
     marker_map.check(markers.names, markers.source or "the trial")
     model = fullbody_for_subject(mass, height, sex)
     model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
@@ -333,7 +339,7 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
 
     ik, q = fit_walk(model)
     if grf_cutoff:
-        plates = [filter_plate(p, grf_cutoff) for p in plates]
+        plates = [filter_plate(p, grf_cutoff) for p in plates]   # a mean: same plate mass
     at_markers = tuple(resample_plate(p, ik.time) for p in plates)
     sides, stances = assign_plates(model, q, at_markers)
     feet = None
@@ -349,6 +355,7 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "marker_map": source_name(marker_map.source), "trimmed": trimmed,
         "unobserved_joints_held_at_zero": list(unobserved),
         "joint_limit_margin_deg": float(np.degrees(options.limit_margin)),
+        "mass_from": "plates" if weighed else "given",
         "model": f"fullbody 35 DOF, de Leva 1996, {mass:g} kg, {height:g} m, {sex}"
                  + (", segment lengths scaled to the static trial" if scaling else ""),
         "scaling": None if scaling is None else {
@@ -360,7 +367,9 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "window_s": [float(ik.time[0]), float(ik.time[-1])],
     }
     return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance,
-                           sides, scaling)
+                           sides, scaling, plate_body_mass(plates, gravity=model.gravity),
+                           tuple(m for f, m in zip(frames, names, strict=True)
+                                 if weights[f] >= 1.0))
 
 
 def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, *,

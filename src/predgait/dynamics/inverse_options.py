@@ -67,7 +67,7 @@ class InverseOptions:
     """
 
     markers: Path
-    mass: float
+    mass: float | str          # kg, or "plates" (weighed on the plates, data.body_weight)
     points: Mapping[str, PointSource]
     side: Side = Side.RIGHT
     grf: Path | None = None

@@ -16,7 +16,7 @@ from __future__ import annotations
 import functools
 import logging
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -27,6 +27,7 @@ from predgait.data import (
     lowpass,
     read_trc,
 )
+from predgait.data.body_weight import PLATES, PlateMass, plate_body_mass, resolve_mass
 from predgait.data.cutoffs import marker_cutoff, plate_cutoff
 from predgait.data.events import Events, Side
 from predgait.data.frames import rotate_markers
@@ -81,6 +82,7 @@ class InverseResult:
     leg: LegParameters | None = None
     flagged: np.ndarray | None = None
     knee_static: float = 0.0
+    plate_mass: PlateMass | None = None   # body mass the plates measure (data.body_weight)
 
     @property
     def valid(self) -> np.ndarray:
@@ -152,6 +154,10 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     noise added for a noise bootstrap; None reads ``options.markers``.
     """
     trial, turn = read_trial(options) if loaded is None else loaded
+    weighed = options.mass == PLATES
+    if weighed:
+        options = replace(options, mass=resolve_mass(options.mass, trial.plates,
+                                                     source=str(options.grf or trial.source)))
     needed = needed_markers(options.points)
     if trial.markers.n_frames < MIN_FRAMES:
         raise InputError(f"{trial.source}: the trial has {trial.markers.n_frames} frames; "
@@ -215,7 +221,8 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     provenance = {
         "trial": source_name(options.markers), "grf": source_name(options.grf),
         "static": source_name(options.static), "side": str(options.side),
-        "mass_kg": options.mass, "height_m": options.height, "model": model.source,
+        "mass_kg": options.mass, "mass_from": "plates" if weighed else "given",
+        "height_m": options.height, "model": model.source,
         "marker_cutoff_hz": cutoff, "marker_cutoff": cutoff_note, "grf_cutoff_hz": grf_cutoff,
         "contact_threshold_n": options.threshold,
         "contact_release_n": options.release * options.threshold,
@@ -227,7 +234,8 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
         hip_force=inv.hip_force, hip_moment=inv.hip_moment, joint_force=inv.joint_force,
         grf=force, cop=cop, free_moment=free, events=events.shifted(t0), ik=ik,
         body_mass=options.mass, has_grf=has_grf, provenance=provenance, leg=leg,
-        flagged=flagged_outputs(ik.flagged), knee_static=knee_static)
+        flagged=flagged_outputs(ik.flagged), knee_static=knee_static,
+        plate_mass=plate_body_mass(trial.plates, gravity=model.gravity))
 
 
 @functools.lru_cache(maxsize=4)

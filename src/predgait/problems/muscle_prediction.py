@@ -301,6 +301,7 @@ def _solved(s) -> dict:
 def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
     """The JSON summary: solver, objective terms, gait measures, checks, comparison."""
     from predgait.analysis.human_likeness import human_checks, resample_stride
+    from predgait.analysis.plausibility import record
     from predgait.kinematics.osim2d_angles import leg_angles_deg
     from predgait.problems.muscle_gait_check import slip_per_stride
     from predgait.problems.muscle_gait_stride import gait_measures
@@ -318,14 +319,12 @@ def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
                               vertical_grf_bw=right["vertical_grf"],
                               slip_m=max(measures["right"]["slip_m"],
                                          measures["left"]["slip_m"]))
-    failed = [vars(c) for c in checks if not c.passed]
     s = gait.solved
-    status = ("not converged" if not s.success
-              else "completed with warnings" if failed else "completed")
     total = pred.build_s + sum(g.solved.seconds for _, g in pred.stages) + (
         pred.multistart["seconds"] if pred.multistart else s.seconds)
-    return {
-        "status": status, "kind": "predict_muscles_2d", "ipopt": _solved(s),
+    return record({
+        "status": "completed" if s.success else "not converged", "kind": "predict_muscles_2d",
+        "ipopt": _solved(s),
         "stages_before": [{"what": what, **_solved(g.solved)} for what, g in pred.stages],
         "build_s": pred.build_s, "total_s": total,
         "objective": s.objective, "objective_terms": gait.terms,
@@ -334,10 +333,9 @@ def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
         "duration_s": gait.path.duration, "gait": measures,
         "pinocchio_check": {k: v for k, v in pred.check.items()
                             if k not in ("residual", "contact_point_speed")},
-        "human_likeness": [vars(c) for c in checks], "warnings": failed,
         "right_leg_deg": {k: v[::10].tolist() for k, v in curves.items()},
         "moco": moco_comparison(spec.moco_solution, pred.planar, stride),
         "multistart": pred.multistart,
         "provenance": {"problem": source_name(spec.source) if spec.source else None,
                        "model": source_name(pred.planar.osim.source)},
-    }
+    }, checks, key="human_likeness")

@@ -9,7 +9,7 @@ states a value of this result).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePath
 
 from predgait.report.tidy import format_quantity
@@ -27,11 +27,13 @@ class Headline:
     numbers: list[tuple[str, str]] = field(default_factory=list)
     sentence: str = ""
     note: str = ""
+    warnings: tuple[str, ...] = ()   # plausibility warnings (analysis.plausibility), one line each
 
     @property
     def ok(self) -> bool:
-        """The run ended as planned (a fall is a finding, not a failure)."""
-        return self.status in GOOD or self.status in ("event", "fell")
+        """The run ended as planned (a fall or a warning is a finding, not a failure)."""
+        return (self.status in GOOD or self.status in ("event", "fell")
+                or self.status in (f"{g} with warnings" for g in GOOD))
 
 
 def trial_name(provenance: dict) -> str:
@@ -489,6 +491,8 @@ def headline(folder: Path) -> Headline | None:
     if builder is None:
         return unknown
     try:
-        return builder(data)
+        head = builder(data)
     except (KeyError, TypeError, IndexError, ValueError, ZeroDivisionError):
         return unknown  # e.g. a summary written by another predgait version
+    lines = tuple(w for w in data.get("warnings") or () if isinstance(w, str))
+    return replace(head, warnings=lines) if lines else head

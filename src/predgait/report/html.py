@@ -47,6 +47,7 @@ figure img{max-width:100%;border:1px solid #ddd}figcaption{font-size:.85rem;colo
 .meta{color:#666;font-size:.85rem}.badge{padding:.1rem .5rem;border-radius:.6rem;
 font-size:.85rem;font-weight:600}.ok{background:#d8f0df;color:#1b5e20}
 .finding{background:#fff1cc;color:#6d4c00}.bad{background:#fbd9dc;color:#8e0015}
+.warnings{color:#6d4c00;margin:.4rem 0 0 1rem;padding:0}
 details{margin:1rem 0;border:1px solid #ddd;border-radius:.3rem;padding:.3rem .8rem}
 summary{cursor:pointer;color:#2a6f97;font-weight:600}
 ol.walk li{margin:.4rem 0}.convention{background:#eef4f8;padding:.4rem .8rem;font-size:.92rem}
@@ -247,6 +248,9 @@ def _headline_block(head: Headline) -> str:
             f"{_badge(head)}</p>" + (f"<table>{numbers}</table>" if numbers else "")
             + (f"<p class='interpretation'>{_esc(head.sentence)}</p>" if head.sentence else "")
             + (f"<p class='meta'>{_esc(head.note)}</p>" if head.note else "")
+            + ("<ul class='warnings'>" + "".join(f"<li>warning: {_esc(w)}</li>"
+                                                 for w in head.warnings) + "</ul>"
+               if head.warnings else "")
             + "</div>")
 
 

@@ -31,7 +31,7 @@ from predgait.dynamics.inverse_trial import InverseResult, bundled_inverse
 from predgait.dynamics.passive import ExponentialLimits, LinearSpringDamper, PassiveJoint
 from predgait.errors import InputError, SimulationDiverged
 from predgait.kinematics.clinical import leg_clinical
-from predgait.models.loading import model_from_urdf
+from predgait.models.loading import GRAVITY, model_from_urdf
 from predgait.models.urdf import leg_urdf
 from predgait.problemfile import Table, load_problem
 from predgait.scenarios.edits import (
@@ -140,7 +140,9 @@ def parse_scenario(table: Table) -> ScenarioSpec:
 
 def load_scenario(path: str | Path, overrides=()) -> ScenarioSpec:
     """Read and parse a scenario file with ``--set`` overrides."""
-    return parse_scenario(load_problem(path, overrides))
+    table = load_problem(path, overrides)
+    table.expect_command("scenario")
+    return parse_scenario(table)
 
 
 def _passive_for(edits) -> dict[str, PassiveJoint]:
@@ -252,6 +254,13 @@ def _metrics(base: SimulationResult, edit: SimulationResult, fb_base, fb_edit, d
             np.sqrt(np.mean((fb_edit[:n, i] - fb_base[:n, i]) ** 2)))
         power = (tau[:, i] + fb_edit[:, i]) * edit.v[:, 3 + i]
         metrics[f"{joint}_active_work_j"] = float(np.trapezoid(power, edit.t))
+    # Peaks for the plausibility checks (a dict: a sweep's results.csv keeps numbers only).
+    joints = ("ankle", "knee")
+    metrics["peaks"] = {
+        "feedback_n_m": {j: float(np.abs(fb_edit[:, i]).max()) for i, j in enumerate(joints)},
+        "measured_drive_n_m": {j: float(np.abs(tau[:, i]).max()) for i, j in enumerate(joints)},
+        "drive_plus_feedback_n_m": {j: float(np.abs(tau[:, i] + fb_edit[:, i]).max())
+                                    for i, j in enumerate(joints)}}
     if edit.grf is not None:
         metrics["peak_vertical_grf_n"] = float(edit.grf[:, 2].max())
         metrics["baseline_peak_vertical_grf_n"] = float(base.grf[:, 2].max())
@@ -297,7 +306,30 @@ def run_scenario(spec: ScenarioSpec, *, inverse: InverseResult | None = None) ->
     metrics = _metrics(baseline, edited, fb_base, fb_edit, drivers)
     metrics.update({"kp_ankle": float(gains[0][0]), "kp_knee": float(gains[0][1]),
                     "kd_ankle": float(gains[1][0]), "kd_knee": float(gains[1][1])})
+    if "peaks" in metrics:
+        metrics["peaks"]["body_mass_kg"] = float(inverse.body_mass)
     return ScenarioResult(spec, baseline, edited, metrics, fb_base, fb_edit, model.urdf)
+
+
+def scenario_checks(metrics: dict) -> list:
+    """Plausibility of a leg scenario (:mod:`predgait.analysis.plausibility`).
+
+    Per joint: the peak |feedback torque| against the peak |measured drive|, the peak
+    |drive + feedback| (N m/kg) against walking's joint moments; the peak vertical
+    ground reaction (BW). None for a diverged run (it has no metrics).
+    """
+    from predgait.analysis.plausibility import feedback_checks, grf_check, joint_moment_checks
+
+    peaks = metrics.get("peaks")
+    if peaks is None:
+        return []
+    mass = peaks["body_mass_kg"]
+    checks = feedback_checks(peaks["feedback_n_m"], peaks["measured_drive_n_m"])
+    checks += joint_moment_checks({f"{j} moment (drive + feedback)": v / mass
+                                   for j, v in peaks["drive_plus_feedback_n_m"].items()})
+    if "peak_vertical_grf_n" in metrics:
+        checks.append(grf_check(metrics["peak_vertical_grf_n"] / (mass * GRAVITY)))
+    return checks
 
 
 def scenario_metrics(path: str | Path, point) -> dict:

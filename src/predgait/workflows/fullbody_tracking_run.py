@@ -11,6 +11,13 @@ from pathlib import Path
 import numpy as np
 
 from predgait import __version__
+from predgait.analysis.plausibility import (
+    grf_check,
+    joint_moment_checks,
+    record,
+    residual_check,
+    warning_lines,
+)
 from predgait.data import write_storage
 from predgait.kinematics.ik3d import coordinate_columns
 from predgait.problems.fullbody_tracking import (
@@ -78,7 +85,7 @@ def write_solution(folder: Path, drive: FullbodyDrive, solution: TrackingSolutio
 def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> dict:
     """The summary.json content."""
     model = drive.model
-    return {
+    return record({
         "kind": "fullbody_tracking", "status": "solved",
         "window_s": [float(data.time[0]), float(data.time[-1])], "nodes": int(data.nodes),
         "ipopt_status": solution.status, "iterations": solution.iterations,
@@ -94,7 +101,25 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
         "feedback": feedback,
         "provenance": {"problem": spec.source, "trial": drive.source,
                        "predgait": __version__, **drive.calibration},
-    }
+    }, tracking_checks(model, solution))
+
+
+def tracking_checks(model, solution) -> list:
+    """Plausibility (:mod:`predgait.analysis.plausibility`) of a tracked whole-body gait.
+
+    Peak |joint moment| of the hip, knee and ankle coordinates (N m/kg), each foot's peak
+    vertical force (BW), the pelvis residual force against the peak foot force.
+    """
+    mass = model.total_mass()
+    feet = solution.foot_forces()
+    peak = float(np.linalg.norm(feet.sum(axis=1), axis=1).max())
+    checks = joint_moment_checks({n: float(np.abs(solution.tau[:, 6 + i]).max()) / mass
+                                  for i, n in enumerate(model.joint_names)})
+    checks.append(grf_check(float(feet[:, :, 2].max()) / (mass * model.gravity),
+                            "peak vertical ground reaction (one foot)"))
+    checks.append(residual_check(float(np.linalg.norm(solution.tau[:, :3], axis=1).max()),
+                                 peak))
+    return checks
 
 
 def hold_with_feedback(spec: TrackingSpec, drive, data, solution):
@@ -175,7 +200,8 @@ def summary_lines(info: dict) -> list[str]:
     """What ``predgait solve`` prints for ``kind = "fullbody_tracking"``."""
     dev = info["deviation"]
     lines = [
-        f"fullbody_tracking: {info['ipopt_status']} in {info['iterations']} iterations, "
+        f"fullbody_tracking: {info['status']}; Ipopt {info['ipopt_status']} in "
+        f"{info['iterations']} iterations, "
         f"{info['solve_time_s']:.1f} s ({info['nodes']} nodes, "
         f"{info['window_s'][0]:.3f}..{info['window_s'][1]:.3f} s)",
         f"  pelvis residual max {info['pelvis_residual_max_n']:.2e} N "
@@ -196,4 +222,4 @@ def summary_lines(info: dict) -> list[str]:
     feet = foot_flat_text(info["provenance"].get("foot_flat_calibration"))
     if feet:
         lines.append(f"  feet levelled at loaded mid-stance (foot flat): {feet}")
-    return lines
+    return lines + warning_lines(info)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from predgait import __version__
+from predgait.analysis.plausibility import grf_check, record
 from predgait.data.storage import write_csv, write_storage
 from predgait.dynamics.gait7_motion import SIDES, bundled_gait7_motion, gait7_model
 from predgait.dynamics.integrators import Status
@@ -198,5 +199,8 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
                "time_to_fall_s": main["time_to_fall_s"], "grf": main["grf"], "runs": rows,
                "provenance": {"problem": source_name(spec.source), "predgait": __version__,
                               "model": model.source, **motion.provenance}}
-    return write_summary(folder / "summary.json", summary)
+    weight = model.total_mass() * model.gravity
+    peak = max(float(np.max(main_kin.foot_fz(s))) for s in SIDES)
+    return write_summary(folder / "summary.json", record(summary, [
+        grf_check(peak / weight, "peak vertical ground reaction (simulated, one foot)")]))
 

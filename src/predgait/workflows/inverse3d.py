@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from predgait.analysis.plausibility import record
 from predgait.data import (
     read_trc,
     write_csv,
@@ -99,7 +100,7 @@ def summary(result: Inverse3DResult) -> dict:
     }
     valid = result.valid
     peaks = {k: _finite(np.nanmax, np.abs(v[valid])) for k, v in dyn.joint_moments.items()}
-    return {
+    return record({
         "status": result.status(),
         "frames": int(ik.time.size),
         "ik_flagged_at_joint_limits": _limited(result),
@@ -121,7 +122,47 @@ def summary(result: Inverse3DResult) -> dict:
                                             for k, v in moments.items()},
         "stances": [vars(s) for s in result.stances],
         "provenance": result.provenance,
-    }
+    }, inverse3d_checks(result, moments, fmag, loaded))
+
+
+def inverse3d_checks(result: Inverse3DResult, moments: dict, residual: np.ndarray,
+                     loaded: np.ndarray) -> list:
+    """Plausibility of a full-body inverse result (:mod:`predgait.analysis.plausibility`).
+
+    Peak |clinical moment| per hip/knee/ankle moment (N m/kg), each plate's peak vertical
+    force (BW), the largest pelvis residual force (N; over the frames with a plate loaded,
+    when there are some: elsewhere it carries the unmeasured ground reaction, which the
+    mass and stance warnings already say) against the peak ground reaction, the per-marker
+    RMS of the trusted markers (IK weight >= 1), the given mass against the plates'.
+    """
+    from predgait.analysis.plausibility import (
+        grf_check,
+        joint_moment_checks,
+        marker_check,
+        mass_check,
+        residual_check,
+    )
+
+    mass, valid = result.model.total_mass(), result.valid
+    weight = mass * result.model.gravity
+    checks = joint_moment_checks({k: _finite(np.nanmax, np.abs(v[valid]) / mass)
+                                  for k, v in moments.items()})
+    if result.plates:
+        vertical = np.array([p.force[:, 2] for p in result.plates])
+        checks.append(grf_check(float(np.nanmax(vertical)) / weight,
+                                "peak vertical ground reaction (one plate)"))
+        total = np.linalg.norm(np.sum([p.force for p in result.plates], axis=0), axis=1)
+        window = loaded & valid if (loaded & valid).any() else valid
+        if window.any():
+            checks.append(residual_check(float(residual[window].max()),
+                                         float(np.nanmax(total))))
+    ik = result.ik
+    checks.append(marker_check({m: float(np.sqrt(np.nanmean(ik.residuals[:, i] ** 2)))
+                                for i, m in enumerate(ik.marker_names)
+                                if m in result.trusted}))
+    plates = result.plate_mass
+    checks.append(mass_check(mass, plates.mass if plates else None))
+    return checks
 
 
 def write_outputs(result: Inverse3DResult, folder: Path) -> dict:

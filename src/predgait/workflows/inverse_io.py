@@ -7,7 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from predgait import __version__
+from predgait.analysis.plausibility import record
 from predgait.data import Side, write_csv, write_storage
+from predgait.data.body_weight import PLATES
 from predgait.data.bundled import bundled_path
 from predgait.data.cutoffs import CutoffRule, parse_cutoff
 from predgait.data.events import runs_of
@@ -63,6 +65,7 @@ def _point(table: Table, key: str):
 
 def options_from_problem(table: Table) -> InverseOptions:
     """InverseOptions from a ``problems/inverse_*.toml`` file (see those files)."""
+    table.expect_command("inverse")
     table.check_keys(("trial", "points", "options"))
     trial = table.table("trial", required=True)
     trial.check_keys(TRIAL_KEYS)
@@ -92,7 +95,7 @@ def _options(trial: Table, points: Table, opts: Table) -> InverseOptions:
     return InverseOptions(
         markers=_path(trial, "markers") or trial.get("markers", str),
         grf=_path(trial, "grf"), static=_path(trial, "static"),
-        mass=trial.number("mass", low=20, high=300, unit="kg"),
+        mass=_mass(trial),
         height=trial.number("height", None, low=0.5, high=2.5, unit="m"),
         model=_path(trial, "model"), side=Side(side),
         points={name: _point(points, name) for name in points.data},
@@ -150,7 +153,7 @@ def summary(result: InverseResult) -> dict:
     moments = result.clinical_moments()
     angles = result.anatomical_angles()
     ik = result.ik
-    return {
+    return record({
         "status": result.status(),
         "predgait": __version__,
         "window": "first gait cycle" if xlabel.startswith("%") else "whole trial",
@@ -172,7 +175,37 @@ def summary(result: InverseResult) -> dict:
         "toe_offs_s": [float(t) for t in result.events.toe_offs],
         "ground_reaction": "measured" if result.has_grf else "none (moments valid in swing only)",
         "provenance": result.provenance,
-    }
+    }, inverse_checks(result, mask))
+
+
+def inverse_checks(result: InverseResult, mask: np.ndarray) -> list:
+    """Plausibility of a leg inverse result over the analysed window (``mask``).
+
+    Peak |moment| per joint (N m/kg), the foot's peak vertical ground reaction (BW) and
+    the given mass against the plates' (:mod:`predgait.analysis.plausibility`).
+    """
+    from predgait.analysis.plausibility import grf_check, joint_moment_checks, mass_check
+
+    peaks = {k: _finite(np.nanmax, np.abs(v[mask]) / result.body_mass)
+             for k, v in result.clinical_moments().items()}
+    checks = joint_moment_checks(peaks)
+    if result.has_grf:
+        weight = result.body_mass * result.model.gravity
+        checks.append(grf_check(float(np.nanmax(result.grf[mask, 2])) / weight,
+                                f"peak vertical ground reaction ({result.side} foot)"))
+    plates = result.plate_mass
+    checks.append(mass_check(result.body_mass, plates.mass if plates else None))
+    return checks
+
+
+def _mass(trial: Table) -> float | str:
+    """``[trial] mass``: kg (20-300), or "plates" (weighed on the plates)."""
+    if trial.get("mass", (int, float, str)) == PLATES:
+        return PLATES
+    if isinstance(trial.data["mass"], str):
+        raise trial.error("mass", "give the body mass in kg, or \"plates\" to weigh the "
+                                  "subject on the force plates.")
+    return trial.number("mass", low=20, high=300, unit="kg")
 
 
 def _finite(reduce, values: np.ndarray) -> float | None:

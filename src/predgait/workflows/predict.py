@@ -17,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from predgait.models.loading import Model
+from predgait.analysis.plausibility import record, warning_lines
+from predgait.models.loading import GRAVITY, Model
 from predgait.problems.predictive import JOINTS
 from predgait.problems.predictive_solve import PredictSpec, parse_predict
 from predgait.scenarios.predict import Prediction, predict
@@ -40,7 +41,7 @@ def prediction_summary(spec: PredictSpec, prediction: Prediction) -> dict:
     err = np.degrees(g.q - ref.q)[:, 2:]
     fz = g.foot_fz()
     res = prediction.residuals
-    return {
+    return record({
         "status": "solved", "kind": "predict_gait7", "model_note": MODEL_NOTE,
         "ipopt_status": s.status,
         "iterations": s.iterations, "solve_time_s": s.seconds, "objective": s.objective,
@@ -70,7 +71,27 @@ def prediction_summary(spec: PredictSpec, prediction: Prediction) -> dict:
                        "trial_window_s": [prediction.measured.start,
                                           prediction.measured.start
                                           + prediction.measured.duration]},
-    }
+    }, predict_checks(spec, prediction))
+
+
+def predict_checks(spec: PredictSpec, prediction: Prediction) -> list:
+    """Plausibility (:mod:`predgait.analysis.plausibility`) of a predicted gait.
+
+    Peak vertical GRF of either foot (BW); the re-simulation's TVLQR feedback against its
+    feedforward (RMS, N m).
+    """
+    from predgait.analysis.plausibility import FEEDFORWARD_SOURCE, at_most, grf_check
+
+    m = prediction.measures
+    weight = spec.mass * GRAVITY
+    checks = [grf_check(max(m[s]["peak_fz_n"] for s in ("right", "left")) / weight)]
+    rs = prediction.resimulation
+    if rs is not None:
+        r = rs.summary()
+        checks.append(at_most("RMS re-simulation feedback torque", r["feedback_rms_n_m"],
+                              r["feedforward_rms_n_m"], unit="N m",
+                              source=FEEDFORWARD_SOURCE))
+    return checks
 
 
 def write_prediction(stage: Path, model: Model, prediction: Prediction, prefix: str = "") -> None:
@@ -118,7 +139,8 @@ def run_predict(spec: PredictSpec, out: Path, *, force: bool = False) -> dict:
 def summary_lines(summary: dict) -> list[str]:
     """Console lines of a prediction summary."""
     g, chk = summary["gait"], summary["pinocchio_check"]
-    lines = [f"predict_gait7: {summary['ipopt_status']} in {summary['iterations']} iterations, "
+    lines = [f"predict_gait7: {summary['status']}; Ipopt {summary['ipopt_status']} in "
+             f"{summary['iterations']} iterations, "
              f"{summary['solve_time_s']:.1f} s ({summary['nodes']} nodes, "
              f"{summary['cycle']} cycle)" + "".join(
                  f"; before it {x['what']}: {x['iterations']} iterations, "
@@ -144,4 +166,4 @@ def summary_lines(summary: dict) -> list[str]:
                      f"{rs['feedback_rms_n_m']:.2f} N m vs feedforward "
                      f"{rs['feedforward_rms_n_m']:.2f} N m")
     lines.append(f"  note: {summary['model_note']}")
-    return lines
+    return lines + warning_lines(summary)

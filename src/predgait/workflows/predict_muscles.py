@@ -47,6 +47,8 @@ def run_muscle_predict(spec: MusclePredictSpec, out: Path, *, force: bool = Fals
 
 def summary_lines(summary: dict) -> list[str]:
     """Console lines (the headline) of a prediction summary."""
+    from predgait.analysis.plausibility import warning_lines
+
     g, ip = summary["gait"], summary["ipopt"]
     right = g["right"]
     vg = right["vertical_grf"]
@@ -79,8 +81,6 @@ def summary_lines(summary: dict) -> list[str]:
                      f"{ms['max_kinematics_rms_deg_vs_best']:.1f} deg RMS from the best "
                      f"({ms['best']}); all starts {ms['seconds']:.1f} s" if ms["converged"] else
                      f"  multi-start: none of {ms['starts']} starts converged")
-    for w in summary["warnings"]:
-        lines.append(f"  warning: {w['name']} = {w['value']:.3g} (bound {w['bound']}, "
-                     f"{w['source']})")
+    lines += warning_lines(summary)
     return lines
 

@@ -166,6 +166,7 @@ def parse_spec(path: str | Path, overrides=()) -> Spec:
         InputError: Naming file, key and line for unknown keys or bad values.
     """
     table = load_problem(path, overrides)
+    table.expect_command("simulate")
     kind = table.get("kind", str)
     if kind not in KINDS:
         raise table.error("kind", f"{kind!r} is not one of: {', '.join(KINDS)}.")

@@ -19,6 +19,7 @@ import numpy as np
 from predgait import __version__
 from predgait.analysis.contributions import contribution_history
 from predgait.analysis.deviation import deviation
+from predgait.analysis.plausibility import grf_check, record
 from predgait.analysis.stability import linearize
 from predgait.data.storage import write_storage
 from predgait.dynamics.drivers import LegDrivers
@@ -63,11 +64,12 @@ def _save(fig_or_axes, path: Path) -> None:
     save_figure(np.atleast_1d(fig_or_axes)[0].figure, path)
 
 
-def _summary(folder: Path, spec, data: dict) -> dict:
+def _summary(folder: Path, spec, data: dict, checks=()) -> dict:
+    """Write summary.json with the plausibility ``checks`` (analysis.plausibility.record)."""
     data = {"kind": type(spec).__name__.replace("Spec", "").lower(), **data,
             "provenance": {"problem": source_name(spec.source), "predgait": __version__}
             | data.get("provenance", {})}
-    return write_summary(folder / "summary.json", data)
+    return write_summary(folder / "summary.json", record(data, checks))
 
 
 def run_spec(spec, folder: Path, *, progress: bool = False) -> dict:
@@ -335,4 +337,6 @@ def _run_resynthesis(spec: ResynthesisSpec, folder: Path, progress: bool) -> dic
         "grf_rms_n": {"x": float(grf_rms[0]), "z": float(grf_rms[1])}, "runs": rows,
         "stability": stability,
         "provenance": {"trial": inv.provenance.get("trial", ""), "model": model.source,
-                       "side": inv.side}})
+                       "side": inv.side}},
+        [grf_check(float(np.nanmax(main.grf[:, 2])) / (inv.body_mass * model.gravity),
+                   "peak vertical ground reaction (simulated)")])

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from predgait.analysis.deviation import deviation
+from predgait.analysis.plausibility import feedback_checks, record
 from predgait.data import write_storage
 from predgait.data.events import Side
 from predgait.dynamics.drivers import LegDrivers
@@ -250,6 +251,36 @@ def _meaningful_intervals(spec: SolveSpec, fit: FitResult) -> dict:
     return out
 
 
+def solve_checks(spec: SolveSpec, fit: FitResult, drivers: LegDrivers, sim) -> list:
+    """Plausibility of a leg fit (:mod:`predgait.analysis.plausibility`).
+
+    What the fit adds to the measured drive (the torque correction, the fitted knee
+    spring's moment, the fitted PD feedback along the re-simulation), peak per joint,
+    against the measured peak moment.
+    """
+    measured = np.array([drivers.joint_torque(t) for t in sim.t])
+    peak_measured = {j: float(np.abs(measured[:, i]).max())
+                     for i, j in enumerate(LEG_FREE_JOINTS)}
+    p = fit.parameters
+    if spec.kind is Kind.TORQUE_CORRECTION:
+        added, what = fit.torque_change, "torque correction"
+    elif spec.kind is Kind.KNEE_FIT:
+        knee = clinical_joint("leg", "knee")
+        spring = LinearSpringDamper(p["k"], p["c"], p["theta0"])
+        moment = spring.moment(knee.clinical(sim.q[:, 4]), knee.clinical(sim.v[:, 4]))
+        added, what = np.column_stack([np.zeros_like(moment), moment]), "fitted spring moment"
+    else:
+        law = JointFeedback(np.arange(3, 5), drivers.reference,
+                            np.array([p["kp_ankle"], p["kp_knee"]]),
+                            np.array([p["kd_ankle"], p["kd_knee"]]))
+        added = np.array([law.torque(t, q, v) for t, q, v in zip(sim.t, sim.q, sim.v,
+                                                                 strict=True)])
+        what = "feedback torque"
+    peaks = {j: float(np.abs(added[:, i]).max()) for i, j in enumerate(LEG_FREE_JOINTS)
+             if np.abs(added[:, i]).max() > 0}
+    return feedback_checks(peaks, peak_measured, what=what)
+
+
 def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
     """Solve, check, and write solution.json, states.sto, corrected_moments.sto, plots."""
     inverse = _inverse(spec)
@@ -272,6 +303,7 @@ def run_solve(spec: SolveSpec, out: Path, *, force: bool = False) -> dict:
     }
     if spec.kind is Kind.KNEE_FIT:
         solution["what"] = KNEE_FIT_MEANING
+    record(solution, solve_checks(spec, fit, drivers, sim))
     with staged_output(out, force=force,
                        inputs=[spec.source, spec.inverse_problem]) as stage:
         solution = write_summary(stage / "solution.json", solution)

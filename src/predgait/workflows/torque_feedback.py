@@ -185,6 +185,12 @@ def solve_feedback(spec: FeedbackSpec) -> dict:
 
 
 def _solution(spec: FeedbackSpec, r: dict) -> dict:
+    from predgait.analysis.plausibility import (
+        FEEDFORWARD_SOURCE,
+        at_most,
+        feedback_checks,
+        record,
+    )
     from predgait.textfile import source_name
 
     half_rms = _rms(r["half_width"])
@@ -193,7 +199,12 @@ def _solution(spec: FeedbackSpec, r: dict) -> dict:
     total = _rms(r["feedforward"] + r["feedback"])
     closed = r["closed"]
     holds = closed["whole_window"] and closed["time_to_threshold_s"] is None
-    return {
+    peak = {j: float(np.abs(r["feedback"][:, i]).max()) for i, j in enumerate(JOINTS)}
+    measured = {j: float(np.abs(r["measured"][:, i]).max()) for i, j in enumerate(JOINTS)}
+    checks = feedback_checks(peak, measured) + [
+        at_most(f"RMS {j} feedback torque", feedback[j], _rms(r["feedforward"])[j],
+                unit="N m", source=FEEDFORWARD_SOURCE) for j in JOINTS]
+    return record({
         "status": "completed" if holds else "does not hold",
         "holds_within_threshold": holds,
         "kind": "torque_feedback", "feedforward": spec.feedforward.value,
@@ -222,7 +233,7 @@ def _solution(spec: FeedbackSpec, r: dict) -> dict:
                           "Tedrake, Underactuated Robotics), Pinocchio RNEA derivatives"},
         "provenance": {"problem": source_name(spec.source), "model": r["inverse"].model.source,
                        **r["inverse"].provenance},
-    }
+    }, checks)
 
 
 def _gain_columns(controller) -> dict:
@@ -293,4 +304,6 @@ def summary_lines(solution: dict) -> list[str]:
             f"{rms['feedback'][joint]:.3f} N m; inverse-dynamics uncertainty "
             f"(cut-offs {min(unc['cutoffs_hz']):g}-{max(unc['cutoffs_hz']):g} Hz) "
             f"+-{unc['half_range_rms_n_m'][joint]:.2f} N m RMS")
-    return lines
+    from predgait.analysis.plausibility import warning_lines
+
+    return lines + warning_lines(solution)
