@@ -273,7 +273,8 @@ def problem_command(data: dict) -> str | None:
     """The predgait command a problem file's contents belong to (None: not recognised).
 
     By its top-level ``kind`` (:data:`COMMAND_KINDS`); without one, a sweep has
-    ``scenario`` and ``[grid]``/``[random]``, a leg scenario ``[[edit]]`` or ``[control]``,
+    ``scenario`` and ``[grid]``/``[random]``, a batch dataset ``[[subjects]]`` and
+    ``[[trials]]``, a leg scenario ``[[edit]]`` or ``[control]``,
     an inverse problem ``[trial]`` with ``markers``, a marker map a ``[markers]`` table.
     """
     kind = data.get("kind")
@@ -281,6 +282,8 @@ def problem_command(data: dict) -> str | None:
         return next((c for c, kinds in COMMAND_KINDS.items() if kind in kinds), None)
     if "scenario" in data and ("grid" in data or "random" in data):
         return "sweep"
+    if "subjects" in data and "trials" in data:
+        return "batch"
     if "edit" in data or "control" in data:
         return "scenario"
     if isinstance(data.get("trial"), dict) and "markers" in data["trial"]:
