@@ -197,6 +197,8 @@ class MuscleGaitProblem:
         symmetric: the periodicity pairs left and right (a half stride); False: every row
             with itself (a whole stride, for a one-sided edit).
         ipopt_options: more Ipopt options (e.g. a warm start's).
+        metabolic: the node function computes the muscles' metabolic rate (needed by a
+            goal with ``metabolic_weight`` > 0; W stays 0 otherwise).
         periodic_activations: the activations are periodic (left <-> right) as the
             example's MocoPeriodicityGoal asks; False drops those rows (the problem Moco
             4.6 actually solved: its optimum's activations are not periodic, see
@@ -208,7 +210,7 @@ class MuscleGaitProblem:
                  max_iter: int = 2000, print_level: int = 0, symbol=cs.SX,
                  node: cs.Function | None = None, residual_rows=None,
                  symmetric: bool = True, ipopt_options: dict | None = None,
-                 periodic_activations: bool = True):
+                 periodic_activations: bool = True, metabolic: bool = False):
         if not 4 <= mesh <= 400:
             raise InputError(f"nodes = {mesh}: give 4..400 collocation intervals.")
         intervals = transcription.grid_intervals(mesh)     # grid steps (HS: + midpoints)
@@ -225,8 +227,8 @@ class MuscleGaitProblem:
         self.p_sizes = (("goal", 6), ("q_ref", nq * n1))
         self.p = symbol.sym("p", 6 + nq * n1)
         goal, q_ref = self.p[:6], cs.reshape(self.p[6:], nq, n1)
-        node = node_function(plant) if node is None else node
-        self.node = node
+        node = node_function(plant, metabolic) if node is None else node
+        self.node, self.metabolic = node, metabolic
         # one call per node (not a map): MX differentiates each call through the node's
         # own symbolic SX derivatives, as fast as an SX graph and built in ~1 s
         calls = [node.call([q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k]],
@@ -355,6 +357,9 @@ class MuscleGaitProblem:
 
         ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
         """
+        if goal.metabolic_weight > 0 and not self.metabolic:
+            raise InputError("goal metabolic_weight > 0 on a problem built without the "
+                             "metabolic rate: build it with metabolic=True.")
         n1, nq = self.n + 1, self.plant.model.nq
         ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
         p = np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,

@@ -82,8 +82,8 @@ def link_point(model, link: str, location) -> cs.Function:
     return cs.Function(f"point_{link}", [q], [p], ["q"], ["p"])
 
 
-@functools.lru_cache(maxsize=4)
-def node_function(plant: MusclePlant) -> cs.Function:
+@functools.lru_cache(maxsize=8)
+def node_function(plant: MusclePlant, metabolic: bool = False) -> cs.Function:
     """``node(q, v, a, act, exc, u) -> (r, act_dot, grf, points, force, fibre, tau_m, met)``.
 
     Inputs: q, v, a (nq,) model coordinates, rates, accelerations; act, exc (m,)
@@ -92,7 +92,8 @@ def node_function(plant: MusclePlant) -> cs.Function:
     frame (N); points (3 n_spheres,) where they act (m); force (m,) tendon forces (N);
     fibre (m,) normalised fibre velocities; tau_m (nq,) muscle generalised forces (N m);
     met (1,) the muscles' metabolic rate, W (Bhargava 2004 as OpenSim 4.6's smoothed probe,
-    :mod:`predgait.dynamics.metabolics`; basal rate not included).
+    :mod:`predgait.dynamics.metabolics`; basal rate not included), or 0 unless
+    ``metabolic`` (its expression costs ~60 % more build and solve time).
     """
     from predgait.dynamics.metabolics import metabolic_rates
 
@@ -107,7 +108,8 @@ def node_function(plant: MusclePlant) -> cs.Function:
     force, fibre = state.tendon_force, state.norm_fiber_velocity
     act_dot = plant.muscle_set.activation_rate(exc, act)
     metabolic = cs.sum1(metabolic_rates(plant.muscle_set, state, exc, act,
-                                        body_mass=model.total_mass()).muscle)
+                                        body_mass=model.total_mass()).muscle) \
+        if metabolic else cs.SX(1, 1)
     muscle_tau = arms.T @ force
     applied = muscle_tau + 0
     applied[plant.lumbar_row] += plant.lumbar_optimal_force * u

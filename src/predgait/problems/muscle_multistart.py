@@ -140,7 +140,8 @@ def start_guesses(problem, plant, planar, storage, bounds, goal, options: MultiS
         if len(out) >= want:
             break
         other = MuscleGaitProblem(plant, grid, tx_row=problem.tx_row, max_iter=max_iter,
-                                  transcription=problem.transcription)
+                                  transcription=problem.transcription,
+                                  metabolic=problem.metabolic)
         guess, _ = reference_guess(planar, storage, plant, other.n)
         solved = other.solve(guess, bounds, goal)
         if solved.solved.success:

@@ -167,7 +167,8 @@ def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
     clock = time.perf_counter()
     plant, planar = plant_2d_gait(read_osim(spec.osim or bundled_file("2D_gait.osim")))
     problem = MuscleGaitProblem(plant, spec.nodes, tx_row=0, max_iter=spec.max_iter,
-                                transcription=spec.transcription)
+                                transcription=spec.transcription,
+                                metabolic=spec.goal.metabolic_weight > 0)
     storage = read_storage(spec.reference or bundled_file("referenceCoordinates.sto"))
     guess, reference = reference_guess(planar, storage, plant, problem.n)
     bounds = bounds_for(plant, planar, coordinate_ranges(spec), spec.duration)

@@ -113,13 +113,13 @@ def baseline_prediction(run: MuscleScenarioRun):
     return _BASELINES[key]
 
 
-def scenario_node(plant, planar, scenario):
+def scenario_node(plant, planar, scenario, metabolic: bool = False):
     """The node function of ``plant`` with the scenario's spring forces in its residual."""
     import casadi as cs
 
     from predgait.problems.muscle_gait_dynamics import node_function
 
-    base = node_function(plant)
+    base = node_function(plant, metabolic)
     nq, m = plant.model.nq, plant.n_muscles
     q, v, a = (cs.SX.sym(n, nq) for n in ("q", "v", "a"))
     act, exc, u = cs.SX.sym("act", m), cs.SX.sym("exc", m), cs.SX.sym("u", 1)
@@ -238,9 +238,11 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
     whole = not scenario.symmetric
     fused = {planar.osim_coordinates.index(n) for n in scenario.fused}
     spec = run.baseline
+    metabolic = spec.goal.metabolic_weight > 0
     problem = MuscleGaitProblem(
         plant, 2 * spec.nodes if whole else spec.nodes, tx_row=0, max_iter=spec.max_iter,
-        transcription=spec.transcription, node=scenario_node(plant, planar, scenario),
+        transcription=spec.transcription, metabolic=metabolic,
+        node=scenario_node(plant, planar, scenario, metabolic),
         residual_rows=[i for i in range(plant.model.nq) if i not in fused],
         symmetric=not whole, ipopt_options=WARM_START)
     bounds = scenario_bounds(plant, planar, spec, scenario, whole=whole)

@@ -1,0 +1,76 @@
+"""Objective terms of the muscle-driven gait NLP beside Moco's effort (issue 26 item 5).
+
+* ``metabolic``: the W integral the NLP carries (CasADi node output, trapezoidal) equals the
+  muscles' Bhargava rates of :mod:`predgait.dynamics.metabolics` (NumPy) integrated along the
+  same trajectory, per distance and body mass;
+* ``acceleration``: the trapezoidal integral of the joint accelerations squared, by hand;
+* a problem built without the metabolic rate refuses a metabolic goal.
+"""
+
+import numpy as np
+import pytest
+
+from predgait.data.storage import read_storage
+from predgait.errors import InputError
+from predgait.models.osim import bundled_2d_gait
+from predgait.problems.muscle_gait import Goal, MuscleGaitProblem
+from predgait.problems.muscle_gait_setup import (
+    MOCO_BOUNDS,
+    bounds_for,
+    plant_2d_gait,
+    reference_guess,
+)
+from predgait.problems.muscle_prediction import bundled_file
+
+INTERVALS = 8
+
+
+@pytest.fixture(scope="module")
+def built():
+    plant, planar = plant_2d_gait(bundled_2d_gait())
+    problem = MuscleGaitProblem(plant, INTERVALS, tx_row=0, metabolic=True)
+    guess, _ = reference_guess(planar, read_storage(bundled_file("referenceCoordinates.sto")),
+                               plant, INTERVALS)
+    rng = np.random.default_rng(0)
+    exc = rng.uniform(0.02, 0.6, guess.exc.shape)
+    act = rng.uniform(0.02, 0.6, guess.act.shape)
+    from dataclasses import replace
+
+    return plant, planar, problem, replace(guess, exc=exc, act=act)
+
+
+def _terms(problem, path):
+    nq = problem.plant.model.nq
+    p = np.concatenate([[1.2, 0, 10, 0, 0, 0], np.zeros((INTERVALS + 1) * nq)])
+    out = problem.outputs(problem.pack(path), p)
+    return dict(zip(problem.term_names, (float(x) for x in out[6:]), strict=True))
+
+
+def test_metabolic_term_is_the_bhargava_energy_per_distance_and_mass(built):
+    from predgait.dynamics.metabolics import stride_rates
+
+    plant, planar, problem, path = built
+    rates = stride_rates(plant.muscle_set, plant.paths, path.q, path.v, path.exc, path.act,
+                         body_mass=plant.model.total_mass())
+    muscles = rates.muscle.sum(axis=0)                      # W, no basal rate
+    energy = np.trapezoid(muscles, path.t)
+    distance = path.q[-1, 0] - path.q[0, 0]
+    expected = energy / distance / plant.model.total_mass()
+    assert expected > 0.1
+    assert _terms(problem, path)["metabolic"] == pytest.approx(expected, rel=1e-9)
+
+
+def test_acceleration_term_by_hand(built):
+    _, _, problem, path = built
+    joints = path.a[:, 3:]
+    square = (joints ** 2).sum(axis=1)
+    expected = np.trapezoid(square, path.t) / joints.shape[1]
+    assert _terms(problem, path)["acceleration"] == pytest.approx(expected, rel=1e-9)
+
+
+def test_metabolic_goal_needs_the_metabolic_rate(built):
+    plant, planar, _, path = built
+    problem = MuscleGaitProblem(plant, 4, tx_row=0)
+    bounds = bounds_for(plant, planar, MOCO_BOUNDS, (0.4, 0.6))
+    with pytest.raises(InputError, match="metabolic"):
+        problem.solve(path, bounds, Goal(metabolic_weight=1.0))
