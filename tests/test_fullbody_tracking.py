@@ -80,7 +80,8 @@ def test_assembled_derivatives_equal_automatic_differentiation():
     data = TrackingData(np.arange(n) / 60.0, q, rng.normal(size=(n, 35)),
                         rng.normal(size=(n, 35)), rng.random((n, 4)) < 0.6,
                         rng.normal(300, 50, (n, 2, 3)), rng.normal(0, 0.1, (n, 2, 3)),
-                        rng.normal(size=(n, 2)), ground_z=0.0, belt_velocity=0.3)
+                        rng.normal(size=(n, 2)), ground_z=0.0, belt_velocity=0.3,
+                        tau=rng.normal(0, 50, (n, 29)))
     problem = tracking_nlp(model, data)
     x, f, g = (problem.nlp[k] for k in ("x", "f", "g"))
     sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", g.size1())

@@ -54,6 +54,7 @@ import pinocchio as pin
 from predgait.blas_threads import one_blas_thread
 from predgait.errors import SolveFailed
 from predgait.models.loading3d import Model3D
+from predgait.problems.fullbody_tracking_smooth import smoothing_terms
 from predgait.problems.fullbody_tracking_stage import (
     FORCE_UNIT,
     NI,
@@ -76,6 +77,12 @@ class TrackingWeights:
             point's slip, fraction of body weight.
         velocity_rad_s: Regularisation of v toward the measured one, rad/s (and m/s).
         acceleration_rad_s2: Regularisation of a toward the measured one, rad/s^2.
+        torque_n_m: Joint torque against the measured inverse dynamics, N m (when the
+            data carry them; :mod:`~predgait.problems.fullbody_tracking_smooth`).
+        acceleration_change_rad_s2: Node-to-node change of a against the measured
+            change, rad/s^2 (m/s^2 pelvis): removes the trapezoidal alternating mode.
+        force_change_bw: Second difference of each point's force over the nodes,
+            fraction of body weight: a contact unloads over several nodes.
     """
 
     angle_deg: float = 1.0
@@ -85,6 +92,9 @@ class TrackingWeights:
     friction_bw: float = 0.02
     velocity_rad_s: float = 2.0
     acceleration_rad_s2: float = 50.0
+    torque_n_m: float = 10.0
+    acceleration_change_rad_s2: float = 20.0
+    force_change_bw: float = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,6 +113,11 @@ class TrackingData:
         friction: Coulomb coefficient of the friction pyramid and law.
         slip_transition: m/s, slip over which the engine's friction ramps to mu f_z.
         points: The P contact frames (names end in the foot's side, ``_r`` / ``_l``).
+        tau: (N, 29) N m, measured joint moments (inverse dynamics on the plates), or
+            None: no torque term in the cost.
+        fade_nodes: a point that lifts off (or lands) while its foot stays on the floor
+            carries at most d / (fade_nodes + 1) of 1.5 body weights d nodes before
+            (after) the switch: its force fades over this many nodes.
     """
 
     time: np.ndarray
@@ -119,6 +134,8 @@ class TrackingData:
     friction: float = 0.8
     slip_transition: float = 0.05
     points: tuple[str, ...] = POINTS
+    tau: np.ndarray | None = None
+    fade_nodes: int = 3
 
     @property
     def nodes(self) -> int:
@@ -192,6 +209,30 @@ def _initial_forces(data: TrackingData) -> np.ndarray:
         for j, c in enumerate(cols):
             out[:, c] = np.where(on[:, j:j + 1], force / count[:, None], 0.0)
     return out.reshape(data.nodes, -1)
+
+
+def fade_limits(data: TrackingData, body_weight: float) -> np.ndarray:
+    """(N, P) upper bound of each point's normal force, N (inf where none).
+
+    A point in contact d <= ``fade_nodes`` nodes from a node where it is off while
+    another point of its foot is on carries at most d / (fade_nodes + 1) x 1.5 body
+    weights (a heel-off or a toe landing: the force moves between the foot's points
+    over several nodes; a whole foot's landing and lift-off follow its plate).
+    """
+    n, m = data.nodes, data.fade_nodes
+    feet = np.array(point_feet(data.points))
+    limits = np.full(data.contact.shape, np.inf)
+    if m <= 0:
+        return limits
+    for c, foot in enumerate(feet):
+        others = data.contact[:, (feet == foot) & (np.arange(feet.size) != c)].any(axis=1)
+        switches = np.flatnonzero(~data.contact[:, c] & others)
+        for k in np.flatnonzero(data.contact[:, c]):
+            if switches.size:
+                d = np.abs(switches - k).min()
+                if d <= m:
+                    limits[k, c] = 1.5 * body_weight * d / (m + 1)
+    return limits
 
 
 def _node_parameters(data: TrackingData) -> np.ndarray:
@@ -300,7 +341,26 @@ def tracking_nlp(model: Model3D, data: TrackingData,
         "grad_f": cs.Function("nlp_grad_f", [x, no_p],
                               [cs.sum2(cost) / n, cs.vec(grad_node) / n], ["x", "p"],
                               ["f", "grad_f_x"])}
-    # Bounds: contact heights, friction pyramid, no force off contact.
+    # Least-squares smoothing terms with a constant Hessian (fullbody_tracking_smooth).
+    x0 = np.hstack([np.zeros((n, 35)), data.v, data.a,
+                    _initial_forces(data) / FORCE_UNIT]).ravel()
+    body_weight = model.total_mass() * model.gravity
+    matrix, rhs = smoothing_terms(model, data, x0, nz, FORCE_UNIT, weights.torque_n_m,
+                                  weights.acceleration_change_rad_s2,
+                                  weights.force_change_bw * body_weight)
+    residual = matrix @ x - rhs
+    smooth = cs.sumsqr(residual)
+    smooth_hessian = cs.triu(2 * matrix.T @ matrix)
+    derivatives = {
+        "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam],
+                                [hessian + sigma * smooth_hessian],
+                                ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]),
+        "jac_g": derivatives["jac_g"],
+        "grad_f": cs.Function("nlp_grad_f", [x, no_p],
+                              [cs.sum2(cost) / n + smooth,
+                               cs.vec(grad_node) / n + 2 * matrix.T @ residual],
+                              ["x", "p"], ["f", "grad_f_x"])}
+    # Bounds: contact heights, friction pyramid, no force off contact, fading contacts.
     on = data.contact.T.astype(bool)
     lbg_node, ubg_node = np.zeros((ng, n)), np.zeros((ng, n))
     ubg_node[6:6 + count] = np.where(on, 0.0, np.inf)
@@ -309,10 +369,10 @@ def tracking_nlp(model: Model3D, data: TrackingData,
     on_points = np.repeat(data.contact[:, :, None], 3, axis=2).reshape(n, 3 * count)
     lbx[:, 105:] = np.where(on_points, np.tile([-np.inf, -np.inf, 0.0], count), 0.0)
     ubx[:, 105:] = np.where(on_points, np.inf, 0.0)
+    ubx[:, 107::3] = np.minimum(ubx[:, 107::3], fade_limits(data, body_weight) / FORCE_UNIT)
+    x0 = np.minimum(x0, ubx.ravel())
     return TrackingNLP(
-        {"x": x, "f": cs.sum2(cost) / n, "g": g}, derivatives,
-        np.hstack([np.zeros((n, 35)), data.v, data.a,
-                   _initial_forces(data) / FORCE_UNIT]).ravel(),
+        {"x": x, "f": cs.sum2(cost) / n + smooth, "g": g}, derivatives, x0,
         lbx.ravel(), ubx.ravel(),
         np.concatenate([lbg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
         np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]))

@@ -261,6 +261,18 @@ def _fullbody_tracking(s: dict) -> Headline:
                 f"of motion to {s['pelvis_residual_max_n']:.1e} N after moving its joints "
                 f"{_deg(dev['all_joints_rms_deg'])} RMS and its ground reactions at most "
                 f"{grf:.1f} % body weight RMS from the plates")
+    torque = dev.get("torque")
+    if torque:
+        rms, peak, step = (torque["worst"][k] for k in
+                           ("sagittal_rms_n_m_per_kg", "peak_n_m", "node_change_n_m"))
+        numbers += [("torque vs measured (worst sagittal RMS)",
+                     f"{rms['value']:.3f} N m/kg ({rms['joint']})"),
+                    ("torque vs measured (peak)", f"{peak['value']:.0f} N m ({peak['joint']})"),
+                    ("largest node-to-node torque change",
+                     f"{step['value']:.0f} N m ({step['joint']})")]
+        sentence += (f"; its joint torques differ from the measured ones by at most "
+                     f"{rms['value']:.2f} N m/kg RMS on a sagittal joint ({rms['joint']}) "
+                     f"and change by at most {step['value']:.0f} N m from node to node")
     feedback = s.get("feedback")
     if feedback:
         closed, opened = feedback["with_feedback"], feedback["without_feedback"]

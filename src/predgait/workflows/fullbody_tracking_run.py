@@ -43,7 +43,8 @@ def solve_spec(spec: TrackingSpec) -> tuple[FullbodyDrive, TrackingData, Trackin
     drive = FullbodyDrive.from_inverse(inverse)
     window = spec.window or gait_cycle(drive, inverse.stances)
     data = tracking_data(drive, plate_height(inverse), window, contact=spec.contact,
-                         contact_height=spec.contact_height, stride=spec.stride)
+                         contact_height=spec.contact_height, stride=spec.stride,
+                         fade_nodes=spec.fade_nodes)
     return drive, data, solve_tracking(drive.model, data, spec.weights,
                                        max_iter=spec.max_iter)
 
@@ -176,6 +177,15 @@ def summary_lines(info: dict) -> list[str]:
         + ", ".join(f"{k} {v:.1f}" for k, v in dev["grf_rms_percent_bw"].items())
         + " % BW RMS",
     ]
+    torque = dev.get("torque")
+    if torque:
+        worst = torque["worst"]
+        lines.append(
+            f"  joint torques vs measured: worst sagittal {worst['sagittal_rms_n_m_per_kg']"
+            f"['value']:.3f} N m/kg RMS ({worst['sagittal_rms_n_m_per_kg']['joint']}), peak "
+            f"difference {worst['peak_n_m']['value']:.0f} N m ({worst['peak_n_m']['joint']}), "
+            f"largest node-to-node change {worst['node_change_n_m']['value']:.0f} N m "
+            f"({worst['node_change_n_m']['joint']})")
     for name in ("without_feedback", "with_feedback"):
         run = info["feedback"][name]
         fell = run["time_to_fall_s"]
