@@ -219,7 +219,7 @@ def fade_limits(data: TrackingData, body_weight: float) -> np.ndarray:
     weights (a heel-off or a toe landing: the force moves between the foot's points
     over several nodes; a whole foot's landing and lift-off follow its plate).
     """
-    n, m = data.nodes, data.fade_nodes
+    m = data.fade_nodes
     feet = np.array(point_feet(data.points))
     limits = np.full(data.contact.shape, np.inf)
     if m <= 0:

@@ -34,7 +34,12 @@ def torque_linearisation(model, q_ref: np.ndarray, v: np.ndarray, a: np.ndarray,
     """Joint torques at one node and their Jacobian in z = (dx, v, a, f).
 
     Args:
-        q_ref: (36,) configuration, v, a: (35,), forces: (P, 3) lab forces on ``points``, N.
+        model: the body (:class:`~predgait.models.loading3d.Model3D`).
+        q_ref: (36,) configuration.
+        v: (35,) velocity.
+        a: (35,) acceleration.
+        forces: (P, 3) lab forces on ``points``, N.
+        points: the P contact frames.
 
     Returns:
         tau (29,) N m; jacobian (29, 105 + 3 P) in z (forces in N, not FORCE_UNIT).
@@ -76,8 +81,10 @@ def torque_linearisation(model, q_ref: np.ndarray, v: np.ndarray, a: np.ndarray,
 
 def _difference_rows(n: int, nz: int, columns: np.ndarray, order: int
                      ) -> tuple[list, list, list]:
-    """Triplets (rows, cols, values) of the first (z_{k+1} - z_k) or second
-    (z_{k+1} - 2 z_k + z_{k-1}) differences of z[columns] over the nodes."""
+    """Triplets (rows, cols, values) of differences of z[columns] over the nodes.
+
+    First (z_{k+1} - z_k) or second (z_{k+1} - 2 z_k + z_{k-1}) by ``order``.
+    """
     stencil = {1: (-1.0, 1.0), 2: (1.0, -2.0, 1.0)}[order]
     rows, cols, vals = [], [], []
     m = columns.size
@@ -100,8 +107,14 @@ def smoothing_terms(model, data, x0: np.ndarray, nz: int, force_unit: float,
     when ``data.tau`` is None.
 
     Args:
+        model: the body.
+        data: the problem's :class:`~predgait.problems.fullbody_tracking.TrackingData`
+            (``tau`` the measured joint moments).
         x0: the reference decision vector (dx = 0, measured v and a, initial forces).
-        torque_scale: N m; acceleration_change_scale: rad/s^2 (m/s^2 pelvis);
+        nz: unknowns per node.
+        force_unit: N per force unknown.
+        torque_scale: N m.
+        acceleration_change_scale: rad/s^2 (m/s^2 pelvis).
         force_change_scale: N, second difference of a point's force per node.
     """
     import casadi as cs

@@ -200,7 +200,8 @@ def torque_deviation(model, data: TrackingData, solution: TrackingSolution) -> d
     }
     out["sagittal_rms_n_m_per_kg"] = {n: out["rms_n_m"][n] / mass for n in SAGITTAL}
     out["worst"] = {key: dict(zip(("joint", "value"), max(out[key].items(),
-                                                          key=lambda item: item[1])))
+                                                          key=lambda item: item[1]),
+                                  strict=True))
                     for key in ("rms_n_m", "peak_n_m", "node_change_n_m", "spike_n_m",
                                 "sagittal_rms_n_m_per_kg")}
     return out

@@ -179,13 +179,12 @@ def summary_lines(info: dict) -> list[str]:
     ]
     torque = dev.get("torque")
     if torque:
-        worst = torque["worst"]
+        rms, peak, step = (torque["worst"][k] for k in
+                           ("sagittal_rms_n_m_per_kg", "peak_n_m", "node_change_n_m"))
         lines.append(
-            f"  joint torques vs measured: worst sagittal {worst['sagittal_rms_n_m_per_kg']"
-            f"['value']:.3f} N m/kg RMS ({worst['sagittal_rms_n_m_per_kg']['joint']}), peak "
-            f"difference {worst['peak_n_m']['value']:.0f} N m ({worst['peak_n_m']['joint']}), "
-            f"largest node-to-node change {worst['node_change_n_m']['value']:.0f} N m "
-            f"({worst['node_change_n_m']['joint']})")
+            f"  joint torques vs measured: worst sagittal {rms['value']:.3f} N m/kg RMS "
+            f"({rms['joint']}), peak difference {peak['value']:.0f} N m ({peak['joint']}), "
+            f"largest node-to-node change {step['value']:.0f} N m ({step['joint']})")
     for name in ("without_feedback", "with_feedback"):
         run = info["feedback"][name]
         fell = run["time_to_fall_s"]
