@@ -83,9 +83,13 @@ def _inverse(s: dict) -> Headline:
 
 def _inverse3d(s: dict) -> Headline:
     ik, force = s.get("ik_rms_m", {}), s.get("pelvis_residual_force_N", {})
+    trusted = s.get("ik_trusted_rms_m") or {}
     moment = s.get("pelvis_residual_moment_Nm", {})
     numbers = [("frames", str(s.get("frames"))),
                ("IK marker error, mean of frame RMS", f"{1000 * ik.get('mean', 0):.1f} mm"),
+               *([("IK marker error, trusted markers (weight > 0.5)",
+                   f"{1000 * trusted['mean']:.1f} mm")] if trusted.get("mean") is not None
+                 else []),
                *[(f"IK marker error, {name.replace('_', ' ')} (RMS)", f"{1000 * rms:.1f} mm")
                  for name, rms in s.get("ik_rms_by_region_m", {}).items() if rms is not None],
                ("frames flagged by IK", str(len(s.get("ik_flagged_frames", [])))),
@@ -93,6 +97,9 @@ def _inverse3d(s: dict) -> Headline:
                ("pelvis residual moment (RMS)", f"{moment.get('rms', float('nan')):.1f} N m")]
     lower = s.get("ik_rms_by_region_m", {}).get("pelvis_and_legs")
     legs = "" if lower is None else f" ({1000 * lower:.1f} mm at the pelvis and legs)"
+    if trusted.get("mean") is not None:
+        legs += (f" and {1000 * trusted['mean']:.1f} mm over the {len(trusted['markers'])} "
+                 "markers the fit trusts")
     sentence = (f"The whole body is fitted to the markers with {1000 * ik.get('mean', 0):.1f} "
                 f"mm mean RMS error{legs}; the residual force the pelvis would need to balance the "
                 f"measured loads is {force.get('rms', float('nan')):.0f} N RMS.")

@@ -80,6 +80,21 @@ def ik_rms_by_region(result: Inverse3DResult) -> dict[str, float | None]:
                    else None) for name, cols in regions.items()}
 
 
+#: Weight above which the IK fit trusts a marker (arm and trunk markers weigh 0.2).
+TRUSTED_WEIGHT = 0.5
+
+
+def _trusted(ik) -> dict:
+    """Frame RMS over the markers weighted above :data:`TRUSTED_WEIGHT`, m."""
+    rms = ik.trusted_rms(TRUSTED_WEIGHT)
+    weights = ik.weights if ik.weights is not None else np.ones(len(ik.marker_names))
+    names = [m for m, w in zip(ik.marker_names, weights, strict=True) if w > TRUSTED_WEIGHT]
+    if not names:
+        return {"mean": None, "max": None, "markers": []}
+    return {"mean": float(np.nanmean(rms)), "max": float(np.nanmax(rms)), "markers": names,
+            "weight_above": TRUSTED_WEIGHT}
+
+
 def summary(result: Inverse3DResult) -> dict:
     """Headline numbers: IK RMS, pelvis residuals, joint moments, clinical ranges."""
     dyn, ik = result.dynamics, result.ik
@@ -103,6 +118,11 @@ def summary(result: Inverse3DResult) -> dict:
         "frames": int(ik.time.size),
         "ik_flagged_at_joint_limits": _limited(result),
         "ik_rms_m": {"mean": float(ik.rms.mean()), "max": float(ik.rms.max())},
+        "ik_trusted_rms_m": _trusted(ik),
+        "ik_weighted_rms_m": {"mean": float(np.nanmean(ik.weighted_rms)),
+                              "max": float(np.nanmax(ik.weighted_rms)),
+                              "note": "sqrt(sum w r^2 / sum w) with the fit's weights: the "
+                                      "error frames are flagged on"},
         "ik_rms_by_region_m": ik_rms_by_region(result),
         "ik_flagged_frames": [float(ik.time[i]) for i in ik.failed_frames],
         "ik_marker_rms_m": {m: float(np.sqrt(np.nanmean(ik.residuals[:, i] ** 2)))
@@ -172,6 +192,18 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     return write_summary(folder / "summary.json", info)
 
 
+def scaled_urdf(result: Inverse3DResult) -> str:
+    """The scaled body's URDF with the calibrated marker frames the IK fitted.
+
+    So the per-marker residuals can be recomputed from the outputs.
+    """
+    from predgait.kinematics.ik3d import marker_placements
+    from predgait.models.urdf import with_fixed_frames
+
+    return with_fixed_frames(result.model.urdf,
+                             marker_placements(result.model, result.ik.marker_frames))
+
+
 def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Path, *,
                          mass: float, height: float, sex: str = "male",
                          out_dir: str | Path, static: str | Path | None = None,
@@ -198,5 +230,5 @@ def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Pa
     with staged_output(out_dir, force=force, inputs=inputs) as stage:
         info = write_outputs(result, stage)
         if result.scaling is not None:
-            (stage / "scaled_model.urdf").write_text(result.model.urdf)
+            (stage / "scaled_model.urdf").write_text(scaled_urdf(result))
     return info
