@@ -238,12 +238,6 @@ def test_scaling_improves_subject01_fit(subject01):
         pytest.approx(scaling.measured["thigh_r"], abs=1e-6)
     assert 0.85 < min(scaling.factors.values()) and max(scaling.factors.values()) < 1.15
     assert model.total_mass() == pytest.approx(MASS, rel=1e-4)
-    # The headline error over the markers the fit trusts (legs, pelvis) is beside the
-    # all-marker one, which the arm and trunk markers (weight 0.2) dominate.
-    trusted = saved["ik_trusted_rms_m"]
-    assert trusted["mean"] < saved["ik_rms_m"]["mean"]
-    assert "R.Heel" in trusted["markers"] and "R.Elbow" not in trusted["markers"]
-    assert saved["ik_weighted_rms_m"]["mean"] < saved["ik_rms_m"]["mean"]
 
 
 def test_scaled_urdf_carries_the_calibrated_marker_frames(subject01, tmp_path):
