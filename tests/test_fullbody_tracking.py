@@ -310,3 +310,18 @@ def test_contact_frames_are_sole_points_that_name_their_foot():
     spec = parse_tracking(load_problem(PROBLEM, [f"contact.frames={list(SOLE_EDGES)}"
                                                  .replace("'", '"')]))
     assert spec.contact.frames == SOLE_EDGES
+
+
+def test_trial_foot_flat_overrides_the_marker_map():
+    """[trial] foot_flat levels the soles on the plates whatever the marker map says; a
+    wrong value names the key."""
+    from predgait.errors import InputError
+    from predgait.problemfile import load_problem
+    from predgait.workflows.fullbody_tracking import parse_tracking
+
+    on = parse_tracking(load_problem(PROBLEM, ['trial.foot_flat="on"', "window.fade_nodes=4"]))
+    assert on.trial.foot_flat == "on" and on.fade_nodes == 4
+    assert parse_tracking(load_problem(PROBLEM, ['trial.foot_flat="off"'])).trial.foot_flat \
+        == "off"
+    with pytest.raises(InputError, match=r"trial\.foot_flat.*'sometimes'.*on"):
+        parse_tracking(load_problem(PROBLEM, ['trial.foot_flat="sometimes"']))
