@@ -149,23 +149,9 @@ def standing_sway(points=POINTS, duration=0.3, settle=0.4, step=2.5e-4):
 
 def feet_data(model, q, forces, points=POINTS, plate_z=0.0):
     """Foot force, COP (on z = plate_z) and free moment from point forces."""
-    pm, data = model.pin_model, model.pin_model.createData()
-    n = q.shape[0]
-    force, cop, free = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
-    feet = np.array(point_feet(points))
-    for k in range(n):
-        pin.framesForwardKinematics(pm, data, q[k])
-        for j in range(2):
-            pts = [data.oMf[model.frame_id(p)].translation
-                   for p, foot in zip(points, feet, strict=True) if foot == j]
-            fs = forces[k, feet == j]
-            total = fs.sum(axis=0)
-            moment = sum(np.cross(p, f) for p, f in zip(pts, fs, strict=True))
-            x = (plate_z * total[0] - moment[1]) / total[2]
-            y = (moment[0] + plate_z * total[1]) / total[2]
-            force[k, j], cop[k, j] = total, (x, y, plate_z)
-            free[k, j] = moment[2] - (x * total[1] - y * total[0])
-    return force, cop, free
+    from predgait.workflows.fullbody_tracking import foot_cop_from_points
+
+    return foot_cop_from_points(model, q, forces, points, plate_z)
 
 
 @pytest.fixture(scope="module", params=[POINTS, SOLE_EDGES], ids=["centre_line", "sole_edges"])
@@ -312,16 +298,11 @@ def test_contact_frames_are_sole_points_that_name_their_foot():
     assert spec.contact.frames == SOLE_EDGES
 
 
-def test_trial_foot_flat_overrides_the_marker_map():
-    """[trial] foot_flat levels the soles on the plates whatever the marker map says; a
-    wrong value names the key."""
+def test_fade_nodes_is_read_and_checked():
     from predgait.errors import InputError
     from predgait.problemfile import load_problem
     from predgait.workflows.fullbody_tracking import parse_tracking
 
-    on = parse_tracking(load_problem(PROBLEM, ['trial.foot_flat="on"', "window.fade_nodes=4"]))
-    assert on.trial.foot_flat == "on" and on.fade_nodes == 4
-    assert parse_tracking(load_problem(PROBLEM, ['trial.foot_flat="off"'])).trial.foot_flat \
-        == "off"
-    with pytest.raises(InputError, match=r"trial\.foot_flat.*'sometimes'.*on"):
-        parse_tracking(load_problem(PROBLEM, ['trial.foot_flat="sometimes"']))
+    assert parse_tracking(load_problem(PROBLEM, ["window.fade_nodes=4"])).fade_nodes == 4
+    with pytest.raises(InputError, match=r"window\.fade_nodes"):
+        parse_tracking(load_problem(PROBLEM, ["window.fade_nodes=-1"]))

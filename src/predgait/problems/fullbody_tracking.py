@@ -39,7 +39,14 @@ plate's COP against the plate (force and free moment; % body weight), the tangen
 force of each contact point against the forward engine's Coulomb law at its slip relative
 to the floor, -mu f_z STEP(v_t, -v_s, -1, v_s, 1) (% body weight: the engine then starts
 from the solved friction), and a small regularisation of v and a toward the measured
-ones (which also removes the trapezoidal rule's alternating mode).
+ones. Issue 27 (:mod:`~predgait.problems.fullbody_tracking_smooth`, constant Hessian):
+the joint torques against the measured inverse dynamics (linearised about the measured
+state), the node-to-node change of a against the measured change (the trapezoidal
+rule's period-2h mode a = +A, -A, ... moves no state and otherwise costs almost
+nothing: it gave 700 N m alternations of the hip torque), and the second difference of
+each point's force. A point that lifts off or lands while its foot stays down has its
+normal force capped over ``fade_nodes`` nodes (:func:`fade_limits`): a heel hands its
+load to the toe over several nodes instead of within one.
 """
 
 from __future__ import annotations
@@ -92,8 +99,8 @@ class TrackingWeights:
     friction_bw: float = 0.02
     velocity_rad_s: float = 2.0
     acceleration_rad_s2: float = 50.0
-    torque_n_m: float = 10.0
-    acceleration_change_rad_s2: float = 20.0
+    torque_n_m: float = 2.0
+    acceleration_change_rad_s2: float = 5.0
     force_change_bw: float = 0.1
 
 
@@ -135,7 +142,7 @@ class TrackingData:
     slip_transition: float = 0.05
     points: tuple[str, ...] = POINTS
     tau: np.ndarray | None = None
-    fade_nodes: int = 3
+    fade_nodes: int = 6
 
     @property
     def nodes(self) -> int:

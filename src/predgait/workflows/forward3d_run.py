@@ -12,7 +12,6 @@ measured motion, fastest linear growth at the start), ``fullbody.png`` and ``sti
 from __future__ import annotations
 
 import re
-from dataclasses import replace
 from pathlib import Path
 
 from predgait import __version__
@@ -36,12 +35,7 @@ def inverse_for(trial: TrialSpec):
     else:
         files, static, mass, height = trial.files, trial.static, trial.mass, trial.height
     markers, plates = read_trial(files)
-    marker_map = read_marker_map(trial.marker_map)
-    if trial.foot_flat is not None:  # the problem's [trial] foot_flat over the map's
-        from predgait.kinematics.foot_flat import FootFlatMode
-
-        marker_map = replace(marker_map, foot_flat=FootFlatMode(trial.foot_flat))
-    return inverse_fullbody(markers, plates, marker_map, mass=mass,
+    return inverse_fullbody(markers, plates, read_marker_map(trial.marker_map), mass=mass,
                             height=height, sex=trial.sex,
                             static=read_trc(static) if static else None, cutoff=trial.cutoff)
 

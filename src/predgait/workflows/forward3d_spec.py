@@ -42,7 +42,6 @@ class TrialSpec:
     height: float | None
     sex: str
     cutoff: float
-    foot_flat: str | None = None   # overrides the marker map's [calibration] foot_flat
 
 
 @dataclass(frozen=True)
@@ -65,7 +64,7 @@ def parse_trial(table: Table) -> TrialSpec:
     """The ``[trial]`` table of a full-body problem (bundled source or files, subject)."""
     t = table.table("trial")
     t.check_keys(("source", "files", "static", "marker_map", "mass", "height", "sex",
-                  "cutoff", "foot_flat"))
+                  "cutoff"))
     source = t.get("source", str, BUNDLED if not t.has("files") else "files")
     if t.has("files") == (source == BUNDLED):
         raise t.error("source", f"give either source = \"{BUNDLED}\" or files = [TRC, MOT] "
@@ -93,15 +92,7 @@ def parse_trial(table: Table) -> TrialSpec:
                      marker_map=t.path_value("marker_map"),
                      mass=t.number("mass", None, low=10, high=300, unit="kg"),
                      height=t.number("height", None, low=0.5, high=2.5, unit="m"), sex=sex,
-                     cutoff=t.number("cutoff", 6.0, low=0.5, high=50, unit="Hz"),
-                     foot_flat=_foot_flat(t))
-
-
-def _foot_flat(t) -> str | None:
-    """``[trial] foot_flat`` ("on", "off", "auto"), or None: the marker map's."""
-    from predgait.kinematics.foot_flat import FootFlatMode
-
-    return t.choice("foot_flat", FootFlatMode).value if t.has("foot_flat") else None
+                     cutoff=t.number("cutoff", 6.0, low=0.5, high=50, unit="Hz"))
 
 
 def parse_contact(table: Table) -> ContactSettings:

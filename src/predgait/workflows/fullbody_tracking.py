@@ -96,7 +96,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
                                    for k, v in vars(defaults).items()}),
         contact_height=window.number("contact_height", 0.03, low=0.0, high=0.2, unit="m"),
         stride=int(window.number("stride", 1, low=1, high=50)),
-        fade_nodes=int(window.number("fade_nodes", 3, low=0, high=50)),
+        fade_nodes=int(window.number("fade_nodes", 6, low=0, high=50)),
         max_iter=int(solver.number("max_iter", 200, low=1, high=5000)),
         feedback=replace(FLOATING_WEIGHTS, **{k: feedback.number(k, v, low=1e-6)
                                               for k, v in fb.items()}),
@@ -135,9 +135,34 @@ def foot_cop(drive: FullbodyDrive, plate_z: float) -> tuple[np.ndarray, np.ndarr
     return force, np.nan_to_num(cop), free
 
 
+def foot_cop_from_points(model, q: np.ndarray, forces: np.ndarray, points, plate_z: float
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each foot's force (n, 2, 3) N, COP (n, 2, 3) and free moment (n, 2) N m from points.
+
+    From lab forces (n, P, 3) on the sole ``points`` at the configurations q (n, 36): what
+    plates with their surface at z = plate_z (m) under each foot would measure (COP 0
+    under an unloaded foot).
+    """
+    n = q.shape[0]
+    feet = np.array(point_feet(tuple(points)))
+    xyz = point_positions(model, q, tuple(points))
+    force, cop, free = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
+    for j in (0, 1):
+        total = forces[:, feet == j].sum(axis=1)
+        moment = np.cross(xyz[:, feet == j], forces[:, feet == j]).sum(axis=1)
+        fz = np.where(total[:, 2] > 1e-9, total[:, 2], np.inf)
+        x = (plate_z * total[:, 0] - moment[:, 1]) / fz
+        y = (moment[:, 0] + plate_z * total[:, 1]) / fz
+        force[:, j] = total
+        cop[:, j] = np.column_stack([x, y, np.full(n, plate_z)])
+        free[:, j] = np.where(np.isfinite(fz), moment[:, 2] - (x * total[:, 1] - y * total[:, 0]),
+                              0.0)
+    return force, cop, free
+
+
 def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, float], *,
                   contact: ContactSettings, contact_height: float = 0.03,
-                  stride: int = 1, fade_nodes: int = 3) -> TrackingData:
+                  stride: int = 1, fade_nodes: int = 6) -> TrackingData:
     """The problem's nodes (every ``stride``-th marker frame of ``window``, s), what they track.
 
     The contact points are ``contact.frames``. A sole point is in contact when its foot
