@@ -16,9 +16,12 @@ from predgait.problems.fullbody_tracking import (
     TrackingData,
     contact_inverse_dynamics,
     corrected_configuration,
-    fade_limits,
 )
-from predgait.problems.fullbody_tracking_smooth import smoothing_terms, torque_linearisation
+from predgait.problems.fullbody_tracking_smooth import (
+    fade_limits,
+    smoothing_terms,
+    torque_linearisation,
+)
 
 
 @pytest.fixture(scope="module")

@@ -45,7 +45,7 @@ state), the node-to-node change of a against the measured change (the trapezoida
 rule's period-2h mode a = +A, -A, ... moves no state and otherwise costs almost
 nothing: it gave 700 N m alternations of the hip torque), and the second difference of
 each point's force. A point that lifts off or lands while its foot stays down has its
-normal force capped over ``fade_nodes`` nodes (:func:`fade_limits`): a heel hands its
+normal force capped over ``fade_nodes`` nodes (``fade_limits``): a heel hands its
 load to the toe over several nodes instead of within one.
 """
 
@@ -61,7 +61,7 @@ import pinocchio as pin
 from predgait.blas_threads import one_blas_thread
 from predgait.errors import SolveFailed
 from predgait.models.loading3d import Model3D
-from predgait.problems.fullbody_tracking_smooth import smoothing_terms
+from predgait.problems.fullbody_tracking_smooth import fade_limits, smoothing_terms
 from predgait.problems.fullbody_tracking_stage import (
     FORCE_UNIT,
     NI,
@@ -218,30 +218,6 @@ def _initial_forces(data: TrackingData) -> np.ndarray:
     return out.reshape(data.nodes, -1)
 
 
-def fade_limits(data: TrackingData, body_weight: float) -> np.ndarray:
-    """(N, P) upper bound of each point's normal force, N (inf where none).
-
-    A point in contact d <= ``fade_nodes`` nodes from a node where it is off while
-    another point of its foot is on carries at most d / (fade_nodes + 1) x 1.5 body
-    weights (a heel-off or a toe landing: the force moves between the foot's points
-    over several nodes; a whole foot's landing and lift-off follow its plate).
-    """
-    m = data.fade_nodes
-    feet = np.array(point_feet(data.points))
-    limits = np.full(data.contact.shape, np.inf)
-    if m <= 0:
-        return limits
-    for c, foot in enumerate(feet):
-        others = data.contact[:, (feet == foot) & (np.arange(feet.size) != c)].any(axis=1)
-        switches = np.flatnonzero(~data.contact[:, c] & others)
-        for k in np.flatnonzero(data.contact[:, c]):
-            if switches.size:
-                d = np.abs(switches - k).min()
-                if d <= m:
-                    limits[k, c] = 1.5 * body_weight * d / (m + 1)
-    return limits
-
-
 def _node_parameters(data: TrackingData) -> np.ndarray:
     """(NP, N) per-node parameters.
 
@@ -340,14 +316,6 @@ def tracking_nlp(model: Model3D, data: TrackingData,
                                                 z[3:6, 1:], lam_rot)
     scatter = _scatter(n, nz)
     hessian += cs.triu(scatter.T @ cs.diagcat(*cs.horzsplit(rblocks, 6)) @ scatter)
-    derivatives = {
-        "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam], [hessian],
-                                ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]),
-        "jac_g": cs.Function("nlp_jac_g", [x, no_p], [g, jacobian], ["x", "p"],
-                             ["g", "jac_g_x"]),
-        "grad_f": cs.Function("nlp_grad_f", [x, no_p],
-                              [cs.sum2(cost) / n, cs.vec(grad_node) / n], ["x", "p"],
-                              ["f", "grad_f_x"])}
     # Least-squares smoothing terms with a constant Hessian (fullbody_tracking_smooth).
     x0 = np.hstack([np.zeros((n, 35)), data.v, data.a,
                     _initial_forces(data) / FORCE_UNIT]).ravel()
@@ -362,7 +330,8 @@ def tracking_nlp(model: Model3D, data: TrackingData,
         "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam],
                                 [hessian + sigma * smooth_hessian],
                                 ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]),
-        "jac_g": derivatives["jac_g"],
+        "jac_g": cs.Function("nlp_jac_g", [x, no_p], [g, jacobian], ["x", "p"],
+                             ["g", "jac_g_x"]),
         "grad_f": cs.Function("nlp_grad_f", [x, no_p],
                               [cs.sum2(cost) / n + smooth,
                                cs.vec(grad_node) / n + 2 * matrix.T @ residual],

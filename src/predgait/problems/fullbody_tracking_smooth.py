@@ -15,13 +15,16 @@ z_k = (dx_k, v_k, a_k, f_k / FORCE_UNIT)), each a mean over its nodes or interva
   lifts off unloads over several nodes instead of within one; a steady loading costs
   nothing).
 
-Their Hessian 2 A^T W A is constant, so they add no symbolic work to the NLP.
+Their Hessian 2 A^T W A is constant, so they add no symbolic work to the NLP. And the
+bound that makes a heel hand its load to the toe over several nodes (:func:`fade_limits`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
+
+from predgait.problems.fullbody_tracking_stage import point_feet
 
 #: Finite-difference step of the torque's derivative in the configuration correction
 #: (rad, m; central differences, error O(step^2) of torques of O(100) N m).
@@ -152,3 +155,28 @@ def smoothing_terms(model, data, x0: np.ndarray, nz: int, force_unit: float,
         start += size
     matrix = cs.DM.triplet(rows, cols, vals, start, n * nz)
     return matrix, np.concatenate(rhs)
+
+
+def fade_limits(data, body_weight: float) -> np.ndarray:
+    """(N, P) upper bound of each point's normal force, N (inf where none).
+
+    A point in contact d <= ``fade_nodes`` nodes from a node where it is off while
+    another point of its foot is on carries at most d / (fade_nodes + 1) x 1.5 body
+    weights (a heel-off or a toe landing: the force moves between the foot's points
+    over several nodes; a whole foot's landing and lift-off follow its plate). ``data``:
+    a :class:`~predgait.problems.fullbody_tracking.TrackingData`; body_weight N.
+    """
+    m = data.fade_nodes
+    feet = np.array(point_feet(data.points))
+    limits = np.full(data.contact.shape, np.inf)
+    if m <= 0:
+        return limits
+    for c, foot in enumerate(feet):
+        others = data.contact[:, (feet == foot) & (np.arange(feet.size) != c)].any(axis=1)
+        switches = np.flatnonzero(~data.contact[:, c] & others)
+        for k in np.flatnonzero(data.contact[:, c]):
+            if switches.size:
+                d = np.abs(switches - k).min()
+                if d <= m:
+                    limits[k, c] = 1.5 * body_weight * d / (m + 1)
+    return limits
