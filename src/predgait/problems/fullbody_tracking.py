@@ -142,7 +142,7 @@ class TrackingData:
     slip_transition: float = 0.05
     points: tuple[str, ...] = POINTS
     tau: np.ndarray | None = None
-    fade_nodes: int = 6
+    fade_nodes: int = 3
 
     @property
     def nodes(self) -> int:

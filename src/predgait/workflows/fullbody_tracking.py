@@ -96,7 +96,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
                                    for k, v in vars(defaults).items()}),
         contact_height=window.number("contact_height", 0.03, low=0.0, high=0.2, unit="m"),
         stride=int(window.number("stride", 1, low=1, high=50)),
-        fade_nodes=int(window.number("fade_nodes", 6, low=0, high=50)),
+        fade_nodes=int(window.number("fade_nodes", 3, low=0, high=50)),
         max_iter=int(solver.number("max_iter", 200, low=1, high=5000)),
         feedback=replace(FLOATING_WEIGHTS, **{k: feedback.number(k, v, low=1e-6)
                                               for k, v in fb.items()}),
@@ -162,7 +162,7 @@ def foot_cop_from_points(model, q: np.ndarray, forces: np.ndarray, points, plate
 
 def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, float], *,
                   contact: ContactSettings, contact_height: float = 0.03,
-                  stride: int = 1, fade_nodes: int = 6) -> TrackingData:
+                  stride: int = 1, fade_nodes: int = 3) -> TrackingData:
     """The problem's nodes (every ``stride``-th marker frame of ``window``, s), what they track.
 
     The contact points are ``contact.frames``. A sole point is in contact when its foot
