@@ -62,10 +62,13 @@ from predgait.blas_threads import one_blas_thread
 from predgait.errors import SolveFailed
 from predgait.models.loading3d import Model3D
 from predgait.problems.fullbody_tracking_smooth import fade_limits, smoothing_terms
-from predgait.problems.fullbody_tracking_stage import (
+from predgait.problems.fullbody_tracking_stage import (  # noqa: F401  (numeric helpers re-exported)
     FORCE_UNIT,
     NI,
     POINTS,
+    cayley_numeric,
+    contact_inverse_dynamics,
+    corrected_configuration,
     point_feet,
     stage_functions,
 )
@@ -186,19 +189,6 @@ def foot_totals(forces: np.ndarray, points: tuple[str, ...]) -> np.ndarray:
     """(N, 2, 3): forces (N, P, 3) on ``points`` summed per foot (right, left)."""
     feet = np.array(point_feet(points))
     return np.stack([forces[:, feet == j].sum(axis=1) for j in (0, 1)], axis=1)
-
-
-def cayley_numeric(c: np.ndarray) -> np.ndarray:
-    """:func:`~predgait.problems.fullbody_tracking_stage.cayley` in NumPy."""
-    k = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
-    return np.eye(3) + 2.0 / (1.0 + c @ c) * (k + k @ k)
-
-
-def corrected_configuration(q_ref: np.ndarray, dx: np.ndarray) -> np.ndarray:
-    """Configuration q (36,) from q_ref (36,) and the correction dx = (dp, c, ds) (35,)."""
-    rot = pin.Quaternion(q_ref[6], *q_ref[3:6]).toRotationMatrix() @ cayley_numeric(dx[3:6])
-    quat = pin.Quaternion(rot).normalized().coeffs()
-    return np.concatenate([q_ref[:3] + dx[:3], quat, q_ref[7:] + dx[6:]])
 
 
 def _initial_forces(data: TrackingData) -> np.ndarray:
@@ -405,23 +395,4 @@ def point_positions(model: Model3D, q: np.ndarray, points: tuple[str, ...]) -> n
     for k, row in enumerate(q):
         pin.framesForwardKinematics(pm, pdata, row)
         out[k] = [pdata.oMf[i].translation for i in ids]
-    return out
-
-
-def contact_inverse_dynamics(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                             forces: np.ndarray, points: tuple[str, ...] = POINTS
-                             ) -> np.ndarray:
-    """(N, 35) Pinocchio RNEA(q, v, a) - sum_c J_c^T f_c, lab forces (N, P, 3) on ``points``."""
-    pm, pdata = model.pin_model, model.pin_model.createData()
-    ids = [model.frame_id(p) for p in points]
-    out = np.empty((q.shape[0], model.nv))
-    frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-    for k in range(q.shape[0]):
-        tau = pin.rnea(pm, pdata, q[k], v[k], a[k]).copy()
-        pin.computeJointJacobians(pm, pdata, q[k])
-        pin.updateFramePlacements(pm, pdata)
-        for fid, force in zip(ids, forces[k], strict=True):
-            if force.any():
-                tau -= pin.getFrameJacobian(pm, pdata, fid, frame)[:3].T @ force
-        out[k] = tau
     return out

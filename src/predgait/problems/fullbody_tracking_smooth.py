@@ -24,7 +24,11 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from predgait.problems.fullbody_tracking_stage import point_feet
+from predgait.problems.fullbody_tracking_stage import (
+    contact_inverse_dynamics,
+    corrected_configuration,
+    point_feet,
+)
 
 #: Finite-difference step of the torque's derivative in the configuration correction
 #: (rad, m; central differences, error O(step^2) of torques of O(100) N m).
@@ -47,11 +51,6 @@ def torque_linearisation(model, q_ref: np.ndarray, v: np.ndarray, a: np.ndarray,
     Returns:
         tau (29,) N m; jacobian (29, 105 + 3 P) in z (forces in N, not FORCE_UNIT).
     """
-    from predgait.problems.fullbody_tracking import (
-        contact_inverse_dynamics,
-        corrected_configuration,
-    )
-
     pm, pdata = model.pin_model, model.pin_model.createData()
     count = len(points)
     jac = np.zeros((29, 105 + 3 * count))
