@@ -49,7 +49,8 @@ def _setup(window):
     drive = FullbodyDrive.from_inverse(inverse)
     window = spec.window or gait_cycle(drive, inverse.stances)
     data = tracking_data(drive, plate_height(inverse), window, contact=spec.contact,
-                         contact_height=spec.contact_height, stride=spec.stride)
+                         contact_height=spec.contact_height, stride=spec.stride,
+                         fade_nodes=spec.fade_nodes)
     return spec, drive, data
 
 

@@ -68,6 +68,31 @@ def time_call(function: Callable[[], object], repeat: int = 5, *, warmup: bool =
     return Timing(tuple(wall), tuple(cpu))
 
 
+def time_interleaved(sides: Sequence[Callable[[], object]], repeat: int = 5
+                     ) -> tuple[Timing, ...]:
+    """Wall and CPU of each side, called in turn A, B, A, B ... ``repeat`` times.
+
+    Fair by construction: a change of the machine's load during the run falls on every
+    side alike (timing all of A and then all of B charges it to one).
+    """
+    wall = [[] for _ in sides]
+    cpu = [[] for _ in sides]
+    for _ in range(repeat):
+        for i, side in enumerate(sides):
+            w0, c0 = time.perf_counter(), time.process_time()
+            side()
+            cpu[i].append(time.process_time() - c0)
+            wall[i].append(time.perf_counter() - w0)
+    return tuple(Timing(tuple(w), tuple(c)) for w, c in zip(wall, cpu, strict=True))
+
+
+def load_text() -> str:
+    """The machine's load while timing: 1, 5, 15 min load averages and the cores."""
+    one, five, fifteen = os.getloadavg()
+    return (f"load average {one:.2f} / {five:.2f} / {fifteen:.2f} (1 / 5 / 15 min) on "
+            f"{os.cpu_count()} cores")
+
+
 def time_process(argv: Sequence[str], repeat: int = 5, *, cwd: Path | str = REPO,
                  env: dict | None = None) -> Timing:
     """Wall and CPU (user + system of the child) of ``repeat`` whole processes.
@@ -176,6 +201,8 @@ class Row:
 
 
 def print_rows(rows: Sequence[Row]) -> None:
+    """The rows, after the load they were timed under."""
+    print(load_text())
     for row in rows:
         print("\n".join(row.lines()))
 

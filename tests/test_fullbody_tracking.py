@@ -80,7 +80,8 @@ def test_assembled_derivatives_equal_automatic_differentiation():
     data = TrackingData(np.arange(n) / 60.0, q, rng.normal(size=(n, 35)),
                         rng.normal(size=(n, 35)), rng.random((n, 4)) < 0.6,
                         rng.normal(300, 50, (n, 2, 3)), rng.normal(0, 0.1, (n, 2, 3)),
-                        rng.normal(size=(n, 2)), ground_z=0.0, belt_velocity=0.3)
+                        rng.normal(size=(n, 2)), ground_z=0.0, belt_velocity=0.3,
+                        tau=rng.normal(0, 50, (n, 29)))
     problem = tracking_nlp(model, data)
     x, f, g = (problem.nlp[k] for k in ("x", "f", "g"))
     sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", g.size1())
@@ -148,23 +149,9 @@ def standing_sway(points=POINTS, duration=0.3, settle=0.4, step=2.5e-4):
 
 def feet_data(model, q, forces, points=POINTS, plate_z=0.0):
     """Foot force, COP (on z = plate_z) and free moment from point forces."""
-    pm, data = model.pin_model, model.pin_model.createData()
-    n = q.shape[0]
-    force, cop, free = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
-    feet = np.array(point_feet(points))
-    for k in range(n):
-        pin.framesForwardKinematics(pm, data, q[k])
-        for j in range(2):
-            pts = [data.oMf[model.frame_id(p)].translation
-                   for p, foot in zip(points, feet, strict=True) if foot == j]
-            fs = forces[k, feet == j]
-            total = fs.sum(axis=0)
-            moment = sum(np.cross(p, f) for p, f in zip(pts, fs, strict=True))
-            x = (plate_z * total[0] - moment[1]) / total[2]
-            y = (moment[0] + plate_z * total[1]) / total[2]
-            force[k, j], cop[k, j] = total, (x, y, plate_z)
-            free[k, j] = moment[2] - (x * total[1] - y * total[0])
-    return force, cop, free
+    from predgait.workflows.fullbody_tracking import foot_cop_from_points
+
+    return foot_cop_from_points(model, q, forces, points, plate_z)
 
 
 @pytest.fixture(scope="module", params=[POINTS, SOLE_EDGES], ids=["centre_line", "sole_edges"])
@@ -309,3 +296,13 @@ def test_contact_frames_are_sole_points_that_name_their_foot():
     spec = parse_tracking(load_problem(PROBLEM, [f"contact.frames={list(SOLE_EDGES)}"
                                                  .replace("'", '"')]))
     assert spec.contact.frames == SOLE_EDGES
+
+
+def test_fade_nodes_is_read_and_checked():
+    from predgait.errors import InputError
+    from predgait.problemfile import load_problem
+    from predgait.workflows.fullbody_tracking import parse_tracking
+
+    assert parse_tracking(load_problem(PROBLEM, ["window.fade_nodes=4"])).fade_nodes == 4
+    with pytest.raises(InputError, match=r"window\.fade_nodes"):
+        parse_tracking(load_problem(PROBLEM, ["window.fade_nodes=-1"]))

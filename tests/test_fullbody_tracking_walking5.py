@@ -2,7 +2,7 @@
 
 The solution of problems/fullbody_tracking_walking5.toml (1.97-2.96 s, 62 nodes) is
 re-simulated by the forward engine on its contact springs: without feedback the body falls
-within 0.1 s; with the time-varying LQR (Bryson's rule: the same torque cost on every
+within 0.15 s; with the time-varying LQR (Bryson's rule: the same torque cost on every
 joint, a height error on every sole point) it completes the window, across the right heel
 strike (2.41 s) where the former inertia-scaled torque cost (1-2 N m/rad on the feet) fell
 at 0.44 s, and the left heel's landing beside the plates (~2.90 s) where the law without
@@ -35,7 +35,9 @@ def test_feedback_holds_walking5_across_the_heel_strike(walking5):
     assert solution.status == "Solve_Succeeded"
     assert np.abs(solution.tau[:, :6]).max() < 1e-6                # no pelvis residual
     without, with_fb = info["without_feedback"], info["with_feedback"]
-    assert without["status"] == "event" and without["time_to_fall_s"] < 0.1
+    # Without feedback it falls at once (under 0.1 s before issue 27's smoother torques, 0.104 s
+    # with them; the window is 1 s).
+    assert without["status"] == "event" and without["time_to_fall_s"] < 0.15
     assert with_fb["status"] == "completed" and with_fb["time_to_fall_s"] is None
     assert run.t.size == data.nodes and run.t[-1] == pytest.approx(data.time[-1])
     assert with_fb["joint_rms_from_solution_deg"] < 3.0

@@ -9,6 +9,7 @@ from predgait.kinematics.ik3d import (
     calibrate_markers,
     pelvis_cardan,
     solve_ik,
+    weighted_rms,
     with_marker_frames,
 )
 from predgait.models.loading3d import load_fullbody
@@ -80,6 +81,24 @@ def test_missing_markers_and_flagged_frames(setup):
     np.testing.assert_allclose(result.q[5, 7:], qs[5, 7:], atol=1e-3)
     assert list(result.failed_frames) == [9]
     assert result.converged[10:].all()
+
+
+def test_frames_are_flagged_on_the_weighted_error(setup):
+    """A marker the fit weighs 0.2 half a metre off: the all-marker RMS (~0.08 m) is over
+    the 0.05 m flag, the weighted one (~0.04 m) is not; the trusted markers stay exact."""
+    model, time, qs, frames, xyz, _ = setup
+    bad = xyz.copy()
+    bad[9, 4] += [0.0, 0.0, 0.5]
+    weights = {frames[4]: 0.2}
+    result = solve_ik(model, time, bad, frames, weights=weights)
+    assert result.rms[9] > 0.05 > result.weighted_rms[9]
+    assert result.converged.all()
+    assert result.trusted_rms()[9] < result.weighted_rms[9] < result.rms[9]
+    assert result.trusted_rms()[:9].max() < 1e-6
+    # The weighted RMS is sqrt(sum w r^2 / sum w) over the visible markers.
+    residuals = np.array([[0.01, 0.1, np.nan], [0.02, np.nan, np.nan]])
+    np.testing.assert_allclose(weighted_rms(residuals, [1.0, 0.2, 5.0]),
+                               [np.sqrt((1e-4 + 0.2 * 1e-2) / 1.2), 0.02])
 
 
 def test_calibration_recovers_marker_offsets(setup):

@@ -20,7 +20,7 @@ from predgait.models.anthropometry_3d import DE_LEVA_TABLE4, Sex
 from predgait.models.fullbody import LENGTHS, build_fullbody_urdf, segment_lengths
 from predgait.models.loading3d import fullbody_for_subject, load_fullbody
 from predgait.problemfile import load_problem
-from predgait.workflows.inverse3d import run_inverse_fullbody
+from predgait.workflows.inverse3d import run_inverse_fullbody, scaled_urdf
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim_subject01_walk1"
@@ -240,6 +240,29 @@ def test_scaling_improves_subject01_fit(subject01):
     assert model.total_mass() == pytest.approx(MASS, rel=1e-4)
 
 
+def test_scaled_urdf_carries_the_calibrated_marker_frames(subject01, tmp_path):
+    """Loaded back, the written URDF puts every fitted marker frame where the IK had it
+    (so residuals recompute from the outputs); the generic frames are centimetres off."""
+    result = subject01["after"]
+    path = tmp_path / "scaled_model.urdf"
+    path.write_text(scaled_urdf(result))
+    models = {"written": load_fullbody(path), "fitted": result.model}
+    generic = tmp_path / "generic.urdf"
+    generic.write_text(result.model.urdf)
+    models["generic"] = load_fullbody(generic)
+    q = result.ik.q[result.ik.q.shape[0] // 2]
+    where = {}
+    for key, model in models.items():
+        data = model.pin_model.createData()
+        pin.framesForwardKinematics(model.pin_model, data, q)
+        where[key] = np.array([data.oMf[model.frame_id(f)].translation
+                               for f in result.ik.marker_frames if model.pin_model.existFrame(f)])
+    assert where["written"].shape == where["fitted"].shape
+    np.testing.assert_allclose(where["written"], where["fitted"], atol=1e-6)
+    shared = np.array([models["generic"].pin_model.existFrame(f) for f in result.ik.marker_frames])
+    assert np.abs(where["generic"] - where["fitted"][shared]).max() > 0.01
+
+
 def test_scaled_model_and_factors_written(tmp_path):
     info = run_inverse_fullbody([DATA / "subject01_walk1.trc", DATA / "subject01_walk1_grf.mot"],
                                 MAP, mass=MASS, height=HEIGHT, out_dir=tmp_path / "out",
@@ -252,3 +275,9 @@ def test_scaled_model_and_factors_written(tmp_path):
     d = frame_distances(model, [("knee_center_l", "ankle_center_l")])[0]
     assert d == pytest.approx(lengths["shank_l"], abs=1e-5)
     assert model.total_mass() == pytest.approx(MASS, rel=1e-4)
+    # The headline error over the markers the fit trusts (legs, pelvis) is beside the
+    # all-marker one, which the arm and trunk markers (weight 0.2) dominate.
+    trusted = saved["ik_trusted_rms_m"]
+    assert trusted["mean"] < saved["ik_rms_m"]["mean"]
+    assert "R.Heel" in trusted["markers"] and "R.Elbow" not in trusted["markers"]
+    assert saved["ik_weighted_rms_m"]["mean"] < saved["ik_rms_m"]["mean"]

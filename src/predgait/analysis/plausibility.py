@@ -17,7 +17,7 @@ Bounds (walking; each with its source):
   peaks 1.0-1.5 BW; 2 BW and more is running);
 * pelvis residual force <= 5 % of the peak ground reaction (Hicks et al. 2015, J Biomech
   Eng 137:020905, "Is my model good enough?");
-* marker RMS error <= 20 mm per trusted (weighted) marker (Hicks et al. 2015; OpenSim's IK
+* marker RMS error <= 20 mm per trusted marker (IK weight > 0.5) (Hicks et al. 2015; OpenSim's IK
   best practice: RMS under 1-2 cm);
 * body mass within 5 % of the mass the plates measure (:mod:`predgait.data.body_weight`;
   5 %: Hicks et al. 2015's bound on a mass change after RRA);

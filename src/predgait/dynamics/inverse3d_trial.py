@@ -170,6 +170,9 @@ def unobserved_joints(model: Model3D, frames: Sequence[str]) -> tuple[str, ...]:
 #: (epicondyle and malleolus markers fix the thigh and shank axial rotations).
 LANDMARKS = ("knee_lat_r", "knee_lat_l", "ankle_lat_r", "ankle_lat_l", *CONTACTS)
 LEG_BODIES = ("thigh", "shank", "foot")
+#: Markers weighted above this in the IK are trusted: the trusted-marker error and the
+#: plausibility check use them (issue 27: weights > 0.5).
+TRUSTED_WEIGHT = 0.5
 #: IK weight of the static joint centres (OpenSim's Gait2354 IK weighs its ASIS 10, most
 #: markers 1): they carry the anatomical landmarks the skin markers lack.
 JOINT_CENTRE_WEIGHT = 10.0
@@ -247,7 +250,7 @@ class Inverse3DResult:
     sides: np.ndarray | None = None
     scaling: Scaling | None = None
     plate_mass: PlateMass | None = None   # body mass the plates measure (data.body_weight)
-    trusted: tuple[str, ...] = ()   # trial markers fitted with IK weight >= 1 (not down-weighted)
+    trusted: tuple[str, ...] = ()   # trial markers with IK weight > TRUSTED_WEIGHT
 
     @property
     def valid(self) -> np.ndarray:
@@ -369,7 +372,7 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
     return Inverse3DResult(model, ik, q, v, a, dynamics, at_markers, stances, provenance,
                            sides, scaling, plate_body_mass(plates, gravity=model.gravity),
                            tuple(m for f, m in zip(frames, names, strict=True)
-                                 if weights[f] >= 1.0))
+                                 if weights[f] > TRUSTED_WEIGHT))
 
 
 def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, *,

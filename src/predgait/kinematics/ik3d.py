@@ -41,7 +41,8 @@ class IKOptions:
             observed directions (an arm's axial rotation with the elbow straight) otherwise
             creep for tens of iterations while the fit changes by micrometres.
         damping: Levenberg-Marquardt lambda, m^2 (regularises unobserved directions).
-        flag_rms: m; frames whose marker RMS exceeds it are flagged too.
+        flag_rms: m; frames whose weighted marker RMS (:attr:`IKResult.weighted_rms`)
+            exceeds it are flagged too.
         limit_margin: rad added to both ends of every joint range of the model.
     """
 
@@ -68,6 +69,7 @@ class IKResult:
         converged: (n,) bool; False for frames flagged (see ``failed_frames``).
         at_limit: (n, nv) bool, velocity coordinates held at a joint limit against the
             markers (such frames are flagged too).
+        weights: (m,) the fit's weight of each marker (None: all 1).
     """
 
     time: np.ndarray
@@ -79,6 +81,23 @@ class IKResult:
     iterations: np.ndarray
     converged: np.ndarray
     at_limit: np.ndarray | None = None
+    weights: np.ndarray | None = None
+
+    def _weights(self) -> np.ndarray:
+        return np.ones(len(self.marker_frames)) if self.weights is None else self.weights
+
+    @property
+    def weighted_rms(self) -> np.ndarray:
+        """(n,) m: sqrt(sum w r^2 / sum w) over each frame's visible markers (flagging)."""
+        return weighted_rms(self.residuals, self._weights())
+
+    def trusted_rms(self, threshold: float = 0.5) -> np.ndarray:
+        """(n,) m: RMS over the markers the fit weighs above ``threshold`` (NaN if none)."""
+        trusted = self._weights() > threshold
+        if not trusted.any():
+            return np.full(self.time.size, np.nan)
+        with np.errstate(invalid="ignore"):
+            return np.sqrt(np.nanmean(self.residuals[:, trusted] ** 2, axis=1))
 
     @property
     def flagged(self) -> np.ndarray:
@@ -89,6 +108,15 @@ class IKResult:
     def failed_frames(self) -> np.ndarray:
         """Indices of flagged frames."""
         return np.flatnonzero(~self.converged)
+
+
+def weighted_rms(residuals: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(n,) sqrt(sum_i w_i r_i^2 / sum_i w_i) over the finite residuals (n, m) of each row."""
+    seen = np.isfinite(residuals)
+    w = np.where(seen, np.asarray(weights, dtype=float)[None, :], 0.0)
+    total = np.where(seen, residuals, 0.0) ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt((w * total).sum(axis=1) / w.sum(axis=1))
 
 
 def pelvis_cardan(q: np.ndarray) -> np.ndarray:
@@ -260,10 +288,15 @@ def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
         visible = np.isfinite(xyz[k]).all(axis=1)
         residuals[k, visible] = dist[visible]
     rms = np.sqrt(np.nanmean(residuals**2, axis=1))
-    converged &= (rms <= options.flag_rms) & ~at_limit.any(axis=1)
+    marker_weights = np.array([weights.get(f, 1.0) for f in marker_frames], dtype=float)
+    # Flag on the error the fit minimises: markers it trusts little (arms at 0.2) do not
+    # flag a frame whose trusted markers fit.
+    converged &= (weighted_rms(residuals, marker_weights) <= options.flag_rms)
+    converged &= ~at_limit.any(axis=1)
     return IKResult(time=np.asarray(time, dtype=float), q=qs, marker_frames=tuple(marker_frames),
                     marker_names=tuple(marker_names or marker_frames), residuals=residuals,
-                    rms=rms, iterations=iterations, converged=converged, at_limit=at_limit)
+                    rms=rms, iterations=iterations, converged=converged, at_limit=at_limit,
+                    weights=marker_weights)
 
 
 def with_marker_frames(model: Model3D, placements: Mapping[str, tuple[str, np.ndarray]]
@@ -290,6 +323,22 @@ def with_marker_frames(model: Model3D, placements: Mapping[str, tuple[str, np.nd
                                   placement, pin.FrameType.OP_FRAME))
     return Model3D(urdf=model.urdf, kind=model.kind, pin_model=pm, gravity=model.gravity,
                    source=f"{model.source}, calibrated marker frames")
+
+
+def marker_placements(model: Model3D, frames) -> dict[str, tuple[str, np.ndarray]]:
+    """Frame name -> (its body, (3,) position in that body's frame, m).
+
+    The model's (e.g. calibrated) marker frames as :func:`with_marker_frames` and a URDF
+    take them.
+    """
+    pm = model.pin_model
+    out = {}
+    for name in frames:
+        body = body_of(model, name)
+        rel = pm.frames[model.frame_id(body)].placement.inverse() * \
+            pm.frames[model.frame_id(name)].placement
+        out[name] = (body, np.array(rel.translation))
+    return out
 
 
 def body_of(model: Model3D, frame: str) -> str:

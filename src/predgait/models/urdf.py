@@ -19,7 +19,7 @@ import html
 import os
 import re
 import secrets
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -83,6 +83,28 @@ def _frame(name: str, parent: str, xyz: tuple[float, float, float]) -> str:
         f'    <origin xyz="{_vec(*xyz)}" rpy="0 0 0"/>\n'
         "  </joint>\n"
     )
+
+
+def with_fixed_frames(text: str, frames: Mapping[str, tuple[str, Sequence[float]]]) -> str:
+    """URDF ``text`` with fixed frames placed: name -> (parent link, xyz in it, m).
+
+    A frame the text already has (a link with a ``{name}_fixed`` joint, as
+    :func:`_frame` writes them) gets the new parent and origin; others are added before
+    ``</robot>``.
+    """
+    added = []
+    for name, (parent, xyz) in frames.items():
+        start = text.find(f'<joint name="{name}_fixed"')
+        if start < 0:
+            added.append(_frame(name, parent, tuple(xyz)))
+            continue
+        end = text.index("</joint>", start)
+        block = re.sub(r'<parent link="[^"]*"/>', f'<parent link="{parent}"/>',
+                       text[start:end], count=1)
+        block = re.sub(r'<origin xyz="[^"]*"', f'<origin xyz="{_vec(*xyz)}"', block, count=1)
+        text = text[:start] + block + text[end:]
+    close = text.rindex("</robot>")
+    return text[:close] + "".join(added) + text[close:]
 
 
 def _revolute(name: str, parent: str, child: str, xyz: tuple[float, float, float],

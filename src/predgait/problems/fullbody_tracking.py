@@ -39,7 +39,14 @@ plate's COP against the plate (force and free moment; % body weight), the tangen
 force of each contact point against the forward engine's Coulomb law at its slip relative
 to the floor, -mu f_z STEP(v_t, -v_s, -1, v_s, 1) (% body weight: the engine then starts
 from the solved friction), and a small regularisation of v and a toward the measured
-ones (which also removes the trapezoidal rule's alternating mode).
+ones. Issue 27 (:mod:`~predgait.problems.fullbody_tracking_smooth`, constant Hessian):
+the joint torques against the measured inverse dynamics (linearised about the measured
+state), the node-to-node change of a against the measured change (the trapezoidal
+rule's period-2h mode a = +A, -A, ... moves no state and otherwise costs almost
+nothing: it gave 700 N m alternations of the hip torque), and the second difference of
+each point's force. A point that lifts off or lands while its foot stays down has its
+normal force capped over ``fade_nodes`` nodes (``fade_limits``): a heel hands its
+load to the toe over several nodes instead of within one.
 """
 
 from __future__ import annotations
@@ -55,10 +62,14 @@ from predgait.blas_threads import one_blas_thread
 from predgait.errors import SolveFailed
 from predgait.models.loading3d import Model3D
 from predgait.problems import ipopt_progress
-from predgait.problems.fullbody_tracking_stage import (
+from predgait.problems.fullbody_tracking_smooth import fade_limits, smoothing_terms
+from predgait.problems.fullbody_tracking_stage import (  # noqa: F401  (numeric helpers re-exported)
     FORCE_UNIT,
     NI,
     POINTS,
+    cayley_numeric,
+    contact_inverse_dynamics,
+    corrected_configuration,
     point_feet,
     stage_functions,
 )
@@ -77,6 +88,12 @@ class TrackingWeights:
             point's slip, fraction of body weight.
         velocity_rad_s: Regularisation of v toward the measured one, rad/s (and m/s).
         acceleration_rad_s2: Regularisation of a toward the measured one, rad/s^2.
+        torque_n_m: Joint torque against the measured inverse dynamics, N m (when the
+            data carry them; :mod:`~predgait.problems.fullbody_tracking_smooth`).
+        acceleration_change_rad_s2: Node-to-node change of a against the measured
+            change, rad/s^2 (m/s^2 pelvis): removes the trapezoidal alternating mode.
+        force_change_bw: Second difference of each point's force over the nodes,
+            fraction of body weight: a contact unloads over several nodes.
     """
 
     angle_deg: float = 1.0
@@ -86,6 +103,9 @@ class TrackingWeights:
     friction_bw: float = 0.02
     velocity_rad_s: float = 2.0
     acceleration_rad_s2: float = 50.0
+    torque_n_m: float = 2.0
+    acceleration_change_rad_s2: float = 5.0
+    force_change_bw: float = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,6 +124,11 @@ class TrackingData:
         friction: Coulomb coefficient of the friction pyramid and law.
         slip_transition: m/s, slip over which the engine's friction ramps to mu f_z.
         points: The P contact frames (names end in the foot's side, ``_r`` / ``_l``).
+        tau: (N, 29) N m, measured joint moments (inverse dynamics on the plates), or
+            None: no torque term in the cost.
+        fade_nodes: a point that lifts off (or lands) while its foot stays on the floor
+            carries at most d / (fade_nodes + 1) of 1.5 body weights d nodes before
+            (after) the switch: its force fades over this many nodes.
     """
 
     time: np.ndarray
@@ -120,6 +145,8 @@ class TrackingData:
     friction: float = 0.8
     slip_transition: float = 0.05
     points: tuple[str, ...] = POINTS
+    tau: np.ndarray | None = None
+    fade_nodes: int = 3
 
     @property
     def nodes(self) -> int:
@@ -163,19 +190,6 @@ def foot_totals(forces: np.ndarray, points: tuple[str, ...]) -> np.ndarray:
     """(N, 2, 3): forces (N, P, 3) on ``points`` summed per foot (right, left)."""
     feet = np.array(point_feet(points))
     return np.stack([forces[:, feet == j].sum(axis=1) for j in (0, 1)], axis=1)
-
-
-def cayley_numeric(c: np.ndarray) -> np.ndarray:
-    """:func:`~predgait.problems.fullbody_tracking_stage.cayley` in NumPy."""
-    k = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
-    return np.eye(3) + 2.0 / (1.0 + c @ c) * (k + k @ k)
-
-
-def corrected_configuration(q_ref: np.ndarray, dx: np.ndarray) -> np.ndarray:
-    """Configuration q (36,) from q_ref (36,) and the correction dx = (dp, c, ds) (35,)."""
-    rot = pin.Quaternion(q_ref[6], *q_ref[3:6]).toRotationMatrix() @ cayley_numeric(dx[3:6])
-    quat = pin.Quaternion(rot).normalized().coeffs()
-    return np.concatenate([q_ref[:3] + dx[:3], quat, q_ref[7:] + dx[6:]])
 
 
 def _initial_forces(data: TrackingData) -> np.ndarray:
@@ -293,15 +307,27 @@ def tracking_nlp(model: Model3D, data: TrackingData,
                                                 z[3:6, 1:], lam_rot)
     scatter = _scatter(n, nz)
     hessian += cs.triu(scatter.T @ cs.diagcat(*cs.horzsplit(rblocks, 6)) @ scatter)
+    # Least-squares smoothing terms with a constant Hessian (fullbody_tracking_smooth).
+    x0 = np.hstack([np.zeros((n, 35)), data.v, data.a,
+                    _initial_forces(data) / FORCE_UNIT]).ravel()
+    body_weight = model.total_mass() * model.gravity
+    matrix, rhs = smoothing_terms(model, data, x0, nz, FORCE_UNIT, weights.torque_n_m,
+                                  weights.acceleration_change_rad_s2,
+                                  weights.force_change_bw * body_weight)
+    residual = matrix @ x - rhs
+    smooth = cs.sumsqr(residual)
+    smooth_hessian = cs.triu(2 * matrix.T @ matrix)
     derivatives = {
-        "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam], [hessian],
+        "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam],
+                                [hessian + sigma * smooth_hessian],
                                 ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]),
         "jac_g": cs.Function("nlp_jac_g", [x, no_p], [g, jacobian], ["x", "p"],
                              ["g", "jac_g_x"]),
         "grad_f": cs.Function("nlp_grad_f", [x, no_p],
-                              [cs.sum2(cost) / n, cs.vec(grad_node) / n], ["x", "p"],
-                              ["f", "grad_f_x"])}
-    # Bounds: contact heights, friction pyramid, no force off contact.
+                              [cs.sum2(cost) / n + smooth,
+                               cs.vec(grad_node) / n + 2 * matrix.T @ residual],
+                              ["x", "p"], ["f", "grad_f_x"])}
+    # Bounds: contact heights, friction pyramid, no force off contact, fading contacts.
     on = data.contact.T.astype(bool)
     lbg_node, ubg_node = np.zeros((ng, n)), np.zeros((ng, n))
     ubg_node[6:6 + count] = np.where(on, 0.0, np.inf)
@@ -310,10 +336,10 @@ def tracking_nlp(model: Model3D, data: TrackingData,
     on_points = np.repeat(data.contact[:, :, None], 3, axis=2).reshape(n, 3 * count)
     lbx[:, 105:] = np.where(on_points, np.tile([-np.inf, -np.inf, 0.0], count), 0.0)
     ubx[:, 105:] = np.where(on_points, np.inf, 0.0)
+    ubx[:, 107::3] = np.minimum(ubx[:, 107::3], fade_limits(data, body_weight) / FORCE_UNIT)
+    x0 = np.minimum(x0, ubx.ravel())
     return TrackingNLP(
-        {"x": x, "f": cs.sum2(cost) / n, "g": g}, derivatives,
-        np.hstack([np.zeros((n, 35)), data.v, data.a,
-                   _initial_forces(data) / FORCE_UNIT]).ravel(),
+        {"x": x, "f": cs.sum2(cost) / n + smooth, "g": g}, derivatives, x0,
         lbx.ravel(), ubx.ravel(),
         np.concatenate([lbg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
         np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]))
@@ -376,23 +402,4 @@ def point_positions(model: Model3D, q: np.ndarray, points: tuple[str, ...]) -> n
     for k, row in enumerate(q):
         pin.framesForwardKinematics(pm, pdata, row)
         out[k] = [pdata.oMf[i].translation for i in ids]
-    return out
-
-
-def contact_inverse_dynamics(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                             forces: np.ndarray, points: tuple[str, ...] = POINTS
-                             ) -> np.ndarray:
-    """(N, 35) Pinocchio RNEA(q, v, a) - sum_c J_c^T f_c, lab forces (N, P, 3) on ``points``."""
-    pm, pdata = model.pin_model, model.pin_model.createData()
-    ids = [model.frame_id(p) for p in points]
-    out = np.empty((q.shape[0], model.nv))
-    frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-    for k in range(q.shape[0]):
-        tau = pin.rnea(pm, pdata, q[k], v[k], a[k]).copy()
-        pin.computeJointJacobians(pm, pdata, q[k])
-        pin.updateFramePlacements(pm, pdata)
-        for fid, force in zip(ids, forces[k], strict=True):
-            if force.any():
-                tau -= pin.getFrameJacobian(pm, pdata, fid, frame)[:3].T @ force
-        out[k] = tau
     return out

@@ -3,7 +3,8 @@
 The functions :mod:`predgait.problems.fullbody_tracking` maps over its nodes and
 intervals, with their derivatives (constraint Jacobian, cost gradient, Hessian of the
 Lagrangian), so that the NLP's symbolic work does not grow with the number of nodes.
-Conventions, unknowns and the cost: that module's docstring.
+Conventions, unknowns and the cost: that module's docstring. Also their numeric
+counterparts (Pinocchio): the corrected configuration and the contact inverse dynamics.
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ import functools
 from dataclasses import dataclass
 
 import casadi as cs
+import numpy as np
+import pinocchio as pin
 
 from predgait.dynamics.contact import adams_step
 from predgait.errors import InputError
@@ -234,3 +237,35 @@ def _rotation(q):
 def _vee_skew(m):
     """The vee of the skew part of a 3x3 matrix: (sin angle) axis for a rotation."""
     return 0.5 * cs.vertcat(m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1])
+
+
+def cayley_numeric(c: np.ndarray) -> np.ndarray:
+    """:func:`~predgait.problems.fullbody_tracking_stage.cayley` in NumPy."""
+    k = np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]])
+    return np.eye(3) + 2.0 / (1.0 + c @ c) * (k + k @ k)
+
+
+def corrected_configuration(q_ref: np.ndarray, dx: np.ndarray) -> np.ndarray:
+    """Configuration q (36,) from q_ref (36,) and the correction dx = (dp, c, ds) (35,)."""
+    rot = pin.Quaternion(q_ref[6], *q_ref[3:6]).toRotationMatrix() @ cayley_numeric(dx[3:6])
+    quat = pin.Quaternion(rot).normalized().coeffs()
+    return np.concatenate([q_ref[:3] + dx[:3], quat, q_ref[7:] + dx[6:]])
+
+
+def contact_inverse_dynamics(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                             forces: np.ndarray, points: tuple[str, ...] = POINTS
+                             ) -> np.ndarray:
+    """(N, 35) Pinocchio RNEA(q, v, a) - sum_c J_c^T f_c, lab forces (N, P, 3) on ``points``."""
+    pm, pdata = model.pin_model, model.pin_model.createData()
+    ids = [model.frame_id(p) for p in points]
+    out = np.empty((q.shape[0], model.nv))
+    frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    for k in range(q.shape[0]):
+        tau = pin.rnea(pm, pdata, q[k], v[k], a[k]).copy()
+        pin.computeJointJacobians(pm, pdata, q[k])
+        pin.updateFramePlacements(pm, pdata)
+        for fid, force in zip(ids, forces[k], strict=True):
+            if force.any():
+                tau -= pin.getFrameJacobian(pm, pdata, fid, frame)[:3].T @ force
+        out[k] = tau
+    return out

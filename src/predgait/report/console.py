@@ -126,6 +126,7 @@ def foot_flat_text(feet: dict | None) -> str | None:
 def inverse3d_text(summary: dict, out) -> str:
     """What ``predgait inverse --model fullbody`` prints: IK fit and pelvis residuals."""
     ik = summary.get("ik_rms_m") or {}
+    trusted = summary.get("ik_trusted_rms_m") or {}
     force = summary.get("pelvis_residual_force_N") or {}
     moment = summary.get("pelvis_residual_moment_Nm") or {}
     rows = [("frames", str(summary.get("frames"))),
@@ -134,6 +135,9 @@ def inverse3d_text(summary: dict, out) -> str:
             *[(f"  {name.replace('_', ' ')}", f"RMS {1000 * rms:.1f} mm")
               for name, rms in (summary.get("ik_rms_by_region_m") or {}).items()
               if rms is not None],
+            *([("IK marker error, trusted markers (weight > 0.5)",
+                f"mean {1000 * trusted['mean']:.1f} mm, max {1000 * trusted['max']:.1f} mm")]
+              if trusted.get("mean") is not None else []),
             ("frames flagged by IK", str(len(summary.get("ik_flagged_frames") or []))),
             ("pelvis residual force", f"RMS {force.get('rms', float('nan')):.1f} N, "
                                       f"max {force.get('max', float('nan')):.1f} N"),

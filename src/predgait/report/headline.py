@@ -85,9 +85,13 @@ def _inverse(s: dict) -> Headline:
 
 def _inverse3d(s: dict) -> Headline:
     ik, force = s.get("ik_rms_m", {}), s.get("pelvis_residual_force_N", {})
+    trusted = s.get("ik_trusted_rms_m") or {}
     moment = s.get("pelvis_residual_moment_Nm", {})
     numbers = [("frames", str(s.get("frames"))),
                ("IK marker error, mean of frame RMS", f"{1000 * ik.get('mean', 0):.1f} mm"),
+               *([("IK marker error, trusted markers (weight > 0.5)",
+                   f"{1000 * trusted['mean']:.1f} mm")] if trusted.get("mean") is not None
+                 else []),
                *[(f"IK marker error, {name.replace('_', ' ')} (RMS)", f"{1000 * rms:.1f} mm")
                  for name, rms in s.get("ik_rms_by_region_m", {}).items() if rms is not None],
                ("frames flagged by IK", str(len(s.get("ik_flagged_frames", [])))),
@@ -95,6 +99,9 @@ def _inverse3d(s: dict) -> Headline:
                ("pelvis residual moment (RMS)", f"{moment.get('rms', float('nan')):.1f} N m")]
     lower = s.get("ik_rms_by_region_m", {}).get("pelvis_and_legs")
     legs = "" if lower is None else f" ({1000 * lower:.1f} mm at the pelvis and legs)"
+    if trusted.get("mean") is not None:
+        legs += (f" and {1000 * trusted['mean']:.1f} mm over the {len(trusted['markers'])} "
+                 "markers the fit trusts")
     sentence = (f"The whole body is fitted to the markers with {1000 * ik.get('mean', 0):.1f} "
                 f"mm mean RMS error{legs}; the residual force the pelvis would need to balance the "
                 f"measured loads is {force.get('rms', float('nan')):.0f} N RMS.")
@@ -263,6 +270,18 @@ def _fullbody_tracking(s: dict) -> Headline:
                 f"of motion to {s['pelvis_residual_max_n']:.1e} N after moving its joints "
                 f"{_deg(dev['all_joints_rms_deg'])} RMS and its ground reactions at most "
                 f"{grf:.1f} % body weight RMS from the plates")
+    torque = dev.get("torque")
+    if torque:
+        rms, peak, step = (torque["worst"][k] for k in
+                           ("sagittal_rms_n_m_per_kg", "peak_n_m", "node_change_n_m"))
+        numbers += [("torque vs measured (worst sagittal RMS)",
+                     f"{rms['value']:.3f} N m/kg ({rms['joint']})"),
+                    ("torque vs measured (peak)", f"{peak['value']:.0f} N m ({peak['joint']})"),
+                    ("largest node-to-node torque change",
+                     f"{step['value']:.0f} N m ({step['joint']})")]
+        sentence += (f"; its joint torques differ from the measured ones by at most "
+                     f"{rms['value']:.2f} N m/kg RMS on a sagittal joint ({rms['joint']}) "
+                     f"and change by at most {step['value']:.0f} N m from node to node")
     feedback = s.get("feedback")
     if feedback:
         closed, opened = feedback["with_feedback"], feedback["without_feedback"]

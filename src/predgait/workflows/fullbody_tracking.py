@@ -56,6 +56,7 @@ class TrackingSpec:
     weights: TrackingWeights
     contact_height: float
     stride: int
+    fade_nodes: int
     max_iter: int
     feedback: BrysonWeights
     step: float
@@ -66,7 +67,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
     """TrackingSpec from a problem file (errors name the file, key and line)."""
     table.check_keys(("kind", "trial", "contact", "window", "weights", "solver", "feedback"))
     window = table.table("window")
-    window.check_keys(("start", "end", "contact_height", "stride"))
+    window.check_keys(("start", "end", "contact_height", "stride", "fade_nodes"))
     start = window.number("start", None, low=0, unit="s")
     end = window.number("end", None, low=0, unit="s")
     if (start is None) != (end is None):
@@ -95,6 +96,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
                                    for k, v in vars(defaults).items()}),
         contact_height=window.number("contact_height", 0.03, low=0.0, high=0.2, unit="m"),
         stride=int(window.number("stride", 1, low=1, high=50)),
+        fade_nodes=int(window.number("fade_nodes", 3, low=0, high=50)),
         max_iter=int(solver.number("max_iter", 200, low=1, high=5000)),
         feedback=replace(FLOATING_WEIGHTS, **{k: feedback.number(k, v, low=1e-6)
                                               for k, v in fb.items()}),
@@ -133,15 +135,41 @@ def foot_cop(drive: FullbodyDrive, plate_z: float) -> tuple[np.ndarray, np.ndarr
     return force, np.nan_to_num(cop), free
 
 
+def foot_cop_from_points(model, q: np.ndarray, forces: np.ndarray, points, plate_z: float
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each foot's force (n, 2, 3) N, COP (n, 2, 3) and free moment (n, 2) N m from points.
+
+    From lab forces (n, P, 3) on the sole ``points`` at the configurations q (n, 36): what
+    plates with their surface at z = plate_z (m) under each foot would measure (COP 0
+    under an unloaded foot).
+    """
+    n = q.shape[0]
+    feet = np.array(point_feet(tuple(points)))
+    xyz = point_positions(model, q, tuple(points))
+    force, cop, free = np.zeros((n, 2, 3)), np.zeros((n, 2, 3)), np.zeros((n, 2))
+    for j in (0, 1):
+        total = forces[:, feet == j].sum(axis=1)
+        moment = np.cross(xyz[:, feet == j], forces[:, feet == j]).sum(axis=1)
+        fz = np.where(total[:, 2] > 1e-9, total[:, 2], np.inf)
+        x = (plate_z * total[:, 0] - moment[:, 1]) / fz
+        y = (moment[:, 0] + plate_z * total[:, 1]) / fz
+        force[:, j] = total
+        cop[:, j] = np.column_stack([x, y, np.full(n, plate_z)])
+        free[:, j] = np.where(np.isfinite(fz), moment[:, 2] - (x * total[:, 1] - y * total[:, 0]),
+                              0.0)
+    return force, cop, free
+
+
 def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, float], *,
                   contact: ContactSettings, contact_height: float = 0.03,
-                  stride: int = 1) -> TrackingData:
+                  stride: int = 1, fade_nodes: int = 3) -> TrackingData:
     """The problem's nodes (every ``stride``-th marker frame of ``window``, s), what they track.
 
     The contact points are ``contact.frames``. A sole point is in contact when its foot
     is loaded (plate force above :data:`LOAD_THRESHOLD`) and its measured height is
     within ``contact_height`` (m) of the floor
-    (:func:`~predgait.simulations.forward3d.measured_ground`).
+    (:func:`~predgait.simulations.forward3d.measured_ground`). The measured joint
+    moments (the drive's inverse dynamics) are the torque cost's target.
     """
     points = tuple(contact.frames)
     feet = list(point_feet(points))
@@ -158,7 +186,7 @@ def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, flo
                         loaded & (heights < ground_z + contact_height), force[keep],
                         cop[keep], free[keep], ground_z, belt, stiffness=law.stiffness,
                         friction=law.friction, slip_transition=law.slip_transition,
-                        points=points)
+                        points=points, tau=drive.tau[keep, 6:], fade_nodes=fade_nodes)
 
 
 def plate_height(inverse) -> float:
@@ -166,6 +194,42 @@ def plate_height(inverse) -> float:
     heights = [p.cop[p.force[:, 2] > LOAD_THRESHOLD, 2] for p in inverse.plates]
     heights = np.concatenate(heights) if heights else np.zeros(1)
     return float(np.median(heights)) if heights.size else 0.0
+
+
+#: The sagittal joints of the issue-27 yardstick (corrected against measured moments).
+SAGITTAL = ("hip_r_y", "hip_l_y", "knee_r_y", "knee_l_y", "ankle_r_y", "ankle_l_y")
+
+
+def torque_deviation(model, data: TrackingData, solution: TrackingSolution) -> dict:
+    """Corrected minus measured joint torques (``data.tau``), N m, per joint.
+
+    ``rms_n_m``, ``peak_n_m`` (largest |corrected - measured|), ``node_change_n_m``
+    (largest |tau_k+1 - tau_k| of the corrected torque) and ``measured_node_change_n_m``;
+    ``spike_n_m``: the largest corrected |torque| above the measured peak of its joint;
+    ``sagittal_rms_n_m_per_kg`` on :data:`SAGITTAL`; ``worst``: the joint and value of
+    each measure's maximum.
+    """
+    names, mass = model.joint_names, model.total_mass()
+    corrected, measured = solution.tau[:, 6:], data.tau
+    error = corrected - measured
+
+    def per_joint(values):
+        return {n: float(values[i]) for i, n in enumerate(names)}
+
+    out = {
+        "rms_n_m": per_joint(np.sqrt(np.mean(error**2, axis=0))),
+        "peak_n_m": per_joint(np.abs(error).max(axis=0)),
+        "node_change_n_m": per_joint(np.abs(np.diff(corrected, axis=0)).max(axis=0)),
+        "measured_node_change_n_m": per_joint(np.abs(np.diff(measured, axis=0)).max(axis=0)),
+        "spike_n_m": per_joint(np.abs(corrected).max(axis=0) - np.abs(measured).max(axis=0)),
+    }
+    out["sagittal_rms_n_m_per_kg"] = {n: out["rms_n_m"][n] / mass for n in SAGITTAL}
+    out["worst"] = {key: dict(zip(("joint", "value"), max(out[key].items(),
+                                                          key=lambda item: item[1]),
+                                  strict=True))
+                    for key in ("rms_n_m", "peak_n_m", "node_change_n_m", "spike_n_m",
+                                "sagittal_rms_n_m_per_kg")}
+    return out
 
 
 def deviations(model, data: TrackingData, solution: TrackingSolution) -> dict:
@@ -209,4 +273,5 @@ def deviations(model, data: TrackingData, solution: TrackingSolution) -> dict:
             100 * (feet[:, j, 2].max() - data.force[:, j, 2].max()) / body_weight)
             for j, side in enumerate("rl")},
         "cop_shift": cop_shift,
+        "torque": None if data.tau is None else torque_deviation(model, data, solution),
     }

@@ -53,7 +53,8 @@ def solve_spec(spec: TrackingSpec) -> tuple[FullbodyDrive, TrackingData, Trackin
     drive = FullbodyDrive.from_inverse(inverse)
     window = spec.window or gait_cycle(drive, inverse.stances)
     data = tracking_data(drive, plate_height(inverse), window, contact=spec.contact,
-                         contact_height=spec.contact_height, stride=spec.stride)
+                         contact_height=spec.contact_height, stride=spec.stride,
+                         fade_nodes=spec.fade_nodes)
     stage(f"stage 2/3: tracking problem on {window[0]:.3f}..{window[1]:.3f} s "
           "(building it takes a while)")
     return drive, data, solve_tracking(drive.model, data, spec.weights,
@@ -210,6 +211,14 @@ def summary_lines(info: dict) -> list[str]:
         + ", ".join(f"{k} {v:.1f}" for k, v in dev["grf_rms_percent_bw"].items())
         + " % BW RMS",
     ]
+    torque = dev.get("torque")
+    if torque:
+        rms, peak, step = (torque["worst"][k] for k in
+                           ("sagittal_rms_n_m_per_kg", "peak_n_m", "node_change_n_m"))
+        lines.append(
+            f"  joint torques vs measured: worst sagittal {rms['value']:.3f} N m/kg RMS "
+            f"({rms['joint']}), peak difference {peak['value']:.0f} N m ({peak['joint']}), "
+            f"largest node-to-node change {step['value']:.0f} N m ({step['joint']})")
     for name in ("without_feedback", "with_feedback"):
         run = info["feedback"][name]
         fell = run["time_to_fall_s"]

@@ -29,6 +29,7 @@ from predgait.data import (
     write_storage,
 )
 from predgait.dynamics.inverse3d_trial import (
+    TRUSTED_WEIGHT,
     Inverse3DResult,
     clinical,
     inverse_fullbody,
@@ -82,6 +83,20 @@ def ik_rms_by_region(result: Inverse3DResult) -> dict[str, float | None]:
                    else None) for name, cols in regions.items()}
 
 
+#: Weight above which the IK fit trusts a marker (arm and trunk markers weigh 0.2).
+
+
+def _trusted(ik) -> dict:
+    """Frame RMS over the markers weighted above :data:`TRUSTED_WEIGHT`, m."""
+    rms = ik.trusted_rms(TRUSTED_WEIGHT)
+    weights = ik.weights if ik.weights is not None else np.ones(len(ik.marker_names))
+    names = [m for m, w in zip(ik.marker_names, weights, strict=True) if w > TRUSTED_WEIGHT]
+    if not names:
+        return {"mean": None, "max": None, "markers": []}
+    return {"mean": float(np.nanmean(rms)), "max": float(np.nanmax(rms)), "markers": names,
+            "weight_above": TRUSTED_WEIGHT}
+
+
 def summary(result: Inverse3DResult) -> dict:
     """Headline numbers: IK RMS, pelvis residuals, joint moments, clinical ranges."""
     dyn, ik = result.dynamics, result.ik
@@ -105,6 +120,11 @@ def summary(result: Inverse3DResult) -> dict:
         "frames": int(ik.time.size),
         "ik_flagged_at_joint_limits": _limited(result),
         "ik_rms_m": {"mean": float(ik.rms.mean()), "max": float(ik.rms.max())},
+        "ik_trusted_rms_m": _trusted(ik),
+        "ik_weighted_rms_m": {"mean": float(np.nanmean(ik.weighted_rms)),
+                              "max": float(np.nanmax(ik.weighted_rms)),
+                              "note": "sqrt(sum w r^2 / sum w) with the fit's weights: the "
+                                      "error frames are flagged on"},
         "ik_rms_by_region_m": ik_rms_by_region(result),
         "ik_flagged_frames": [float(ik.time[i]) for i in ik.failed_frames],
         "ik_marker_rms_m": {m: float(np.sqrt(np.nanmean(ik.residuals[:, i] ** 2)))
@@ -133,7 +153,7 @@ def inverse3d_checks(result: Inverse3DResult, moments: dict, residual: np.ndarra
     force (BW), the largest pelvis residual force (N; over the frames with a plate loaded,
     when there are some: elsewhere it carries the unmeasured ground reaction, which the
     mass and stance warnings already say) against the peak ground reaction, the per-marker
-    RMS of the trusted markers (IK weight >= 1), the given mass against the plates'.
+    RMS of the trusted markers (IK weight > 0.5), the given mass against the plates'.
     """
     from predgait.analysis.plausibility import (
         grf_check,
@@ -233,6 +253,18 @@ def write_opensim(result: Inverse3DResult, folder: Path) -> None:
                           "provenance": prov})
 
 
+def scaled_urdf(result: Inverse3DResult) -> str:
+    """The scaled body's URDF with the calibrated marker frames the IK fitted.
+
+    So the per-marker residuals can be recomputed from the outputs.
+    """
+    from predgait.kinematics.ik3d import marker_placements
+    from predgait.models.urdf import with_fixed_frames
+
+    return with_fixed_frames(result.model.urdf,
+                             marker_placements(result.model, result.ik.marker_frames))
+
+
 def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Path, *,
                          mass: float, height: float, sex: str = "male",
                          out_dir: str | Path, static: str | Path | None = None,
@@ -259,5 +291,5 @@ def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Pa
     with staged_output(out_dir, force=force, inputs=inputs) as stage:
         info = write_outputs(result, stage)
         if result.scaling is not None:
-            (stage / "scaled_model.urdf").write_text(result.model.urdf)
+            (stage / "scaled_model.urdf").write_text(scaled_urdf(result))
     return info
