@@ -3,6 +3,7 @@
 import json
 import subprocess
 import sys
+from html import escape
 
 import pytest
 
@@ -109,3 +110,15 @@ def test_every_report_plot_states_its_x_axis_and_signs(demo_folder):
     assert "measured in grey" in captions["02_resynthesis"]
     assert "measured in grey" not in captions["01_inverse_dynamics"]
     assert all(c in page for c in captions.values())
+
+
+def test_demo_headlines_the_passive_answer_not_the_ill_posed_knee_fit(demo_folder):
+    """Issue 30: step 3 is the passive knee and ankle of issue 28's front, and its headline
+    says per joint what the trial can or cannot identify (subject01: not identifiable)."""
+    html = (demo_folder / "report.html").read_text()
+    assert not (demo_folder / "03_knee_fit").exists() and "knee_fit" not in html
+    solution = json.loads((demo_folder / "03_passive_knee_ankle" / "solution.json").read_text())
+    step3 = html[html.index("<h2>3. "):html.index("<h2>4. ")]
+    assert "Passive knee and ankle" in step3
+    for joint, answer in solution["answers"].items():
+        assert escape(f"{joint}: {answer['text']}") in step3

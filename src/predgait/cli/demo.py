@@ -4,8 +4,10 @@ Stages (each a sub-folder of --out, then one HTML report of them all):
   1. inverse dynamics of the bundled subject01 right leg (problems/inverse_subject01.toml);
   2. forward re-synthesis driven by those moments, with the thesis' passive knee elements
      (problems/resynthesis.toml);
-  3. knee spring/damper fit (CasADi + Ipopt), checked by Pinocchio re-simulation;
-  4. torque correction, likewise (problems/knee_fit.toml, torque_correction.toml);
+  3. the passive knee and ankle: swing angles and quiet moments fitted together, one answer
+     per joint, or what the trial cannot identify (problems/passive_knee_ankle.toml);
+  4. torque correction (CasADi + Ipopt), checked by Pinocchio re-simulation
+     (problems/torque_correction.toml);
   5. a what-if scenario: a stiffer knee, driven by the corrected torques with fitted
      feedback gains (problems/scenario_stiff_knee.toml).
 The problem files used are written into the result folder, next to their results.
@@ -60,6 +62,30 @@ side = "right"
 threshold_deg = 2.0
 """
 
+PASSIVE = """\
+# The passive knee and ankle of the bundled walk, right leg; see problems/passive_knee_ankle.toml.
+kind = "passive_knee_ankle"
+joints = ["knee", "ankle"]
+quiet_phases = [[73.0, 95.0]]
+window_sensitivity = [[73.0, 87.0], [73.0, 95.0], [73.0, 100.0]]
+[trial]
+source = "bundled:subject01"
+side = "right"
+[filter]
+marker_cutoff = 20.0
+sensitivity_hz = [10.0, 15.0]
+[simulation]
+max_iter = 200
+[uncertainty]
+bootstrap = 0
+[passive.knee]
+elements = ["linear", "limits"]
+fit = ["k", "c", "theta0"]
+[passive.ankle]
+elements = ["linear", "limits"]
+fit = ["k", "c", "theta0"]
+"""
+
 SCENARIO = """\
 # What-if: a stiffer knee; see problems/scenario_stiff_knee.toml.
 name = "stiffer knee"
@@ -79,7 +105,8 @@ theta0_deg = 10.0
 MARKER = ".predgait-demo"
 INTRO = ("A walk-through of predgait on the bundled OpenSim subject01 walk (72.6 kg, right "
          "leg): inverse dynamics; forward re-synthesis driven by those moments, and why it "
-         "drifts; a passive knee spring fit; corrected torque histories; a what-if scenario. "
+         "drifts; the passive knee and ankle, or what the trial cannot identify of them; "
+         "corrected torque histories; a what-if scenario. "
          "The paragraph under each step's numbers is written from that step's results.")
 
 
@@ -112,6 +139,8 @@ def run(args: argparse.Namespace) -> int:
     from predgait.scenarios.run import load_scenario, run_scenario
     from predgait.workflows.inverse_io import write_inverse_outputs
     from predgait.workflows.output import staged_output
+    from predgait.workflows.passive_swing import parse_knee_ankle
+    from predgait.workflows.passive_swing import run_swing as run_passive
     from predgait.workflows.simulate import parse_spec
     from predgait.workflows.simulate_run import run_spec
     from predgait.workflows.solve import parse_solve, run_solve
@@ -136,11 +165,14 @@ def run(args: argparse.Namespace) -> int:
         folder.mkdir()
         run_spec(parse_spec(problems / "resynthesis.toml"), folder)
         _stage("2 forward re-synthesis", started, last)
-        for number, kind in ((3, "knee_fit"), (4, "torque_correction")):
-            path = problems / f"{kind}.toml"
-            path.write_text(SOLVE.format(kind=kind))
-            run_solve(parse_solve(load_problem(path)), stage / f"0{number}_{kind}")
-            _stage(f"{number} {kind.replace('_', ' ')}", started, last)
+        (problems / "passive_knee_ankle.toml").write_text(PASSIVE)
+        run_passive(parse_knee_ankle(load_problem(problems / "passive_knee_ankle.toml")),
+                    stage / "03_passive_knee_ankle")
+        _stage("3 passive knee and ankle", started, last)
+        path = problems / "torque_correction.toml"
+        path.write_text(SOLVE.format(kind="torque_correction"))
+        run_solve(parse_solve(load_problem(path)), stage / "04_torque_correction")
+        _stage("4 torque correction", started, last)
         write_scenario(run_scenario(load_scenario(problems / "scenario_stiff_knee.toml")),
                        stage / "05_scenario_stiff_knee")
         _stage("5 scenario: stiffer knee", started, last)

@@ -373,12 +373,19 @@ def _swing(s: dict) -> Headline:
         ("gait cycles / quiet-phase windows", f"{s['gait_cycles']} / {s['windows']}"),
         ("angle RMS error, ankle / knee", f"{rms['ankle']:.3f} / {rms['knee']:.3f} deg")]
     identified = [k for k, r in fitted.items() if r["status"] == "identified"]
-    sentence = (f"Simulating the shank and foot under the measured thigh in the quiet phases "
-                f"of {s['gait_cycles']} gait cycle(s) and fitting the measured angles, "
-                f"{len(identified)} of {len(fitted)} fitted parameters are identified"
-                + (f" ({', '.join(identified)})." if identified else "."))
-    return Headline("Passive joints from the swing angles", trial_name(s["provenance"]),
-                    s["status"], numbers, sentence)
+    answers = s.get("answers")
+    if answers:   # passive_knee_ankle: angles and quiet moments together, one answer a joint
+        sentence = (f"Fitting the swing angles and the quiet-phase moments of "
+                    f"{s['gait_cycles']} gait cycle(s) together: "
+                    + "; ".join(f"{joint}: {a['text']}" for joint, a in answers.items()))
+        title = "Passive knee and ankle (angles and quiet moments)"
+    else:
+        sentence = (f"Simulating the shank and foot under the measured thigh in the quiet "
+                    f"phases of {s['gait_cycles']} gait cycle(s) and fitting the measured "
+                    f"angles, {len(identified)} of {len(fitted)} fitted parameters are "
+                    "identified" + (f" ({', '.join(identified)})." if identified else "."))
+        title = "Passive joints from the swing angles"
+    return Headline(title, trial_name(s["provenance"]), s["status"], numbers, sentence)
 
 
 def _shooting(s: dict) -> Headline:
