@@ -70,6 +70,7 @@ from dataclasses import dataclass
 import casadi as cs
 import numpy as np
 
+from predgait.blas_threads import one_blas_thread
 from predgait.errors import InputError
 from predgait.problems import ipopt_progress
 from predgait.problems.collocation import Solved, Transcription, _history
@@ -371,7 +372,9 @@ class MuscleGaitProblem:
         lbg, ubg = np.zeros(self.ng), np.zeros(self.ng)
         if not goal.speed_constraint:
             lbg[self.speed_row], ubg[self.speed_row] = -np.inf, np.inf
-        with ipopt_progress.solving(label, lbg, ubg):
+        # one BLAS thread: MUMPS' small dense blocks gain nothing from threads on a shared
+        # 2-core machine, and the iterates then do not depend on the process' thread count
+        with one_blas_thread(), ipopt_progress.solving(label, lbg, ubg):
             out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         seconds = time.perf_counter() - clock
         stats = self.solver.stats()
