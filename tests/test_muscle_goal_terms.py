@@ -71,6 +71,7 @@ def test_acceleration_term_by_hand(built):
 def test_metabolic_goal_needs_the_metabolic_rate(built):
     plant, planar, _, path = built
     problem = MuscleGaitProblem(plant, 4, tx_row=0)
+    assert "metabolic" not in problem.term_names     # never reported as 0 when not computed
     bounds = bounds_for(plant, planar, MOCO_BOUNDS, (0.4, 0.6))
     with pytest.raises(InputError, match="metabolic"):
         problem.solve(path, bounds, Goal(metabolic_weight=1.0))

@@ -234,7 +234,7 @@ class MuscleGaitProblem:
         # own symbolic SX derivatives, as fast as an SX graph and built in ~1 s
         calls = [node.call([q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k]],
                            False, NEVER_INLINE) for k in range(n1)]
-        r, act_dot, grf, points, force, fibre, muscle_tau, metabolic = (
+        r, act_dot, grf, points, force, fibre, muscle_tau, metabolic_rate = (
             cs.horzcat(*(c[i] for c in calls)) for i in range(8))
         scale = intervals / NOMINAL_DURATION       # 1 / h_0
 
@@ -264,7 +264,7 @@ class MuscleGaitProblem:
              u[:, -1] - u[:, 0],
              cs.vec(h[:, 1:] - h[:, :-1]) * scale,
              q[tx_row, -1] - goal[0] * intervals * h[0, -1],
-             defect(energy, metabolic) / SCALES["W"],
+             defect(energy, metabolic_rate) / SCALES["W"],
              defect(running, cs.sum1(exc ** 3) + cs.fabs(u) ** 3) / SCALES["E"]]
         self.ng = sum(e.shape[0] for e in g)
         self.speed_row = sum(e.shape[0] for e in g[:-2])    # distance - speed * duration
@@ -282,11 +282,12 @@ class MuscleGaitProblem:
         terms = {"speed": (distance / duration - goal[0]) ** 2,
                  "effort": running[0, -1] / distance,
                  "tracking": tracking,
-                 "acceleration": acceleration,
-                 "metabolic": energy[0, -1] / distance / plant.model.total_mass()}
+                 "acceleration": acceleration}
         objective = (goal[1] * terms["speed"] + goal[2] * terms["effort"]
-                     + goal[3] * terms["tracking"] + goal[4] * terms["acceleration"]
-                     + goal[5] * terms["metabolic"])
+                     + goal[3] * terms["tracking"] + goal[4] * terms["acceleration"])
+        if self.metabolic:   # reported only when computed (W stays 0 otherwise)
+            terms["metabolic"] = energy[0, -1] / distance / plant.model.total_mass()
+            objective += goal[5] * terms["metabolic"]
         self.term_names = tuple(terms)
         self.outputs = cs.Function("outputs", [self.w, self.p],
                                    [r, grf, points, force, fibre, muscle_tau, *terms.values()])
