@@ -6,6 +6,7 @@ PinJoint / WeldJoint with their offset frames and coordinates, DeGrooteFregly201
 (every property, OpenSim 4.6's defaults where the file leaves one out) with its
 GeometryPath of PathPoint / ConditionalPathPoint / MovingPathPoint (functions SimmSpline,
 NaturalCubicSpline, Constant, LinearFunction, MultiplierFunction), CoordinateActuator,
+SpringGeneralizedForce (a linear spring-damper on a coordinate, e.g. a passive toe joint),
 ContactSphere, ContactHalfSpace and SmoothSphereHalfSpaceForce. Display-only elements
 (geometry, appearance, empty wrap sets) are skipped. Anything else, and any impossible
 value, is refused with one :class:`~predgait.errors.InputError` naming the file, the line,
@@ -57,7 +58,8 @@ FIRST_VERSION = 30500
 _MODEL_SKIP = {"credits", "publications", "ModelVisualPreferences", "assembly_accuracy",
                "defaults", "Ground"}
 _EMPTY_SETS = {"ControllerSet", "ConstraintSet", "MarkerSet", "ProbeSet", "ComponentSet"}
-_FORCE_TAGS = {"DeGrooteFregly2016Muscle", "CoordinateActuator", "SmoothSphereHalfSpaceForce"}
+_FORCE_TAGS = {"DeGrooteFregly2016Muscle", "CoordinateActuator", "SmoothSphereHalfSpaceForce",
+               "SpringGeneralizedForce"}
 
 
 def read_osim(path: str | Path) -> OsimModel:
@@ -122,7 +124,7 @@ def read_osim(path: str | Path) -> OsimModel:
             half_spaces.append(el.read_half_space(f, n, names))
         else:
             f.unsupported(n)
-    muscles, actuators, contacts = [], [], []
+    muscles, actuators, contacts, springs = [], [], [], []
     for n in forces:
         if n.tag == "DeGrooteFregly2016Muscle":
             muscles.append(el.read_muscle(f, n, names, coordinates))
@@ -131,6 +133,8 @@ def read_osim(path: str | Path) -> OsimModel:
         elif n.tag == "SmoothSphereHalfSpaceForce":
             contacts.append(el.read_contact(f, n, {g.name for g in spheres},
                                             {g.name for g in half_spaces}))
+        elif n.tag == "SpringGeneralizedForce":
+            springs.append(el.read_spring(f, n, coordinates))
         else:
             f.unsupported(n)
     f.check_unique([n for n in forces if n.tag in _FORCE_TAGS], "force")
@@ -139,7 +143,8 @@ def read_osim(path: str | Path) -> OsimModel:
     return OsimModel(name=model.attrib.get("name", Path(path).stem), source=str(path),
                      gravity=gravity, bodies=bodies, joints=joints, muscles=tuple(muscles),
                      actuators=tuple(actuators), spheres=tuple(spheres),
-                     half_spaces=tuple(half_spaces), contacts=tuple(contacts))
+                     half_spaces=tuple(half_spaces), contacts=tuple(contacts),
+                     springs=tuple(springs))
 
 
 def bundled_2d_gait_path() -> Path:

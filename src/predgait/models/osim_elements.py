@@ -17,6 +17,7 @@ from predgait.models.osim_records import (
     ContactSphere,
     Coordinate,
     CoordinateActuator,
+    CoordinateSpring,
     Joint,
     JointKind,
     Muscle,
@@ -212,6 +213,25 @@ def read_actuator(f: OsimFile, node: Node, coordinates: set[str]) -> CoordinateA
         optimal_force=props.get("optimal_force", 1.0),
         min_control=props.get("min_control", -math.inf),
         max_control=props.get("max_control", math.inf),
+        applies_force=props.get("appliesForce", True), line=node.line)
+
+
+def read_spring(f: OsimFile, node: Node, coordinates: set[str]) -> CoordinateSpring:
+    """A SpringGeneralizedForce on an existing coordinate (OpenSim's defaults: 0)."""
+    props = properties(f, node, {"coordinate": "text", "stiffness": "float",
+                                 "rest_length": "float", "viscosity": "float",
+                                 "appliesForce": "bool"})
+    for key in ("stiffness", "viscosity"):
+        value = props.get(key, 0.0)
+        if not math.isfinite(value) or value < 0:
+            f.fail(node, f"{key} = {value!r}", "give a finite value >= 0")
+    if not math.isfinite(props.get("rest_length", 0.0)):
+        f.fail(node, "rest_length is not finite", "give the coordinate value of zero force")
+    return CoordinateSpring(
+        name=node.name,
+        coordinate=coordinate_of(f, node, props.get("coordinate", ""), coordinates),
+        stiffness=props.get("stiffness", 0.0), rest_length=props.get("rest_length", 0.0),
+        viscosity=props.get("viscosity", 0.0),
         applies_force=props.get("appliesForce", True), line=node.line)
 
 

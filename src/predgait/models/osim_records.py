@@ -161,6 +161,22 @@ class CoordinateActuator:
 
 
 @dataclass(frozen=True)
+class CoordinateSpring:
+    """A SpringGeneralizedForce on a coordinate, OpenSim's sign and units.
+
+    Generalised force ``-stiffness (q - rest_length) - viscosity dq/dt`` (N m with q in rad).
+    """
+
+    name: str
+    coordinate: str
+    stiffness: float
+    rest_length: float
+    viscosity: float
+    applies_force: bool
+    line: int
+
+
+@dataclass(frozen=True)
 class ContactSphere:
     """Contact sphere of ``radius`` (m) centred at ``location`` on ``body``."""
 
@@ -224,6 +240,7 @@ class OsimModel:
     spheres: tuple[ContactSphere, ...]
     half_spaces: tuple[ContactHalfSpace, ...]
     contacts: tuple[SmoothContact, ...]
+    springs: tuple[CoordinateSpring, ...] = ()
 
     @property
     def coordinates(self) -> tuple[Coordinate, ...]:

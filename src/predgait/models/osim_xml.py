@@ -114,7 +114,8 @@ class OsimFile:
         name = f" '{node.name}'" if node.name else ""
         raise InputError(f"{self.path}:{node.line}: unsupported element <{node.tag}>{name}"
                          f"{where}; predgait reads bodies, Planar/Pin/Weld joints, "
-                         "DeGrooteFregly2016Muscle, CoordinateActuator and smooth sphere "
+                         "DeGrooteFregly2016Muscle, CoordinateActuator, "
+                         "SpringGeneralizedForce and smooth sphere "
                          "contacts only: remove it or replace it by one of these.")
 
     def check_known(self, node: Node, known: Iterable[str]) -> None:

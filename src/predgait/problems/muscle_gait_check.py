@@ -5,7 +5,7 @@ Pinocchio's RNEA gives M(q) a + h(q, v), the contact forces (the NLP's values) a
 at their contact points through Pinocchio's frame Jacobians, and the muscle and lumbar
 generalised forces are the NLP's. The residual
 
-    RNEA(q, v, a) - tau_muscles - tau_lumbar - sum_c J_c^T F_c
+    RNEA(q, v, a) - tau_muscles - tau_springs - tau_lumbar - sum_c J_c^T F_c
 
 must vanish (all rows: the pelvis is unactuated, every joint is driven by muscles only),
 and ABA(q, v, tau) must return the NLP's accelerations. Slip: the horizontal speed of
@@ -50,7 +50,7 @@ def node_check(plant, gait) -> dict:
         pin.forwardKinematics(pm, data, q, v)
         pin.computeJointJacobians(pm, data, q)
         pin.updateFramePlacements(pm, data)
-        applied = gait.muscle_tau[k].copy()
+        applied = gait.muscle_tau[k] + (plant.spring_forces(q, v) if plant.springs else 0.0)
         applied[plant.lumbar_row] += plant.lumbar_optimal_force * path.u[k]
         speeds = []
         for c, frame in enumerate(frames):

@@ -11,7 +11,8 @@ the accelerations are controls and
 with M, h from ADAM on the same URDF as Pinocchio (:mod:`predgait.models.symbolic`),
 R = -dl/dq the muscle moment arms and F_T the rigid-tendon DeGrooteFregly2016 forces
 (:mod:`predgait.dynamics.muscles`, lengths l(q) from :mod:`predgait.dynamics.muscle_paths`),
-the lumbar CoordinateActuator (control times its optimal force) and the four
+the lumbar CoordinateActuator (control times its optimal force), the model's
+SpringGeneralizedForce elements (in the muscle term above; e.g. a passive toe joint) and the
 SmoothSphereHalfSpaceForce contacts (:mod:`predgait.dynamics.smooth_contact`), each applied
 at its sphere's contact point. Activation dynamics: d act/dt = f(exc, act) (De Groote
 et al. 2016, Ann Biomed Eng 44:2922, as OpenSim's DeGrooteFregly2016Muscle).
@@ -53,6 +54,9 @@ class MusclePlant:
         lumbar_control_range: (min_control, max_control) of the actuator.
         excitation_range: (min_control, max_control) of the muscles.
         spheres: the contact spheres; contacts: their force laws (same order).
+        springs: the model's SpringGeneralizedForce elements
+            (:class:`~predgait.dynamics.joint_springs.JointSpring`, e.g. a passive toe).
+        coordinates, signs: each model row's OpenSim coordinate and model = sign * OpenSim.
     """
 
     model: object
@@ -66,6 +70,15 @@ class MusclePlant:
     excitation_range: tuple[float, float]
     spheres: tuple[Sphere, ...]
     contacts: tuple
+    springs: tuple = ()
+    coordinates: tuple[str, ...] = ()
+    signs: tuple[float, ...] = ()
+
+    def spring_forces(self, q, v):
+        """(nq,) generalised forces of the model's springs (numpy or CasADi column)."""
+        from predgait.dynamics.joint_springs import spring_forces
+
+        return spring_forces(self.springs, self.coordinates, self.signs, q, v)
 
     @property
     def n_muscles(self) -> int:
@@ -111,7 +124,7 @@ def node_function(plant: MusclePlant, metabolic: bool = False) -> cs.Function:
                                         body_mass=model.total_mass()).muscle) \
         if metabolic else cs.SX(1, 1)
     muscle_tau = arms.T @ force
-    applied = muscle_tau + 0
+    applied = muscle_tau + (plant.spring_forces(q, v) if plant.springs else 0)
     applied[plant.lumbar_row] += plant.lumbar_optimal_force * u
     grf, points = [], []
     for sphere, law in zip(plant.spheres, plant.contacts, strict=True):

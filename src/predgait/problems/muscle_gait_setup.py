@@ -51,6 +51,7 @@ GUESS_ACTIVATION = 0.05
 
 def plant_2d_gait(osim):
     """(MusclePlant, OsimPlanarModel) of a model read by :func:`read_osim`."""
+    from predgait.dynamics.joint_springs import JointSpring
     from predgait.dynamics.muscle_paths import smooth_paths
     from predgait.dynamics.muscles import MuscleSet
     from predgait.dynamics.smooth_contact import SmoothSphereContact
@@ -80,6 +81,8 @@ def plant_2d_gait(osim):
         spheres.append(Sphere(contact.name, link, tuple(float(x) for x in location),
                               float(sphere.radius)))
         laws.append(SmoothSphereContact.from_osim(contact, float(sphere.radius)))
+    springs = tuple(JointSpring(s.coordinate, s.stiffness, s.rest_length, s.viscosity)
+                    for s in osim.springs if s.applies_force)
     excitation = (min(m.min_control for m in osim.muscles),
                   max(m.max_control for m in osim.muscles))
     plant = MusclePlant(model=model, osim=osim, muscle_names=muscles.names,
@@ -88,7 +91,9 @@ def plant_2d_gait(osim):
                         lumbar_control_range=(float(lumbar.min_control),
                                               float(lumbar.max_control)),
                         excitation_range=excitation, spheres=tuple(spheres),
-                        contacts=tuple(laws))
+                        contacts=tuple(laws), springs=springs,
+                        coordinates=tuple(planar.osim_coordinates),
+                        signs=tuple(float(s) for s in planar.signs))
     return plant, planar
 
 
@@ -125,7 +130,8 @@ def reference_guess(planar, storage, plant: MusclePlant, intervals: int,
     """(guess, q_ref (N+1, nq)) from a storage of OpenSim coordinate values.
 
     Columns are matched by coordinate name (``/jointset/hip_r/hip_flexion_r/value`` or
-    ``hip_flexion_r``); pelvis_tx starts at 0. A MocoTrajectory (e.g. Moco's own
+    ``hip_flexion_r``); pelvis_tx starts at 0. A coordinate without a column (a joint the
+    reference's model does not have, e.g. a toe joint) stays at its default value. A MocoTrajectory (e.g. Moco's own
     solution) also gives the activations (``/<muscle>/activation``), excitations
     (``/<muscle>``) and the lumbar control; it is not low-passed.
     """
@@ -140,10 +146,13 @@ def reference_guess(planar, storage, plant: MusclePlant, intervals: int,
         key = parts[-2] if len(parts) >= 2 and parts[-1] == "value" else parts[-1]
         if key in names:
             columns[key] = values * (DEG if storage.in_degrees and "_t" not in key else 1.0)
-    missing = [n for n in names if n not in columns]
-    if missing:
-        raise InputError(f"{storage.source}: no column for {', '.join(missing)}.")
     t = storage.time - storage.time[0]
+    missing = [n for n in names if n not in columns]
+    if len(missing) > len(names) // 2:
+        raise InputError(f"{storage.source}: no column for {', '.join(missing)}; give a "
+                         "storage of the model's coordinates (OpenSim names).")
+    for n in missing:        # a joint the reference does not have (e.g. a toe joint)
+        columns[n] = np.full(t.size, planar.osim.coordinate(n).default_value)
     rate = (t.size - 1) / t[-1]
     values = np.column_stack([columns[n] for n in names])
     muscles = [f"/{m}/activation" for m in plant.muscle_names]

@@ -40,8 +40,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-import numpy as np
-
+from predgait.dynamics.joint_springs import JointSpring, spring_forces
 from predgait.problemfile import Table
 from predgait.scenarios.muscle_transfer import transferred_model, transferred_osim
 
@@ -92,27 +91,6 @@ class Transfer:
 
     muscle: str
     donor: str
-
-
-@dataclass(frozen=True)
-class JointSpring:
-    """A rotational spring-damper on an OpenSim coordinate (orthosis), SI units.
-
-    Attributes:
-        coordinate: OpenSim coordinate name.
-        stiffness: k, N m/rad (>= 0).
-        neutral: q0, rad (OpenSim coordinate value).
-        damping: c, N m s/rad (>= 0).
-    """
-
-    coordinate: str
-    stiffness: float
-    neutral: float
-    damping: float = 0.0
-
-    def torque(self, value, speed):
-        """Generalised force on the coordinate, N m: -k (q - q0) - c dq/dt (numpy/CasADi)."""
-        return -self.stiffness * (value - self.neutral) - self.damping * speed
 
 
 @dataclass(frozen=True)
@@ -175,19 +153,10 @@ class MuscleScenario:
     def passive_forces(self, planar, q, v):
         """(nq,) generalised forces of the springs on model q/v (numpy or CasADi column).
 
-        Model coordinate = sign * OpenSim value (:attr:`OsimPlanarModel.signs`), so the
-        force on the model coordinate is sign * the spring's torque.
+        See :func:`predgait.dynamics.joint_springs.spring_forces`.
         """
-        from predgait.dynamics.muscle_curves import lib
-
-        m = lib(q, v)
-        nq = len(planar.osim_coordinates)
-        rows = [0.0 * q[0] for _ in range(nq)]
-        for spring in self.passive_torques:
-            row = planar.osim_coordinates.index(spring.coordinate)
-            sign = float(planar.signs[row])
-            rows[row] = rows[row] + sign * spring.torque(sign * q[row], sign * v[row])
-        return np.stack(rows) if m is np else m.vertcat(*rows)
+        return spring_forces(self.passive_torques, planar.osim_coordinates, planar.signs,
+                             q, v)
 
     def edited_plant(self, plant):
         """The baseline MusclePlant with this scenario's muscles, paths and model record.
