@@ -13,7 +13,7 @@ import pytest
 from predgait.data.storage import read_storage
 from predgait.errors import InputError
 from predgait.models.osim import bundled_2d_gait
-from predgait.problems.muscle_gait import Goal, MuscleGaitProblem
+from predgait.problems.muscle_gait import GOAL_SIZE, Goal, MuscleGaitProblem
 from predgait.problems.muscle_gait_setup import (
     MOCO_BOUNDS,
     bounds_for,
@@ -41,7 +41,9 @@ def built():
 
 def _terms(problem, path):
     nq = problem.plant.model.nq
-    p = np.concatenate([[1.2, 0, 10, 0, 0, 0], np.zeros((INTERVALS + 1) * nq)])
+    goal = np.zeros(GOAL_SIZE)
+    goal[:3] = 1.2, 0, 10
+    p = np.concatenate([goal, np.zeros((INTERVALS + 1) * nq)])
     out = problem.outputs(problem.pack(path), p)
     return dict(zip(problem.term_names, (float(x) for x in out[6:]), strict=True))
 
@@ -66,6 +68,27 @@ def test_acceleration_term_by_hand(built):
     square = (joints ** 2).sum(axis=1)
     expected = np.trapezoid(square, path.t) / joints.shape[1]
     assert _terms(problem, path)["acceleration"] == pytest.approx(expected, rel=1e-9)
+
+
+def test_loading_rate_term_by_hand(built):
+    """Each foot's vertical GRF (sum of its spheres, BW), its rate squared over each
+    interval, times the interval: sum_k (F_k+1 - F_k)^2 / h, both feet."""
+    plant, _, problem, path = built
+    nq = plant.model.nq
+    goal = np.zeros(GOAL_SIZE)
+    goal[:3] = 1.2, 0, 10
+    grf = np.array(problem.outputs(problem.pack(path),
+                                   np.concatenate([goal, np.zeros((INTERVALS + 1) * nq)]))[1])
+    weight = plant.model.total_mass() * plant.model.gravity
+    h = path.duration / INTERVALS
+    expected = 0.0
+    for side in ("_r", "_l"):
+        rows = [3 * i + 2 for i, s in enumerate(plant.spheres) if s.link.endswith(side)]
+        assert len(rows) == 2
+        vertical = grf[rows].sum(axis=0) / weight
+        expected += (np.diff(vertical) ** 2).sum() / h
+    assert expected > 1.0
+    assert _terms(problem, path)["loading_rate"] == pytest.approx(expected, rel=1e-9)
 
 
 def test_metabolic_goal_needs_the_metabolic_rate(built):

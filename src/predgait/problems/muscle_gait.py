@@ -80,6 +80,8 @@ from predgait.problems.muscle_gait_dynamics import MusclePlant, node_function
 SCALES = {"h": 0.01, "q": 1.0, "v": 1.0, "a": 10.0, "act": 1.0, "exc": 1.0, "u": 10.0,
           "W": 100.0, "E": 0.01}
 NEVER_INLINE = False
+#: Entries of the goal parameter vector (speed, 6 weights).
+GOAL_SIZE = 7
 #: Residual scale (N, N m per unit of the scaled constraint).
 RESIDUAL_SCALE = 100.0
 #: Nominal duration used to scale the defects, s.
@@ -100,6 +102,7 @@ class Goal:
     tracking_weight: float = 0.0  # per rad^2 (m^2)
     acceleration_weight: float = 0.0  # per (rad/s^2)^2 s (Falisse et al. 2019's term)
     metabolic_weight: float = 0.0  # per J/kg/m of the muscles' metabolic energy (Bhargava)
+    loading_rate_weight: float = 0.0  # per (BW/s)^2 s: each foot's vertical GRF rate squared
 
 
 @dataclass(frozen=True)
@@ -225,9 +228,9 @@ class MuscleGaitProblem:
         x = self.unpack(self.w)
         h, q, v, a, act, exc, u, energy, running = (
             x[k] for k in ("h", "q", "v", "a", "act", "exc", "u", "W", "E"))
-        self.p_sizes = (("goal", 6), ("q_ref", nq * n1))
-        self.p = symbol.sym("p", 6 + nq * n1)
-        goal, q_ref = self.p[:6], cs.reshape(self.p[6:], nq, n1)
+        self.p_sizes = (("goal", GOAL_SIZE), ("q_ref", nq * n1))
+        self.p = symbol.sym("p", GOAL_SIZE + nq * n1)
+        goal, q_ref = self.p[:GOAL_SIZE], cs.reshape(self.p[GOAL_SIZE:], nq, n1)
         node = node_function(plant, metabolic) if node is None else node
         self.node, self.metabolic = node, metabolic
         # one call per node (not a map): MX differentiates each call through the node's
@@ -279,12 +282,22 @@ class MuscleGaitProblem:
         joints = [i for i in range(nq) if i not in (0, 1, 2)]
         square = cs.sum1(a[joints, :] ** 2)
         acceleration = cs.sum2(h * 0.5 * (square[:, 1:] + square[:, :-1])) / len(joints)
+        # each foot's vertical ground reaction rate squared, (BW/s)^2, summed over the
+        # feet and integrated over the half stride (interval by interval: banded Hessian)
+        weight = plant.model.total_mass() * plant.model.gravity
+        loading = 0
+        for side in ("_r", "_l"):
+            spheres = [i for i, s in enumerate(plant.spheres) if s.link.endswith(side)]
+            vertical = sum(grf[3 * i + 2, :] for i in spheres) / weight
+            loading += cs.sum2((vertical[:, 1:] - vertical[:, :-1]) ** 2 / h)
         terms = {"speed": (distance / duration - goal[0]) ** 2,
                  "effort": running[0, -1] / distance,
                  "tracking": tracking,
-                 "acceleration": acceleration}
+                 "acceleration": acceleration,
+                 "loading_rate": loading}
         objective = (goal[1] * terms["speed"] + goal[2] * terms["effort"]
-                     + goal[3] * terms["tracking"] + goal[4] * terms["acceleration"])
+                     + goal[3] * terms["tracking"] + goal[4] * terms["acceleration"]
+                     + goal[6] * terms["loading_rate"])
         if self.metabolic:   # reported only when computed (W stays 0 otherwise)
             terms["metabolic"] = energy[0, -1] / distance / plant.model.total_mass()
             objective += goal[5] * terms["metabolic"]
@@ -366,7 +379,7 @@ class MuscleGaitProblem:
         ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
         p = np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,
                              goal.tracking_weight, goal.acceleration_weight,
-                             goal.metabolic_weight], ref.ravel()])
+                             goal.metabolic_weight, goal.loading_rate_weight], ref.ravel()])
         lbx, ubx = self.box(bounds)
         w0 = np.clip(self.pack(guess), lbx, ubx)
         clock = time.perf_counter()

@@ -82,7 +82,8 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     guess.check_keys(("reference", "tracking_stage", "tracking_weight"))
     grid.check_keys(("nodes", "transcription"))
     goal.check_keys(("speed", "speed_constraint", "speed_weight", "effort_weight",
-                     "acceleration_weight", "metabolic_weight", "duration"))
+                     "acceleration_weight", "metabolic_weight", "loading_rate_weight",
+                     "duration"))
     solver.check_keys(("max_iter",))
     compare.check_keys(("moco_solution",))
     check.check_keys(("human_likeness",))
@@ -120,7 +121,9 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
                   acceleration_weight=goal.number("acceleration_weight",
                                                   d.acceleration_weight, low=0.0, high=1e9),
                   metabolic_weight=goal.number("metabolic_weight", d.metabolic_weight,
-                                               low=0.0, high=1e9)),
+                                               low=0.0, high=1e9),
+                  loading_rate_weight=goal.number("loading_rate_weight",
+                                                  d.loading_rate_weight, low=0.0, high=1e9)),
         duration=(duration[0], duration[1]),
         preset=bounds.choice("preset", Preset, Preset.MOCO.value), bounds=ranges,
         tracking_stage=guess.get("tracking_stage", bool, False),
