@@ -140,6 +140,32 @@ def feedback_checks(feedback: Mapping[str, float], measured: Mapping[str, float]
             if joint in measured and value is not None and math.isfinite(value)]
 
 
+def worst_feedback_check(feedback: Mapping[str, float], measured: Mapping[str, float], *,
+                         what: str = "feedback torque") -> Check | None:
+    """One feedback check for many joints (the whole body), as :func:`marker_check`.
+
+    The joint whose peak |feedback| (N m) is the largest multiple of its peak |measured
+    moment| (N m) against that bound; the other joints above theirs are named in its
+    advice. None when no joint has both values.
+    """
+    pairs = {j: (v, measured[j]) for j, v in feedback.items()
+             if j in measured and v is not None and math.isfinite(v)}
+    if not pairs:
+        return None
+
+    def ratio(joint: str) -> float:
+        value, bound = pairs[joint]
+        return value / bound if bound > 0 else math.inf if value > 0 else 0.0
+
+    worst = max(pairs, key=ratio)
+    above = [j for j in sorted(pairs, key=ratio, reverse=True)
+             if j != worst and pairs[j][0] > pairs[j][1]]
+    return at_most(f"peak |{worst} {what}|", pairs[worst][0], pairs[worst][1], unit="N m",
+                   source=FEEDBACK_SOURCE,
+                   advice=f"also above their measured peaks: {', '.join(above)}" if above
+                   else "")
+
+
 def record(summary: dict, checks: Iterable[Check | None], *, key: str = "plausibility"
            ) -> dict:
     """Add the checks to a summary (in place, returned): ``key``, ``warnings``, status.
