@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from predgait.analysis.plausibility import record, warning_lines
-from predgait.models.loading import GRAVITY, Model
+from predgait.models.loading import Model
 from predgait.problems.predictive import JOINTS
 from predgait.problems.predictive_solve import PredictSpec, parse_predict
-from predgait.scenarios.predict import Prediction, predict
+from predgait.scenarios.predict import Prediction, predict, predict_checks
 from predgait.textfile import source_name
 
 __all__ = ["parse_predict", "prediction_summary", "run_predict", "summary_lines",
@@ -73,26 +73,6 @@ def prediction_summary(spec: PredictSpec, prediction: Prediction) -> dict:
                                           prediction.measured.start
                                           + prediction.measured.duration]},
     }, predict_checks(spec, prediction))
-
-
-def predict_checks(spec: PredictSpec, prediction: Prediction) -> list:
-    """Plausibility (:mod:`predgait.analysis.plausibility`) of a predicted gait.
-
-    Peak vertical GRF of either foot (BW); the re-simulation's TVLQR feedback against its
-    feedforward (RMS, N m).
-    """
-    from predgait.analysis.plausibility import FEEDFORWARD_SOURCE, at_most, grf_check
-
-    m = prediction.measures
-    weight = spec.mass * GRAVITY
-    checks = [grf_check(max(m[s]["peak_fz_n"] for s in ("right", "left")) / weight)]
-    rs = prediction.resimulation
-    if rs is not None:
-        r = rs.summary()
-        checks.append(at_most("RMS re-simulation feedback torque", r["feedback_rms_n_m"],
-                              r["feedforward_rms_n_m"], unit="N m",
-                              source=FEEDFORWARD_SOURCE))
-    return checks
 
 
 def write_prediction(stage: Path, model: Model, prediction: Prediction, prefix: str = "") -> None:
