@@ -93,6 +93,14 @@ def test_many_joints_feedback_gives_one_check_naming_the_worst_and_the_others():
     assert pl.worst_feedback_check({"neck": 3.0}, measured) is None
 
 
+def test_a_baseline_failing_its_human_likeness_checks_warns():
+    assert pl.baseline_check(0, 14).passed
+    assert pl.baseline_check(0, 0) is None            # no check was run: nothing to say
+    line = _one(pl.baseline_check(3, 14))
+    assert line.startswith("baseline gait: failed checks against normal gait = 3, outside "
+                           "<= 0 of 14") and line.endswith("(baseline.warnings)")
+
+
 # ------------------------------------------------------------------ status, lines
 @pytest.mark.parametrize(("status", "after"), [
     ("completed", "completed with warnings"),

@@ -23,7 +23,9 @@ Bounds (walking; each with its source):
   5 %: Hicks et al. 2015's bound on a mass change after RRA);
 * a feedback torque no larger than the drive it corrects (the subject's measured peak
   joint moment from inverse dynamics): feedback corrects deviations from the measured
-  motion (thesis 4.2), it does not walk for the subject.
+  motion (thesis 4.2), it does not walk for the subject;
+* a scenario's baseline gait passes its human-likeness checks (a comparison with a gait
+  that is not human says little about a person).
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ MASS_SOURCE = "plates: mean vertical GRF over a step / g; 5 %: Hicks et al. 2015
 FEEDBACK_SOURCE = "the subject's measured peak moment, inverse dynamics; thesis 4.2"
 FEEDFORWARD_SOURCE = ("the feedforward torque it corrects (feedback corrects deviations, "
                       "thesis 4.2)")
+BASELINE_SOURCE = ("the baseline's human-likeness checks against measured normal gait "
+                   "(analysis.human_likeness)")
 #: Statuses of a run that ended as planned, which a failed check qualifies.
 FINISHED = ("completed", "solved")
 
@@ -164,6 +168,21 @@ def worst_feedback_check(feedback: Mapping[str, float], measured: Mapping[str, f
                    source=FEEDBACK_SOURCE,
                    advice=f"also above their measured peaks: {', '.join(above)}" if above
                    else "")
+
+
+def baseline_check(failed: int, total: int) -> Check | None:
+    """A comparison's baseline gait against normal gait (None when no check was run).
+
+    ``failed`` of its ``total`` human-likeness checks failed; any fails it. A scenario's
+    predicted changes are those of its baseline: from a gait that is not human they say
+    little about a person.
+    """
+    if not total:
+        return None
+    return Check("baseline gait: failed checks against normal gait", float(failed),
+                 f"<= 0 of {total}", BASELINE_SOURCE, failed == 0,
+                 advice="" if failed == 0 else "the predicted changes are those of a gait "
+                 "that is not yet human (baseline.warnings)")
 
 
 def record(summary: dict, checks: Iterable[Check | None], *, key: str = "plausibility"
