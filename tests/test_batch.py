@@ -131,6 +131,33 @@ def test_each_trial_equals_the_single_trial_command(batch, tmp_path):
             assert ours == (single / table).read_text(), (trial, table)
 
 
+def test_the_parquet_table_reads_back_equal_to_the_csv_table(batch):
+    """results.parquet (pyarrow, in the test extra) holds results.csv's rows, in order:
+    the same text cells, the same integers, values equal to the CSV's 10 digits (NaN where
+    the CSV cell is empty)."""
+    import pyarrow.parquet as pq
+
+    from predgait.report.dataset_tables import TIDY
+
+    _, _, out, _, _ = batch
+    table = pq.read_table(out / "results.parquet")
+    assert tuple(table.column_names) == TIDY
+    parquet = table.to_pydict()
+    with (out / "results.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == table.num_rows > 0
+    for name in TIDY:
+        ours = parquet[name]
+        if name == "value":
+            text = np.array([float(r[name] or "nan") for r in rows])
+            np.testing.assert_allclose(np.array(ours, dtype=float), text, rtol=1e-9,
+                                       atol=1e-300, equal_nan=True)
+        elif name in ("cycle", "percent", "flagged"):
+            assert ours == [int(r[name]) for r in rows], name
+        else:
+            assert ours == [r[name] for r in rows], name
+
+
 @pytest.mark.parametrize("name", list(WALKS))
 def test_synthetic_trials_give_their_known_answers(batch, name):
     """Exact RNEA answer (test_inverse_synthetic's tolerances), cycles and curves."""

@@ -14,6 +14,7 @@ import json
 import re
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
@@ -35,6 +36,7 @@ from predgait.simulations.forward3d import (
     Mode,
     PelvisMode,
     build_system,
+    feedback_peaks,
     simulate_fullbody,
 )
 from predgait.workflows.forward3d_run import inverse_for, run_fullbody
@@ -196,6 +198,56 @@ def test_feedback_damping_follows_each_joint_inertia(subject01):
     inertia = np.diag(pin.crba(model.pin_model, model.pin_model.createData(), q))[rows]
     np.testing.assert_allclose(feedback.kd, np.sqrt(100.0 * inertia))  # 2 * 0.5 * sqrt(kp I)
     assert feedback.kd[0] > 10 * feedback.kd[1]  # thigh vs foot about its long axis
+
+
+def test_feedback_peaks_are_the_pd_law_along_the_run(synthetic):
+    """A run whose right knee lags the measured one by up to 0.02 rad at the measured
+    velocities: the PD feedback there peaks at kp * 0.02 = 2 N m, zero elsewhere; the
+    measured peak is the inverse-dynamics moment over the run's frames."""
+    system, _, _ = build_system(synthetic, Mode(feedback_kp=100.0))
+    rows = slice(10, 30)
+    q, v = synthetic.q[rows].copy(), synthetic.v[rows]
+    j = synthetic.model.joint_names.index("knee_r_y")
+    q[:, 7 + j] -= 0.02 * np.linspace(0.0, 1.0, 20)
+    feedback, measured = feedback_peaks(system, synthetic,
+                                        SimpleNamespace(t=synthetic.time[rows], q=q, v=v))
+    assert set(feedback) == set(measured) == set(synthetic.model.joint_names)
+    assert feedback["knee_r_y"] == pytest.approx(2.0, rel=1e-9)
+    assert max(f for name, f in feedback.items() if name != "knee_r_y") < 1e-9
+    assert measured["knee_r_y"] == pytest.approx(np.abs(synthetic.tau[rows, 6 + j]).max())
+    plain, _, _ = build_system(synthetic, Mode())
+    assert feedback_peaks(plain, synthetic, SimpleNamespace(t=synthetic.time[rows], q=q,
+                                                            v=v)) == ({}, {})
+
+
+def test_cli_feedback_beyond_the_measured_moment_warns(tmp_path, capsys):
+    """subject01, 0.5 s, kp 100 N m/rad: with the pelvis prescribed every joint's feedback
+    stays below its measured peak moment; with the pelvis free the right ankle's
+    inversion feedback reaches ~40 N m against ~7 N m measured (the body drifts off the
+    measured motion): one warning for that variant, status "completed with warnings"."""
+    text = PROBLEM.read_text().split("\n[[variants]]")[0]
+    text = text.replace('marker_map = "markers_fullbody_subject01.toml"',
+                        f'marker_map = "{PROBLEM.parent / "markers_fullbody_subject01.toml"}"')
+    for name, pelvis in (("held", "prescribed"), ("free", "free")):
+        text += (f'\n[[variants]]\nname = "{name}"\npelvis = "{pelvis}"\njoints = "moments"\n'
+                 'ground = "measured"\nfeedback_kp = 100.0\n')
+    problem = tmp_path / "pd.toml"
+    problem.write_text(text)
+    out = tmp_path / "pd"
+    assert main(["simulate", str(problem), "--out", str(out), "--no-plots",
+                 "--set", "simulation.duration=0.5"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    held, free = summary["plausibility"]
+    assert held["passed"] and not free["passed"]
+    assert held["name"].endswith("feedback torque (held)|")
+    assert free["name"] == "peak |ankle_r_x feedback torque (free)|"
+    row = summary["runs"][1]
+    assert free["value"] == pytest.approx(row["peak_feedback_n_m"]["ankle_r_x"])
+    assert free["value"] > 2 * row["peak_measured_moment_n_m"]["ankle_r_x"]
+    assert summary["status"] == "completed with warnings"
+    [free_line] = summary["warnings"]
+    assert "also above their measured peaks: " in free_line
+    assert f"  warning: {free_line}" in capsys.readouterr().out
 
 
 def test_thesis_kinematic_body_on_contacts(subject01):

@@ -272,6 +272,12 @@ def test_cli_writes_the_result_folder(tmp_path, capsys, assert_tidy_result):
     states = read_storage(out / "states.sto")
     assert states.header["units"].startswith("m, rad") and not states.in_degrees
     assert 50.0 < np.degrees(np.nanmax(states.column("knee_r"))) < 75.0
+    # OpenSim's 2D gait coordinates (issue 31): degrees, knee_angle negative in flexion
+    motion = read_storage(out / "motion.mot")
+    assert motion.in_degrees and motion.header["units"].startswith("deg")
+    np.testing.assert_allclose(motion.column("knee_angle_r"),
+                               -np.degrees(states.column("knee_r")), atol=1e-6)
+    assert 50.0 < -np.min(motion.column("knee_angle_r")) < 75.0
     names = [r["name"] for r in summary["runs"]]
     assert names[0] == "main" and "meglan" in names
     assert "GRF r R/L" in capsys.readouterr().out

@@ -88,10 +88,9 @@ def test_scenario_writes_both_gaits_and_a_finding(weakness, tmp_path, monkeypatc
     summary = ws.run_muscle_scenario(weakness.run, out)
     written = json.loads((out / "summary.json").read_text())
     assert "Ong et al. 2019" in written["finding"]
-    # the baseline's failed checks against normal gait carry over to the scenario's status
-    failed = written["baseline"]["warnings"]
-    assert written["status"] == ("completed with warnings" if failed else "completed")
-    assert bool(failed) == bool(written.get("warnings"))
+    # no human-likeness check was run on this baseline (SET): nothing to warn about
+    assert written["baseline"]["human_likeness"] == [] and written["plausibility"] == []
+    assert written["status"] == "completed" and written["warnings"] == []
     assert not re.search(r"\.\s+[A-Z]", written["finding"])      # one sentence
     for name in ("baseline", "edited"):
         assert (out / f"{name}_states.sto").is_file()
@@ -99,6 +98,40 @@ def test_scenario_writes_both_gaits_and_a_finding(weakness, tmp_path, monkeypatc
     assert c["speed_m_s"]["edited"] == pytest.approx(1.2, abs=1e-4)
     assert c["edited"]["cost_of_transport_j_kg_m"] > 0
     assert set(c["legs"]["r"]["rms_change_deg"]) == {"hip", "knee", "ankle"}
+
+
+@pytest.mark.parametrize("baseline_passes", [False, True])
+def test_a_baseline_failing_normal_gait_warns_through_record(weakness, monkeypatch,
+                                                            baseline_passes):
+    """The baseline's human-likeness checks (here one, failing or passing) become the
+    scenario's plausibility check: its warning and status, as every result's."""
+    from predgait.analysis.plausibility import Check, record, warning_lines
+    from predgait.problems import muscle_prediction
+    from predgait.workflows.muscle_scenario import scenario_summary, summary_lines
+
+    real = muscle_prediction.prediction_summary
+    knee = Check("loading-response knee flexion", 3.0, ">= 8 deg", "Perry 1992",
+                 baseline_passes, "deg")
+
+    def with_human_checks(spec, pred):
+        out = real(spec, pred)
+        return record(out, [knee], key="human_likeness") if pred is weakness.baseline else out
+
+    monkeypatch.setattr(muscle_prediction, "prediction_summary", with_human_checks)
+    summary = scenario_summary(weakness)
+    [check] = summary["plausibility"]
+    assert check["name"] == "baseline gait: failed checks against normal gait"
+    assert check["bound"] == "<= 0 of 1" and check["passed"] == baseline_passes
+    if baseline_passes:
+        assert summary["status"] == "completed" and summary["warnings"] == []
+        return
+    assert summary["status"] == "completed with warnings"
+    [line] = summary["warnings"]
+    assert line.startswith("baseline gait: failed checks against normal gait = 1, outside "
+                           "<= 0 of 1") and "not yet human" in line
+    assert summary["baseline"]["warnings"] == [knee.line()]
+    assert f"  warning: {line}" in summary_lines(summary)
+    assert warning_lines(summary) == [f"  warning: {line}"]
 
 
 def _comparison(cost=0.0, ankle=(20.0, 20.0), swing=(50.0, 50.0)):

@@ -88,6 +88,16 @@ def test_leg_inverse_files_state_their_angle_unit(leg):
     assert peaks[0] == pytest.approx(peaks[1], abs=1e-6)
 
 
+def test_leg_motion_for_opensim_states_its_angle_unit_and_opensims_sign(leg):
+    """motion.mot: 2D_gait.osim's knee_angle_r, negative in flexion, in degrees; the model's
+    hinge, which is kinematics.sto's knee flexion plus the static trial's standing knee."""
+    knee = -sto_angle_deg(leg / "motion.mot", "knee_angle_r")
+    assert_knee_peak(knee, "motion.mot")
+    offset = knee - sto_angle_deg(leg / "kinematics.sto", "knee_flexion")
+    offset = offset[np.isfinite(offset)]
+    assert np.ptp(offset) < 1e-6 and abs(offset[0]) < 15.0
+
+
 def test_whole_body_inverse_files_state_their_angle_unit(tmp_path, leg):
     out = tmp_path / "body"
     run_cli("--model", "fullbody", "--marker-map", MAP, "--out", out)

@@ -77,6 +77,30 @@ def test_feedback_below_the_measured_peak_passes_above_warns():
     assert "ankle feedback torque| = 188 N m" in _one(bad[0]) and "<= 124 N m" in bad[0].line()
 
 
+def test_many_joints_feedback_gives_one_check_naming_the_worst_and_the_others():
+    measured = {"knee_r_y": 40.0, "ankle_r_x": 6.8, "hip_r_z": 9.7, "elbow_l": 0.0}
+    ok = pl.worst_feedback_check({"knee_r_y": 30.0, "ankle_r_x": 6.0, "elbow_l": 0.0},
+                                 measured)
+    assert ok.passed and ok.name == "peak |ankle_r_x feedback torque|"   # 6.0 / 6.8 worst
+    bad = pl.worst_feedback_check({"knee_r_y": 50.0, "ankle_r_x": 40.1, "hip_r_z": 12.4},
+                                  measured, what="feedback torque (free)")
+    line = _one(bad)
+    assert line.startswith("peak |ankle_r_x feedback torque (free)| = 40.1 N m")
+    assert "<= 6.8 N m" in line and line.endswith(
+        "also above their measured peaks: hip_r_z, knee_r_y")
+    assert pl.worst_feedback_check({"elbow_l": 1.0}, measured).name.startswith(
+        "peak |elbow_l")    # any feedback on a joint with no measured moment is the worst
+    assert pl.worst_feedback_check({"neck": 3.0}, measured) is None
+
+
+def test_a_baseline_failing_its_human_likeness_checks_warns():
+    assert pl.baseline_check(0, 14).passed
+    assert pl.baseline_check(0, 0) is None            # no check was run: nothing to say
+    line = _one(pl.baseline_check(3, 14))
+    assert line.startswith("baseline gait: failed checks against normal gait = 3, outside "
+                           "<= 0 of 14") and line.endswith("(baseline.warnings)")
+
+
 # ------------------------------------------------------------------ status, lines
 @pytest.mark.parametrize(("status", "after"), [
     ("completed", "completed with warnings"),

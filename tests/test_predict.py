@@ -193,6 +193,10 @@ def test_cli_solve_writes_a_tracking_prediction(tmp_path, capsys):
     # the knee's swing peak, 55-70 deg in normal gait (Kadaba 1990).
     assert states.header["units"].startswith("m, rad") and not states.in_degrees
     assert 45.0 < np.degrees(np.nanmax(states.column("knee_r"))) < 75.0
+    motion = read_storage(out / "motion.mot")   # OpenSim 2D gait coordinates (issue 31)
+    assert motion.in_degrees and motion.header["units"].startswith("deg")
+    np.testing.assert_allclose(motion.column("knee_angle_r"),
+                               -np.degrees(states.column("knee_r")), atol=1e-6)
     printed = capsys.readouterr().out
     assert "Pinocchio at every node" in printed
     assert "not for clinical prediction" in printed and "stiff-legged" in summary["model_note"]

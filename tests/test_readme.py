@@ -115,3 +115,59 @@ def test_readme_usage_runs_as_written(fresh_clone):
             assert (fresh_clone / path).exists(), f"{command} did not write {path}"
     for seconds, command in sorted(timings, reverse=True)[:5]:
         print(f"{seconds:7.1f} s  {command[:90]}")
+
+
+# --- README says where each Usage input comes from (issue 31, item 6) --------------------
+SHARED = REPO.parent / "shared" / "data"
+
+
+def _shared_inputs(command: str, variables: dict[str, str]) -> list[Path]:
+    """Files under ../shared/data a Usage command reads: named on its line or in the
+    problem file it runs (string values with a path into shared/data, relative to it)."""
+    found = []
+    for word in _paths(command, variables)[0]:
+        path = REPO / word
+        if "shared/data" in word:
+            found.append(path.resolve())
+        elif path.suffix == ".toml" and path.is_file():
+            found += [(path.parent / m).resolve() for m in
+                      re.findall(r'"([^"]*shared/data[^"]*)"', path.read_text())]
+    return found
+
+
+def _bundled_copy(path: Path) -> Path | None:
+    """The file shipped in the package with the same bytes, if any."""
+    datasets = REPO / "src" / "predgait" / "datasets"
+    for shipped in datasets.rglob(path.name):
+        if shipped.read_bytes() == path.read_bytes():
+            return shipped
+    return None
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data not available")
+def test_every_usage_input_is_shipped_or_in_shared_data_and_readme_says_which():
+    readme = REPO.joinpath("README.md").read_text()
+    data = readme.split("\n## Data", 1)[1].split("\n## ", 1)[0]
+    variables: dict[str, str] = {}
+    not_shipped = set()
+    for command in usage_commands(readme):
+        assignment = re.fullmatch(r"(\w+)=(\S+)", command)
+        if assignment:
+            variables[assignment.group(1)] = assignment.group(2)
+            continue
+        for path in _shared_inputs(command, variables):
+            assert path.is_relative_to(SHARED.resolve()) and path.is_file(), (command, path)
+            if _bundled_copy(path) is None:
+                not_shipped.add(path.name)
+        for name in re.findall(r'"bundled:([\w./-]+/[\w.-]+)"', " ".join(
+                (REPO / w).read_text() for w in _paths(command, variables)[0]
+                if w.endswith(".toml") and (REPO / w).is_file())):
+            assert (REPO / "src" / "predgait" / "datasets" / name).is_file(), name
+    assert not_shipped == {"walking5.c3d"}   # the one trial the package does not ship
+    for name in not_shipped:
+        assert f"`{name}`" in data and "not shipped" in data
+    assert "problems/inverse_subject01_left.toml" in data
+    for folder in (REPO / "src" / "predgait" / "datasets").iterdir():
+        if folder.is_dir() and not folder.name.startswith("__"):
+            text = (folder / "README.md").read_text()
+            assert "Source" in text and "License" in text, folder.name

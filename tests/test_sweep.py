@@ -171,3 +171,95 @@ def test_sigterm_stops_a_local_sweep_at_once(tmp_path, monkeypatch, capsys):
     assert status == 143, capsys.readouterr().err
     assert seconds < 3.0 + 2.0  # not 12 points x 3 s / 2 workers = 18 s
     assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------- plausibility of the points (issue 30)
+def checked_scenario_metrics(path, point):
+    """Stands in for a scenario run: its ground reaction is 3 BW for the stiffest knee."""
+    from predgait.analysis.plausibility import grf_check
+    from predgait.scenarios.sweep import PointResult
+
+    peak = 3.0 if point.values["edit.0.k"] >= 200 else 1.2
+    return PointResult({"knee_rms_change_deg": 1.0}, (grf_check(peak),))
+
+
+def passing_scenario_metrics(path, point):
+    from predgait.analysis.plausibility import grf_check
+    from predgait.scenarios.sweep import PointResult
+
+    return PointResult({"knee_rms_change_deg": 1.0}, (grf_check(1.2),))
+
+
+@pytest.mark.parametrize(("task", "warned"), [(checked_scenario_metrics, 3),
+                                              (passing_scenario_metrics, 0)])
+def test_sweep_points_warnings_go_through_record(task, warned, tmp_path, monkeypatch, capsys):
+    import csv
+    import json
+    from pathlib import Path
+
+    from predgait.analysis.plausibility import grf_check
+    from predgait.cli import main
+
+    monkeypatch.setattr("predgait.scenarios.run.scenario_metrics", task)
+    problem = Path(__file__).resolve().parents[1] / "problems" / "sweep_knee_stiffness.toml"
+    assert main(["sweep", str(problem), "--workers", "1", "--out", str(tmp_path / "res"),
+                 "--no-plots"]) == 0
+    summary = json.loads((tmp_path / "res" / "summary.json").read_text())
+    rows = list(csv.DictReader((tmp_path / "res" / "results.csv").open()))
+    assert [float(r["plausibility_warnings"]) for r in rows] == [
+        int(warned > 0 and float(r["edit.0.k"]) >= 200) for r in rows]
+    assert len(summary["plausibility"]) == 12 and len(summary["warnings"]) == warned
+    printed = capsys.readouterr().out
+    if not warned:
+        assert summary["status"] == "completed" and "  warning: " not in printed
+        return
+    assert summary["status"] == "completed with warnings"
+    stiff = [r for r in rows if float(r["edit.0.k"]) >= 200]
+    for row, line in zip(stiff, summary["warnings"], strict=True):
+        assert line == (f"point {row['index']} (edit.0.k=200.0, edit.0.theta0_deg="
+                        f"{float(row['edit.0.theta0_deg'])!r}): {grf_check(3.0).line()}")
+        assert f"  warning: {line}" in printed
+
+
+def test_labelled_checks_read_back_by_point():
+    import json
+
+    from predgait.analysis.plausibility import grf_check, record
+    from predgait.report.tidy import json_ready
+    from predgait.scenarios.sweep import SweepOutcome, checks_by_point, labelled_checks
+
+    outcomes = [SweepOutcome(SweepPoint(0, {"k": 1.0}), True, checks=(grf_check(3.0),)),
+                SweepOutcome(SweepPoint(4, {"k": 2.0}), True,
+                             checks=(grf_check(1.0), grf_check(2.5, "peak (x): y")))]
+    summary = json.loads(json.dumps(json_ready(record({}, labelled_checks(outcomes)))))
+    assert checks_by_point(summary["plausibility"]) == {0: outcomes[0].checks,
+                                                        4: outcomes[1].checks}
+    assert summary["warnings"][1].startswith("point 4 (k=2.0): peak (x): y = 2.5 BW")
+
+
+def test_a_stiff_knee_sweep_point_warns_as_the_scenario_command_does(tmp_path, capsys):
+    """The real scenario task: each point records the checks 'predgait scenario' records
+    for the same settings (the stiff knee's feedback exceeds the measured moments)."""
+    import csv
+    import json
+    from pathlib import Path
+
+    from predgait.cli import main
+
+    problems = Path(__file__).resolve().parents[1] / "problems"
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(f'scenario = "{problems / "scenario_stiff_knee.toml"}"\n\n[grid]\n'
+                     '"edit.0.k" = [1.0, 100.0]\n')
+    assert main(["sweep", str(sweep), "--workers", "1", "--out", str(tmp_path / "sw"),
+                 "--no-plots"]) == 0
+    assert main(["scenario", str(problems / "scenario_stiff_knee.toml"), "--set",
+                 "edit.0.k=100.0", "--out", str(tmp_path / "sc"), "--no-plots"]) == 0
+    capsys.readouterr()
+    summary = json.loads((tmp_path / "sw" / "summary.json").read_text())
+    single = json.loads((tmp_path / "sc" / "summary.json").read_text())
+    assert summary["status"] == single["status"] == "completed with warnings"
+    ours = [w.removeprefix("point 1 (edit.0.k=100.0): ") for w in summary["warnings"]
+            if w.startswith("point 1 ")]
+    assert ours == single["warnings"] and any("ankle feedback torque" in w for w in ours)
+    rows = list(csv.DictReader((tmp_path / "sw" / "results.csv").open()))
+    assert float(rows[1]["plausibility_warnings"]) == len(ours)

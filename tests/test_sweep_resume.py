@@ -23,14 +23,22 @@ SWEEP = REPO / "problems" / "sweep_knee_stiffness.toml"   # a 4 x 3 grid
 KILLER = "PREDGAIT_TEST_KILL_PID"
 
 
-def fake_metrics(scenario, point) -> dict:
-    """Known metrics of a point (its index); point 2 kills the scheduler when asked to."""
+def fake_metrics(scenario, point):
+    """Known metrics of a point (its index); point 2 kills the scheduler when asked to.
+
+    Point 1's ground reaction is 3 BW (a plausibility warning), the others' 1.2 BW.
+    """
+    from predgait.analysis.plausibility import grf_check
+    from predgait.scenarios.sweep import PointResult
+
     if point.index == 2 and os.environ.get(KILLER):
         time.sleep(1.5)  # points 0 and 1 reach the client first
         os.kill(int(os.environ[KILLER]), signal.SIGKILL)
         time.sleep(30)
-    return {"knee_rms_change_deg": float(point.index), "knee_extra_feedback_rms_n_m": 1.0,
-            "knee_peak_angle_deg": point.values["edit.0.k"]}
+    return PointResult({"knee_rms_change_deg": float(point.index),
+                        "knee_extra_feedback_rms_n_m": 1.0,
+                        "knee_peak_angle_deg": point.values["edit.0.k"]},
+                       (grf_check(3.0 if point.index == 1 else 1.2),))
 
 
 def _rows(out: Path) -> list[dict]:
@@ -91,6 +99,8 @@ def test_lost_scheduler_writes_the_finished_points_and_resume_finishes(
         assert float(row["knee_rms_change_deg"]) == float(row["index"])
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"].startswith("incomplete") and summary["not_run"] == 12 - len(done)
+    [warning] = summary["warnings"]   # point 1's, recorded with the finished points
+    assert warning.startswith("point 1 (edit.0.k=0.0, edit.0.theta0_deg=10.0): peak vertical")
 
     ran = []
     monkeypatch.setattr(scenario_run, "scenario_metrics",
@@ -105,7 +115,10 @@ def test_lost_scheduler_writes_the_finished_points_and_resume_finishes(
     for before, after in zip(rows, final, strict=True):  # finished rows kept as they were
         if before["status"] == "ok":
             assert before == after
-    assert json.loads((out / "summary.json").read_text())["status"] == "completed"
+    final_summary = json.loads((out / "summary.json").read_text())
+    assert final_summary["status"] == "completed with warnings"   # point 1's, kept
+    assert final_summary["warnings"] == [warning] and len(final_summary["plausibility"]) == 12
+    assert [float(r["plausibility_warnings"]) for r in final] == [0, 1] + [0] * 10
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scheduler.json", "sweep"]
 
 

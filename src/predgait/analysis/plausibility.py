@@ -23,7 +23,9 @@ Bounds (walking; each with its source):
   5 %: Hicks et al. 2015's bound on a mass change after RRA);
 * a feedback torque no larger than the drive it corrects (the subject's measured peak
   joint moment from inverse dynamics): feedback corrects deviations from the measured
-  motion (thesis 4.2), it does not walk for the subject.
+  motion (thesis 4.2), it does not walk for the subject;
+* a scenario's baseline gait passes its human-likeness checks (a comparison with a gait
+  that is not human says little about a person).
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ MASS_SOURCE = "plates: mean vertical GRF over a step / g; 5 %: Hicks et al. 2015
 FEEDBACK_SOURCE = "the subject's measured peak moment, inverse dynamics; thesis 4.2"
 FEEDFORWARD_SOURCE = ("the feedforward torque it corrects (feedback corrects deviations, "
                       "thesis 4.2)")
+BASELINE_SOURCE = ("the baseline's human-likeness checks against measured normal gait "
+                   "(analysis.human_likeness)")
 #: Statuses of a run that ended as planned, which a failed check qualifies.
 FINISHED = ("completed", "solved")
 
@@ -138,6 +142,47 @@ def feedback_checks(feedback: Mapping[str, float], measured: Mapping[str, float]
                     source=FEEDBACK_SOURCE)
             for joint, value in feedback.items()
             if joint in measured and value is not None and math.isfinite(value)]
+
+
+def worst_feedback_check(feedback: Mapping[str, float], measured: Mapping[str, float], *,
+                         what: str = "feedback torque") -> Check | None:
+    """One feedback check for many joints (the whole body), as :func:`marker_check`.
+
+    The joint whose peak |feedback| (N m) is the largest multiple of its peak |measured
+    moment| (N m) against that bound; the other joints above theirs are named in its
+    advice. None when no joint has both values.
+    """
+    pairs = {j: (v, measured[j]) for j, v in feedback.items()
+             if j in measured and v is not None and math.isfinite(v)}
+    if not pairs:
+        return None
+
+    def ratio(joint: str) -> float:
+        value, bound = pairs[joint]
+        return value / bound if bound > 0 else math.inf if value > 0 else 0.0
+
+    worst = max(pairs, key=ratio)
+    above = [j for j in sorted(pairs, key=ratio, reverse=True)
+             if j != worst and pairs[j][0] > pairs[j][1]]
+    return at_most(f"peak |{worst} {what}|", pairs[worst][0], pairs[worst][1], unit="N m",
+                   source=FEEDBACK_SOURCE,
+                   advice=f"also above their measured peaks: {', '.join(above)}" if above
+                   else "")
+
+
+def baseline_check(failed: int, total: int) -> Check | None:
+    """A comparison's baseline gait against normal gait (None when no check was run).
+
+    ``failed`` of its ``total`` human-likeness checks failed; any fails it. A scenario's
+    predicted changes are those of its baseline: from a gait that is not human they say
+    little about a person.
+    """
+    if not total:
+        return None
+    return Check("baseline gait: failed checks against normal gait", float(failed),
+                 f"<= 0 of {total}", BASELINE_SOURCE, failed == 0,
+                 advice="" if failed == 0 else "the predicted changes are those of a gait "
+                 "that is not yet human (baseline.warnings)")
 
 
 def record(summary: dict, checks: Iterable[Check | None], *, key: str = "plausibility"

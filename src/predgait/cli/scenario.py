@@ -138,19 +138,16 @@ def _run_muscle(args) -> int:
 
 def write_predicted_scenario(result, out: Path, *, force: bool = False) -> dict:
     """Write a predicted scenario's folder whole or not at all; returns the summary."""
-    from dataclasses import replace
-
     from predgait.analysis.plausibility import record
     from predgait.report.figures import plots_wanted
     from predgait.report.tidy import write_summary
     from predgait.scenarios.edits import edit_record
+    from predgait.scenarios.predict import predicted_scenario_checks
     from predgait.workflows.output import staged_output
-    from predgait.workflows.predict import predict_checks, prediction_summary, write_prediction
+    from predgait.workflows.predict import prediction_summary, write_prediction
 
     spec = result.spec
-    checks = [replace(c, name=f"{which} gait: {c.name}")
-              for which, gait in (("edited", result.edited), ("unedited", result.baseline))
-              for c in predict_checks(spec.predict, gait)]
+    checks = predicted_scenario_checks(result)
     with staged_output(out, force=force, inputs=[spec.source]) as stage:
         summary = write_summary(stage / "summary.json", record({
             "status": result.metrics["status"], "scenario": spec.name, "predicts": True,

@@ -117,6 +117,7 @@ def finished_outcomes(out: Path, points) -> dict:
         raise InputError(f"{path}: line 1 is not the header of a predgait sweep results.csv.")
     status_at = header.index("status")
     params, metrics = header[1:status_at], header[status_at + 1:-2]
+    checks = _earlier_checks(out)
     finished = {}
     for number, row in enumerate(rows[1:], start=2):
         try:
@@ -141,12 +142,30 @@ def finished_outcomes(out: Path, points) -> dict:
         found = {name: v for name, v in zip(metrics, values, strict=True) if v == v}
         ok = status is PointStatus.OK
         finished[point.index] = SweepOutcome(point, ok, found if ok else {},
-                                             reason=row[-1], seconds=seconds, status=status)
+                                             reason=row[-1], seconds=seconds, status=status,
+                                             checks=checks.get(point.index, ()))
     return finished
+
+
+def _earlier_checks(out: Path) -> dict:
+    """Point index -> plausibility checks the earlier run of a resumed sweep recorded.
+
+    From its summary.json (``plausibility``); none when it has none or cannot be read.
+    """
+    import json
+
+    from predgait.scenarios.sweep import checks_by_point
+
+    try:
+        summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+        return checks_by_point(summary.get("plausibility", []))
+    except (OSError, ValueError, TypeError, AttributeError):
+        return {}
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep and write its results."""
+    from predgait.analysis.plausibility import warning_lines
     from predgait.errors import PredgaitError
     from predgait.scenarios.run import load_scenario, scenario_metrics
     from predgait.scenarios.sweep import (
@@ -182,9 +201,11 @@ def run(args: argparse.Namespace) -> int:
                             f"'{PointStatus.NOT_RUN}'); run the same "
                             "command with --resume to finish the rest.")
     outcomes = [outcomes[p.index] for p in points]
-    failed = _write(args, scenario, outcomes, seconds, force, len(ran))
+    failed, summary = _write(args, scenario, outcomes, seconds, force, len(ran))
     print(f"sweep: {len(outcomes)} runs ({len(failed)} failed) in {seconds:.1f} s "
           f"({len(ran) / seconds:.2f} per s); wrote {args.out}/")
+    for line in warning_lines(summary):
+        print(line)
     if failed and not args.allow_failures:
         import sys
 
@@ -198,14 +219,19 @@ def run(args: argparse.Namespace) -> int:
 
 def _write(args, scenario: Path, outcomes, seconds: float, force: bool, ran: int, *,
            incomplete: str = "") -> list:
-    """Write results.csv, summary.json and the plots; return the failed outcomes.
+    """Write results.csv, summary.json and the plots; return the failed outcomes, summary.
+
+    summary.json records every point's plausibility checks, named after the point
+    (:func:`predgait.analysis.plausibility.record`: ``warnings``, a status "... with
+    warnings" / "... and warnings").
 
     ``ran``: the points run in ``seconds`` (a resumed sweep ran only the rest).
     """
+    from predgait.analysis.plausibility import record
     from predgait.report.figures import plots_wanted
     from predgait.report.sweep_plots import save_sweep_plots
     from predgait.report.tidy import write_summary
-    from predgait.scenarios.sweep import PointStatus, outcomes_table
+    from predgait.scenarios.sweep import PointStatus, labelled_checks, outcomes_table
     from predgait.textfile import source_name
     from predgait.workflows.output import staged_output
 
@@ -231,8 +257,9 @@ def _write(args, scenario: Path, outcomes, seconds: float, force: bool, ran: int
                    "failures": [{"point": o.point.values, "reason": o.reason} for o in failed],
                    "wall_time_s": seconds, "scenarios_per_second": ran / seconds,
                    "workers": "dask" if args.scheduler else args.workers}
-        write_summary(stage / "summary.json", summary)
+        summary = write_summary(stage / "summary.json",
+                                record(summary, labelled_checks(done)))
         if plots_wanted() and done and not incomplete:
             save_sweep_plots(done, stage, METRICS_PLOTTED,
                              baseline=_baseline(scenario, outcomes[0].point.values))
-    return failed
+    return failed, summary

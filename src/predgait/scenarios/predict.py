@@ -29,10 +29,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from predgait.analysis.plausibility import FEEDFORWARD_SOURCE, at_most, grf_check
 from predgait.kinematics.clinical import clinical_joint
 from predgait.models.anthropometry import leg_from_subject
 from predgait.models.gait7 import build_gait7_urdf
-from predgait.models.loading import Model, model_from_urdf
+from predgait.models.loading import GRAVITY, Model, model_from_urdf
 from predgait.problems.predictive import (
     Cycle,
     Guess,
@@ -219,6 +220,32 @@ def run_predicted_scenario(scenario, spec: PredictSpec) -> PredictedScenario:
     edited = edited_prediction(full, edited_model, bounds, springs, baseline)
     return PredictedScenario(scenario, baseline, edited, model, edited_model,
                              predicted_metrics(model, baseline, edited, sides))
+
+
+def predict_checks(spec: PredictSpec, prediction: Prediction) -> list:
+    """Plausibility (:mod:`predgait.analysis.plausibility`) of a predicted gait.
+
+    Peak vertical GRF of either foot (BW); the re-simulation's TVLQR feedback against its
+    feedforward (RMS, N m).
+    """
+    m = prediction.measures
+    weight = spec.mass * GRAVITY
+    checks = [grf_check(max(m[s]["peak_fz_n"] for s in ("right", "left")) / weight)]
+    rs = prediction.resimulation
+    if rs is not None:
+        r = rs.summary()
+        checks.append(at_most("RMS re-simulation feedback torque", r["feedback_rms_n_m"],
+                              r["feedforward_rms_n_m"], unit="N m",
+                              source=FEEDFORWARD_SOURCE))
+    return checks
+
+
+def predicted_scenario_checks(result: PredictedScenario) -> list:
+    """:func:`predict_checks` of the edited and the unedited gait, each name saying which."""
+    spec = result.spec.predict
+    return [replace(c, name=f"{which} gait: {c.name}")
+            for which, gait in (("edited", result.edited), ("unedited", result.baseline))
+            for c in predict_checks(spec, gait)]
 
 
 def _swing_hip_torque(model: Model, prediction: Prediction, s: str) -> float:

@@ -332,16 +332,25 @@ def scenario_checks(metrics: dict) -> list:
     return checks
 
 
-def scenario_metrics(path: str | Path, point) -> dict:
-    """Sweep task: the metrics of a scenario file with a sweep point's overrides."""
+def scenario_metrics(path: str | Path, point):
+    """Sweep task: the metrics of a scenario file with a sweep point's overrides.
+
+    Returns a :class:`~predgait.scenarios.sweep.PointResult`: the numeric metrics and the
+    plausibility checks ``predgait scenario`` records for the same run.
+    """
+    from predgait.scenarios.sweep import PointResult
+
     spec = load_scenario(path, point.overrides)
     if spec.predicts:
-        from predgait.scenarios.predict import run_predicted_scenario
+        from predgait.scenarios.predict import predicted_scenario_checks, run_predicted_scenario
 
-        metrics = run_predicted_scenario(spec, spec.predict).metrics
-        return {k: v for k, v in metrics.items() if isinstance(v, int | float)}
+        result = run_predicted_scenario(spec, spec.predict)
+        return PointResult({k: v for k, v in result.metrics.items()
+                            if isinstance(v, int | float)},
+                           tuple(predicted_scenario_checks(result)))
     metrics = run_scenario(spec).metrics
     if metrics["status"].startswith("diverged"):
         raise SimulationDiverged(metrics["status"])
-    return {k: (np.nan if v is None else v) for k, v in metrics.items()
-            if isinstance(v, int | float) or v is None}
+    return PointResult({k: (np.nan if v is None else v) for k, v in metrics.items()
+                        if isinstance(v, int | float) or v is None},
+                       tuple(scenario_checks(metrics)))

@@ -17,17 +17,23 @@ import itertools
 import logging
 import math
 import os
+import re
 import time
 import traceback
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from tqdm import tqdm
 
+from predgait.analysis.plausibility import Check
 from predgait.errors import InputError, PredgaitError, SimulationDiverged
+
+#: The metric holding a point's number of failed plausibility checks (a float, as every
+#: metric: results.csv is read back as numbers by --resume).
+WARNINGS_METRIC = "plausibility_warnings"
 
 
 @dataclass(frozen=True)
@@ -41,6 +47,24 @@ class SweepPoint:
     def overrides(self) -> tuple[str, ...]:
         """The point as ``--set`` assignments."""
         return tuple(f"{key}={value!r}" for key, value in self.values.items())
+
+
+def point_label(point: SweepPoint) -> str:
+    """How a point's warnings name it: ``point 3 (edit.0.k=100.0)``."""
+    values = ", ".join(f"{k}={v!r}" for k, v in point.values.items())
+    return f"point {point.index} ({values})"
+
+
+@dataclass(frozen=True)
+class PointResult:
+    """What a task may return instead of bare metrics: metrics and plausibility checks.
+
+    ``checks``: :class:`~predgait.analysis.plausibility.Check` of the point's result
+    (the same checks as the single run of its command).
+    """
+
+    metrics: Mapping[str, float]
+    checks: tuple[Check, ...] = ()
 
 
 class PointStatus(enum.StrEnum):
@@ -62,6 +86,7 @@ class SweepOutcome:
     reason: str = ""
     seconds: float = 0.0
     status: PointStatus | None = None   # None: OK or FAILED from ``ok``
+    checks: tuple[Check, ...] = ()      # plausibility of the point's result
 
     def __post_init__(self):
         if self.status is None:
@@ -99,7 +124,13 @@ def run_point(task: Callable[[SweepPoint], Mapping[str, float]], point: SweepPoi
     """Run one point, turning any failure into a recorded outcome (never raising)."""
     start = time.perf_counter()
     try:
-        metrics = dict(task(point))
+        answer = task(point)
+        if isinstance(answer, PointResult):
+            checks = tuple(c for c in answer.checks if c is not None)
+            metrics = {**answer.metrics,
+                       WARNINGS_METRIC: float(sum(not c.passed for c in checks))}
+        else:
+            checks, metrics = (), dict(answer)
     except SimulationDiverged as exc:
         return SweepOutcome(point, False, reason=str(exc), status=PointStatus.DIVERGED,
                             seconds=time.perf_counter() - start)
@@ -110,7 +141,28 @@ def run_point(task: Callable[[SweepPoint], Mapping[str, float]], point: SweepPoi
         place = f"{os.path.basename(where.filename)}:{where.lineno}"
         reason = f"{type(exc).__name__}: {exc} (at {place})"
         return SweepOutcome(point, False, reason=reason, seconds=time.perf_counter() - start)
-    return SweepOutcome(point, True, metrics, seconds=time.perf_counter() - start)
+    return SweepOutcome(point, True, metrics, seconds=time.perf_counter() - start,
+                        checks=checks)
+
+
+def labelled_checks(outcomes: Sequence[SweepOutcome]) -> list[Check]:
+    """Every point's checks, each named after its point (:func:`point_label`), in order."""
+    return [replace(c, name=f"{point_label(o.point)}: {c.name}")
+            for o in outcomes for c in o.checks]
+
+
+def checks_by_point(entries: Sequence[Mapping]) -> dict[int, tuple[Check, ...]]:
+    """Point index -> checks, from the ``plausibility`` entries of a sweep's summary.json.
+
+    The inverse of :func:`labelled_checks`; entries not named after a point are left out.
+    """
+    found: dict[int, list[Check]] = {}
+    for entry in entries:
+        match = re.match(r"point (\d+) \(.*?\): (.*)$", str(entry.get("name", "")), re.S)
+        if match:
+            found.setdefault(int(match.group(1)), []).append(
+                Check(**{**entry, "name": match.group(2)}))
+    return {index: tuple(checks) for index, checks in found.items()}
 
 
 def _dask_client(scheduler: str, timeout: float):

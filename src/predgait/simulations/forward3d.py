@@ -308,6 +308,10 @@ class Forward3DRun:
         deviation: :func:`~predgait.analysis.deviation3d.deviations3d` of the run.
         growth: (rate 1/s, leading state) of :func:`fastest_growth` at the start.
         ground_z, belt_velocity: m, m/s, floor of contact runs (None for measured loads).
+        feedback_peak: Joint -> peak |PD feedback torque| along the run, N m (joints
+            under ``feedback_kp`` only).
+        measured_peak: Joint -> peak |inverse-dynamics moment| at the run's times, N m
+            (the same joints): the drive the feedback corrects.
     """
 
     mode: Mode
@@ -322,6 +326,26 @@ class Forward3DRun:
     growth: tuple[float, str]
     ground_z: float | None = None
     belt_velocity: float | None = None
+    feedback_peak: Mapping[str, float] = field(default_factory=dict)
+    measured_peak: Mapping[str, float] = field(default_factory=dict)
+
+
+def feedback_peaks(system: PartitionedSystem, drive: FullbodyDrive, run
+                   ) -> tuple[dict[str, float], dict[str, float]]:
+    """Peak |PD feedback| (N m) along ``run`` and peak |measured moment| per fed-back joint.
+
+    Empty when ``system`` has no :class:`JointFeedback`. The measured moment is the
+    inverse dynamics' ``drive.tau`` interpolated at the run's times.
+    """
+    law = next((f for f in system.forces if isinstance(f, JointFeedback)), None)
+    if law is None or not len(run.t):
+        return {}, {}
+    torque = np.array([law.torque(t, q, v) for t, q, v in zip(run.t, run.q, run.v,
+                                                                strict=True)])
+    names = [drive.model.joint_names[row - 6] for row in law.rows]
+    measured = [np.interp(run.t, drive.time, drive.tau[:, row]) for row in law.rows]
+    return ({n: float(np.max(np.abs(torque[:, i]))) for i, n in enumerate(names)},
+            {n: float(np.max(np.abs(m))) for n, m in zip(names, measured, strict=True)})
 
 
 def simulate_fullbody(drive: FullbodyDrive, mode: Mode, t_span: tuple[float, float], *,
@@ -361,4 +385,5 @@ def simulate_fullbody(drive: FullbodyDrive, mode: Mode, t_span: tuple[float, flo
                        band_deg=band_deg, band_m=band_m)
     return Forward3DRun(mode, run.t, run.q, measured, run.status, fall_time, criterion,
                         run.message, dev, growth,
-                        *((ground.ground_z, ground.belt_velocity) if ground else (None, None)))
+                        *((ground.ground_z, ground.belt_velocity) if ground else (None, None)),
+                        *feedback_peaks(system, drive, run))

@@ -5,7 +5,9 @@ Whole-body IK + ID of the trial, then one forward simulation per variant.
 Files: ``states_<variant>.sto`` per variant (``..._partial.sto`` if it diverged; pelvis
 position m, pelvis Cardan X-Y-Z and joint angles deg, like ``kinematics3d.sto``),
 ``summary.json`` (per variant: status, time to fall and what fell, deviations from the
-measured motion, fastest linear growth at the start), ``fullbody.png`` and ``stick.gif``
+measured motion, fastest linear growth at the start, peak PD feedback and measured moment
+per fed-back joint; plausibility: per variant with feedback, the joint whose feedback
+most exceeds its measured peak moment), ``fullbody.png`` and ``stick.gif``
 (sagittal stick figure of the longest run, measured motion in grey).
 """
 
@@ -15,6 +17,7 @@ import re
 from pathlib import Path
 
 from predgait import __version__
+from predgait.analysis.plausibility import record, worst_feedback_check
 from predgait.data import read_trc, write_storage
 from predgait.dynamics.integrators import Status
 from predgait.errors import InputError
@@ -67,7 +70,9 @@ def _row(run: Forward3DRun, t0: float) -> dict:
                                 "e_folding_s": 1.0 / rate if rate > 1e-2 else None,
                                 "leading_state": lead},
             "floor_z_m": run.ground_z, "belt_velocity_m_per_s": run.belt_velocity,
-            "deviation": run.deviation}
+            "deviation": run.deviation,
+            "peak_feedback_n_m": dict(run.feedback_peak),
+            "peak_measured_moment_n_m": dict(run.measured_peak)}
 
 
 def _run_variants(spec: FullbodySpec, bar):
@@ -137,4 +142,7 @@ def run_fullbody(spec: FullbodySpec, folder: Path, *, progress: bool = False) ->
                        "iterations": options.iterations, "rtol": options.rtol,
                        "atol": options.atol},
         "fall_limits": vars(spec.fall), "runs": rows, "provenance": prov}
-    return write_summary(folder / "summary.json", summary)
+    return write_summary(folder / "summary.json", record(summary, [
+        worst_feedback_check(r.feedback_peak, r.measured_peak,
+                             what=f"feedback torque ({r.mode.name})")
+        for r in runs if r.feedback_peak]))

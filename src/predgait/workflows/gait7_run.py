@@ -1,9 +1,11 @@
 """Run a gait7 spec and write its result folder (thesis 2.4, Fig. 2.4.1).
 
 Files: ``states.sto`` (kinematic run: time, the 9 coordinates m/rad, then velocities),
-``states_knee.sto`` (knee-driven run of the main settings; ``states_knee_partial.sto``
-when it diverged), ``grf.sto`` and ``grf.csv`` (time, simulated vertical GRF per foot
-and per contact point, measured per foot, N), ``summary.json`` (per run: GRF RMS
+``motion.mot`` (the kinematic run as OpenSim's 2D gait model's coordinates, deg and m:
+:mod:`predgait.kinematics.osim2d_motion`), ``states_knee.sto`` (knee-driven run of the
+main settings; ``states_knee_partial.sto`` when it diverged), ``grf.sto`` and ``grf.csv``
+(time, simulated vertical GRF per foot and per contact point, measured per foot, N),
+``summary.json`` (per run: GRF RMS
 difference, correlation and stance peaks, mean total vertical force vs body weight,
 HAT height offset and deviation, knee-driven status and time to fall), ``grf.png``
 (simulated vs measured vertical GRF per foot and the HAT height), ``knee.png`` (knee
@@ -24,6 +26,7 @@ from predgait.dynamics.gait7_motion import SIDES, bundled_gait7_motion, gait7_mo
 from predgait.dynamics.integrators import Status
 from predgait.errors import InputError
 from predgait.kinematics.clinical import clinical_joint
+from predgait.kinematics.osim2d_motion import write_osim2d_motion
 from predgait.models.gait7 import CONTACT_FRAMES
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
@@ -175,6 +178,8 @@ def run_gait7(spec: Gait7Spec, folder: Path, *, progress: bool = False) -> dict:
     main_kin, main_knee = results[0][1], results[0][2]
     header = {"trial": motion.provenance.get("trial", ""), "model": model.source}
     _write_states(folder, "states", model, main_kin, header)
+    write_osim2d_motion(folder / "motion.mot", model, main_kin.run.t, main_kin.run.q,
+                        header=header | {"status": main_kin.status.value})
     if main_knee is not None:
         _write_states(folder, "states_knee", model, main_knee, header)
     rt = np.searchsorted(motion.plate_time, main_kin.run.t)

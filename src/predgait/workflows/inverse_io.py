@@ -23,6 +23,7 @@ from predgait.dynamics.inverse_options import (
 )
 from predgait.dynamics.inverse_trial import InverseResult
 from predgait.errors import InputError
+from predgait.kinematics.osim2d_motion import write_osim2d_motion
 from predgait.problemfile import Table
 from predgait.report.figures import plots_wanted
 from predgait.report.gait_plots import cycle_axis, save_gait_plots
@@ -220,7 +221,11 @@ def _runs(time: np.ndarray, flags: np.ndarray) -> list[list[float]]:
 
 def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool = False,
                           inputs=()) -> Path:
-    """kinematics.sto/.csv, inverse_dynamics.sto/.csv, summary.json and PNG plots."""
+    """kinematics.sto/.csv, inverse_dynamics.sto/.csv, motion.mot, summary.json and PNG plots.
+
+    ``motion.mot``: the leg's motion as OpenSim's 2D gait model's coordinates
+    (:mod:`predgait.kinematics.osim2d_motion`), flagged frames as fitted.
+    """
     kin, kinetics = result_columns(result)
     provenance = "; ".join(f"{k}={v}" for k, v in result.provenance.items())
     header = {"units": "SI (rad, N m, N, W, m, s)", "provenance": provenance,
@@ -232,6 +237,11 @@ def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool
                   units={k: units_of(k) for k in kin}, provenance=provenance)
         write_csv(stage / "inverse_dynamics.csv", result.time, kinetics,
                   units={k: units_of(k) for k in kinetics}, provenance=provenance)
+        write_osim2d_motion(stage / "motion.mot", result.model, result.time, result.q,
+                            side=result.side, header={
+                                "provenance": provenance,
+                                "time_zero": "heel strike of the analysed foot",
+                                "flagged_frames": "as fitted (summary.json flagged_times_s)"})
         write_summary(stage / "summary.json", summary(result))
         if plots_wanted():
             save_gait_plots(result, stage)

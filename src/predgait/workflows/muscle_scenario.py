@@ -35,6 +35,7 @@ def edit_record(edit) -> dict:
 
 def scenario_summary(result) -> dict:
     """summary.json of a solved (or failed) scenario."""
+    from predgait.analysis.plausibility import baseline_check, record
     from predgait.problems.muscle_prediction import coordinate_ranges, prediction_summary
     from predgait.scenarios.muscle_scenario_compare import compare, finding, scenario_kind
     from predgait.textfile import source_name
@@ -65,14 +66,9 @@ def scenario_summary(result) -> dict:
     checked = dataclasses.replace(run.baseline, moco_solution=None)
     out["baseline"] = prediction_summary(checked, result.baseline)
     out["edited"] = prediction_summary(quiet, result.edited)
-    failed = out["baseline"]["warnings"]
-    if ok and failed:
-        out["status"] = "completed with warnings"
-        out["warnings"] = [f"the baseline gait fails {len(failed)} of "
-                           f"{len(out['baseline']['human_likeness'])} checks against normal "
-                           "gait (baseline.warnings): the predicted changes are those of a "
-                           "gait that is not yet human"]
-    return out
+    human = out["baseline"].get("human_likeness", [])
+    return record(out, [baseline_check(sum(not c["passed"] for c in human), len(human))]
+                  if ok else [])
 
 
 def run_muscle_scenario(run, out: Path, *, force: bool = False) -> dict:

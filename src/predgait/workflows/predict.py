@@ -4,7 +4,8 @@ Reads a problem file (problems/predict_gait7.toml), maps the bundled walk onto g
 solves the collocation problem of :mod:`predgait.problems.predictive` (tracking weight 0:
 purely predictive), re-evaluates the dynamics at every node with Pinocchio, re-simulates
 the stride with the engine plus TVLQR feedback (:mod:`predgait.simulations.
-gait7_predicted`) and writes solution.json, states.sto, torques.sto, grf.sto and plots.
+gait7_predicted`) and writes solution.json, states.sto, motion.mot (OpenSim 2D gait
+coordinates), torques.sto, grf.sto and plots.
 An Ipopt failure raises :class:`~predgait.errors.SolveFailed` (status and constraint
 violation reached) before anything is written. The spec and staged solve are
 :mod:`predgait.problems.predictive_solve`, the checked prediction
@@ -18,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from predgait.analysis.plausibility import record, warning_lines
-from predgait.models.loading import GRAVITY, Model
+from predgait.models.loading import Model
 from predgait.problems.predictive import JOINTS
 from predgait.problems.predictive_solve import PredictSpec, parse_predict
-from predgait.scenarios.predict import Prediction, predict
+from predgait.scenarios.predict import Prediction, predict, predict_checks
 from predgait.textfile import source_name
 
 __all__ = ["parse_predict", "prediction_summary", "run_predict", "summary_lines",
@@ -74,29 +75,14 @@ def prediction_summary(spec: PredictSpec, prediction: Prediction) -> dict:
     }, predict_checks(spec, prediction))
 
 
-def predict_checks(spec: PredictSpec, prediction: Prediction) -> list:
-    """Plausibility (:mod:`predgait.analysis.plausibility`) of a predicted gait.
-
-    Peak vertical GRF of either foot (BW); the re-simulation's TVLQR feedback against its
-    feedforward (RMS, N m).
-    """
-    from predgait.analysis.plausibility import FEEDFORWARD_SOURCE, at_most, grf_check
-
-    m = prediction.measures
-    weight = spec.mass * GRAVITY
-    checks = [grf_check(max(m[s]["peak_fz_n"] for s in ("right", "left")) / weight)]
-    rs = prediction.resimulation
-    if rs is not None:
-        r = rs.summary()
-        checks.append(at_most("RMS re-simulation feedback torque", r["feedback_rms_n_m"],
-                              r["feedforward_rms_n_m"], unit="N m",
-                              source=FEEDFORWARD_SOURCE))
-    return checks
-
-
 def write_prediction(stage: Path, model: Model, prediction: Prediction, prefix: str = "") -> None:
-    """states.sto, torques.sto and grf.sto of the stride into ``stage``."""
+    """states.sto, motion.mot, torques.sto and grf.sto of the stride into ``stage``.
+
+    ``motion.mot``: the stride as OpenSim's 2D gait model's coordinates (deg, m;
+    :mod:`predgait.kinematics.osim2d_motion`).
+    """
     from predgait.data.storage import write_storage
+    from predgait.kinematics.osim2d_motion import write_osim2d_motion
 
     st = prediction.stride
     names = model.coordinate_names
@@ -105,6 +91,8 @@ def write_prediction(stage: Path, model: Model, prediction: Prediction, prefix: 
                   | {f"{n}_speed": st["v"][:, i] for i, n in enumerate(names)},
                   header={"units": "m, rad, m/s, rad/s (gait7 coordinates)",
                           "what": "predicted stride (collocation nodes)"})
+    write_osim2d_motion(stage / f"{prefix}motion.mot", model, st["t"], st["q"],
+                        header={"what": "predicted stride (collocation nodes)"})
     write_storage(stage / f"{prefix}torques.sto", st["t"],
                   {j: st["tau"][:, i] for i, j in enumerate(JOINTS)},
                   header={"units": "N m (model sign: + hip extension, knee flexion, "
