@@ -54,13 +54,13 @@ def test_spring_forces_known_answer(toes):
 
     plant, planar = plant_2d_gait(toes)
     q, v = np.zeros(plant.model.nq), np.zeros(plant.model.nq)
-    r, l = planar.osim_coordinates.index("mtp_angle_r"), planar.osim_coordinates.index(
-        "mtp_angle_l")
-    q[r], v[r], q[l] = 0.2, 1.0, -0.1          # model = sign * OpenSim, sign +1 here
+    right = planar.osim_coordinates.index("mtp_angle_r")
+    left = planar.osim_coordinates.index("mtp_angle_l")
+    q[right], v[right], q[left] = 0.2, 1.0, -0.1     # model = sign * OpenSim, sign +1 here
     forces = plant.spring_forces(q, v)
     expected = np.zeros(plant.model.nq)
-    expected[r] = -25.0 * 0.2 - 0.03 * 1.0
-    expected[l] = -25.0 * -0.1
+    expected[right] = -25.0 * 0.2 - 0.03 * 1.0
+    expected[left] = -25.0 * -0.1
     np.testing.assert_allclose(forces, expected, atol=1e-12)
     # the node's residual holds them: r(with springs) - r(without) = -forces
     from predgait.problems.muscle_gait_dynamics import node_function
