@@ -62,6 +62,10 @@ class MusclePredictSpec:
     multistart: MultiStartOptions = MultiStartOptions()   # [multistart]: issue 26 item 6
 
 
+#: ``[model] osim`` names of the bundled models besides "bundled" (2D_gait.osim).
+BUNDLED_MODELS = {"bundled_toes": "2D_gait_toes.osim"}
+
+
 def bundled_file(name: str) -> Path:
     """A file of the bundled Moco example2DWalking data (datasets/moco_2d_walking)."""
     from predgait.data.bundled import bundled_path
@@ -87,8 +91,9 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     solver.check_keys(("max_iter",))
     compare.check_keys(("moco_solution",))
     check.check_keys(("human_likeness",))
-    osim_path = model.path_value("osim", None) if model.get("osim", str, "bundled") \
-        != "bundled" else None
+    osim_name = model.get("osim", str, "bundled")
+    osim_path = (None if osim_name == "bundled" else bundled_file(BUNDLED_MODELS[osim_name])
+                 if osim_name in BUNDLED_MODELS else model.path_value("osim", None))
     reference = guess.path_value("reference", None) \
         if guess.get("reference", str, "bundled") != "bundled" else None
     osim = read_osim(osim_path or bundled_file("2D_gait.osim"))
