@@ -122,3 +122,36 @@ def test_against_opensim(toes):
         for name, index in rows_of.items():
             spring = name.replace("angle", "passive")         # mtp_passive_r / _l
             assert forces[index] == pytest.approx(float(row[spring]), abs=1e-9)
+
+
+@pytest.fixture(scope="module")
+def toes_prediction():
+    from predgait.problems.muscle_gait import Goal
+    from predgait.problems.muscle_prediction import (
+        BUNDLED_MODELS,
+        MusclePredictSpec,
+        bundled_file,
+        solve_prediction,
+    )
+
+    spec = MusclePredictSpec(nodes=16, human_checks=False,
+                             osim=bundled_file(BUNDLED_MODELS["bundled_toes"]),
+                             goal=Goal(loading_rate_weight=3e-3))
+    return solve_prediction(spec)
+
+
+def test_toes_prediction_holds_the_springs(toes_prediction):
+    """On 16 intervals: converges; Pinocchio's re-evaluation with the toe springs equals
+    the NLP's dynamics, and without them misses exactly the springs' torques."""
+    from predgait.problems.muscle_gait_check import node_check
+
+    pred = toes_prediction
+    assert pred.gait.solved.success, pred.gait.solved.status
+    assert pred.check["max_residual"] < 0.05                  # N, N m
+    assert "loading_rate" in pred.gait.terms and pred.gait.terms["loading_rate"] > 0
+    bare = node_check(replace(pred.plant, springs=()), pred.gait)
+    path = pred.gait.path
+    springs = np.array([pred.plant.spring_forces(q, v) for q, v in zip(path.q, path.v)])
+    assert np.abs(springs).max() > 0.5                       # the toes bend under load
+    np.testing.assert_allclose(bare["residual"] - pred.check["residual"], springs,
+                               atol=1e-9)
