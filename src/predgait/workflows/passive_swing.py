@@ -24,11 +24,13 @@ from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, fit_decomposition
 from predgait.problems.gait_samples import GaitSamples
 from predgait.problems.identifiability import assess, mark_window_dependent
+from predgait.problems.literature_check import literature_check
 from predgait.problems.passive_answer import joint_answer
 from predgait.problems.passive_model import PassiveModel
 from predgait.problems.passive_moment_rows import MomentRows
 from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_swing, fit_swing
 from predgait.report.console import cutoff_lines, parameter_lines
+from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
     bootstrap_summary,
@@ -200,6 +202,9 @@ def solve_swing(spec: SwingSpec) -> dict:
             spec, samples, inverse, replace(spec.settings, quiet_phases=phases))[1]),
         spec.settings.quiet_phases, spec.windows, (spec.model, fit))
     reports = mark_window_dependent(reports, over)
+    inside = windows_mask(samples, windows)
+    literature = literature_check(spec.model, fit.values, fit.information, {
+        name: angle[inside] for name, angle in inverse.anatomical_angles().items()})
     residual = fit.residual.reshape(len(windows), -1, 2)[windows.mask]
     rms = np.degrees(np.sqrt(np.mean(residual ** 2, axis=0)))
     solution = {
@@ -213,6 +218,7 @@ def solve_swing(spec: SwingSpec) -> dict:
         "angle_noise_sd_deg": {j: float(np.degrees(v)) for j, v in fit.noise_sd.items()},
         "moment_noise_sd_n_m": fit.moment_sd,
         "answers": answers(spec, fit, reports, samples, windows, over),
+        "literature_check": {joint: check.as_dict() for joint, check in literature.items()},
         "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
         "windows": len(windows), "quiet_samples": windows.samples,
         **samples.cycle_counts(windows_mask(samples, windows)),
@@ -229,7 +235,7 @@ def solve_swing(spec: SwingSpec) -> dict:
                        **inverse.provenance},
     }
     return {"solution": solution, "samples": samples, "windows": windows, "fit": fit,
-            "time": inverse.time}
+            "time": inverse.time, "literature": literature}
 
 
 def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
@@ -256,6 +262,10 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
                       header={"units": "deg, model coordinates (knee: -flexion)",
                               "what": "measured and simulated angles in the quiet-phase "
                                       "windows of the fit"})
+        if plots_wanted() and result["literature"]:
+            from predgait.report.passive_plots import plot_literature
+
+            plot_literature(result["literature"], stage / "passive_literature.png")
     return solution
 
 
@@ -292,6 +302,10 @@ def summary_lines(solution: dict) -> list[str]:
         lines.append("  moment residual SD (the moments' weight): " + ", ".join(
             f"{j} {v:.3g} N m" for j, v in solution["moment_noise_sd_n_m"].items()))
     lines += [f"  {joint}: {answer['text']}" for joint, answer in solution["answers"].items()]
+    if solution.get("literature_check"):
+        lines.append("  beside Riener & Edrich 1999 (passive moments of the relaxed leg, at this "
+                     "trial's quiet-sample angles): " + "; ".join(
+                         check["text"] for check in solution["literature_check"].values()))
     lines += parameter_lines(solution["parameters"])
     lines += cutoff_lines(solution["cutoff_sensitivity"])
     lines += window_lines(solution["window_sensitivity"])
