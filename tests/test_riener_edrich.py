@@ -64,15 +64,14 @@ def test_signs_follow_the_biarticular_muscles():
 def test_compare_known_answers():
     literature = np.array([-2.0, 1.0, 4.0])
     stats = compare(1.5 * literature, np.full(3, 0.5), literature)
-    assert stats["scale_to_literature"] == pytest.approx(1.5)
-    assert stats["within_factor"]
     assert stats["rms_difference_n_m"] == pytest.approx(0.5 * math.sqrt(21 / 3))
+    assert stats["rms_identified_n_m"] == pytest.approx(1.5 * math.sqrt(21 / 3))
+    assert stats["within_factor_fraction"] == 1.0                   # ratio 1.5 everywhere
     assert stats["inside_band_fraction"] == pytest.approx(1 / 3)   # |0.5 x (-2, 1, 4)| <= 0.5
-    opposite = compare(-literature, np.zeros(3), literature)
-    assert opposite["scale_to_literature"] == pytest.approx(-1.0)
-    assert not opposite["within_factor"] and opposite["inside_band_fraction"] == 0.0
-    silent = compare(literature, np.zeros(3), np.zeros(3))     # no ratio to a zero moment
-    assert silent["scale_to_literature"] is None and not silent["within_factor"]
+    mixed = compare(np.array([-5.0, -1.0, 2.0]), np.zeros(3), literature)  # 2.5, -1, 0.5
+    assert mixed["within_factor_fraction"] == pytest.approx(1 / 3)
+    assert compare(-literature, np.zeros(3), literature)["within_factor_fraction"] == 0.0
+    assert compare(literature, np.zeros(3), np.zeros(3))["within_factor_fraction"] == 0.0
 
 
 def test_literature_check_uses_each_samples_own_angles():

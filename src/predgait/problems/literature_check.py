@@ -9,9 +9,9 @@ moment at the sample's own hip, knee and ankle angles
 bi-articular muscles), and reports, in N m:
 
 * the RMS difference of the two over the quiet samples, beside the RMS of each;
-* the least-squares factor s with M_fit ~ s M_lit (sum M_fit M_lit / sum M_lit^2): the
-  identified curve is "within a factor of 2" of the literature when 1/2 <= s <= 2;
-* the fraction of samples where the literature lies inside the identified 95 % band;
+* the share of samples where the identified moment is within a factor of 2 of the
+  literature's (1/2 <= M_fit / M_lit <= 2: same sign, at most twice or half as large);
+* the share of samples where the literature lies inside the identified 95 % band;
 * for the knee, the literature's RMS change with the hip 10 deg more flexed (the leg model's
   hip angle is the thigh against the vertical, the paper's against the pelvis).
 
@@ -29,7 +29,8 @@ from predgait.dynamics import riener_edrich
 from predgait.problems.passive_answer import elastic_moment
 from predgait.problems.passive_model import PassiveModel
 
-#: The identified curve is "within a factor" of the literature when 1/FACTOR <= s <= FACTOR.
+#: A sample's identified moment is "within a factor" of the literature's when
+#: 1/FACTOR <= M_fit / M_lit <= FACTOR.
 FACTOR = 2.0
 
 
@@ -71,30 +72,26 @@ def _rms(x) -> float:
 
 
 def compare(identified, band, literature) -> dict:
-    """RMS difference and sizes (N m), least-squares factor, share inside the band."""
+    """RMS difference and sizes (N m), shares within a factor and inside the band."""
     identified, literature = np.asarray(identified), np.asarray(literature)
-    power = float(np.sum(literature ** 2))
-    scale = float(np.sum(identified * literature) / power) if power > 0 else None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = identified / literature
     return {"rms_difference_n_m": _rms(identified - literature),
             "rms_identified_n_m": _rms(identified), "rms_literature_n_m": _rms(literature),
-            "scale_to_literature": scale,
-            "within_factor": scale is not None and 1 / FACTOR <= scale <= FACTOR,
             "factor": FACTOR,
+            "within_factor_fraction": float(np.mean((ratio >= 1 / FACTOR)
+                                                    & (ratio <= FACTOR))),
             "inside_band_fraction": float(np.mean(np.abs(identified - literature)
                                                   <= np.asarray(band)))}
 
 
 def sentence(joint: str, stats: dict) -> str:
     """What the CLI prints for one joint."""
-    words = (f"within a factor of {stats['factor']:g}" if stats["within_factor"]
-             else f"not within a factor of {stats['factor']:g}")
-    scale = stats["scale_to_literature"]
-    ratio = "no ratio (literature 0)" if scale is None else \
-        f"identified ~ {scale:.2f} x literature ({words})"
     return (f"{joint} RMS difference {stats['rms_difference_n_m']:.2f} N m (identified "
             f"{stats['rms_identified_n_m']:.2f}, literature {stats['rms_literature_n_m']:.2f} "
-            f"N m RMS), {ratio}, literature inside the 95 % band at "
-            f"{100 * stats['inside_band_fraction']:.0f} % of the samples")
+            f"N m RMS); identified within a factor of {stats['factor']:g} of the literature "
+            f"at {100 * stats['within_factor_fraction']:.0f} % of the samples, literature "
+            f"inside the identified 95 % band at {100 * stats['inside_band_fraction']:.0f} %")
 
 
 def literature_check(model: PassiveModel, values: dict, information: np.ndarray,
