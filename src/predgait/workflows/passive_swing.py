@@ -126,14 +126,20 @@ def parse_swing(table: Table) -> SwingSpec:
         windows=parse_windows(table))
 
 
-def _fit_at(spec: SwingSpec, options, cutoff: float):
+def _fit_at(spec: SwingSpec, options, cutoff: float, *, profile: bool = True):
     """Inverse dynamics at ``cutoff``, windows, decomposition start, angle fit."""
     samples, inverse = inverse_samples(options, cutoff)
-    return (samples, inverse, *_fit_over(spec, samples, inverse, spec.settings))
+    return (samples, inverse, *_fit_over(spec, samples, inverse, spec.settings,
+                                         profile=profile))
 
 
-def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings):
-    """Windows, decomposition start and angle fit over ``settings.quiet_phases``."""
+def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings, *,
+              profile: bool = True):
+    """Windows, decomposition start and angle fit over ``settings.quiet_phases``.
+
+    ``profile``: the rest angles' profile-likelihood intervals too (the main fit only;
+    the sensitivity refits report values and Fisher intervals).
+    """
     where = f"{spec.source}: quiet_phases"
     windows = Windows.from_inverse(inverse, samples, settings, where=where)
     swings = samples.cycle_counts(windows_mask(samples, windows))["quiet_swings"]
@@ -151,7 +157,7 @@ def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings):
     rows = MomentRows.of(samples, windows_mask(samples, windows), spec.model) \
         if spec.moments else None
     fit = fit_swing(inverse.model, windows, spec.model, settings, start=start,
-                    where=f"{spec.source}: {_kind(spec)}", moments=rows)
+                    where=f"{spec.source}: {_kind(spec)}", moments=rows, profile=profile)
     return windows, fit, start
 
 
@@ -172,7 +178,7 @@ def sensitivity(spec: SwingSpec, options) -> dict:
     table = {}
     for cutoff in spec.sensitivity_hz:
         try:
-            fit = _fit_at(spec, options, cutoff)[3]
+            fit = _fit_at(spec, options, cutoff, profile=False)[3]
         except (InputError, SolveFailed) as exc:
             table[f"{cutoff:g}"] = {"failed": str(exc)}
             continue
@@ -199,7 +205,8 @@ def solve_swing(spec: SwingSpec) -> dict:
     reports, correlation = assess(spec.model, fit, boot)
     over = window_sensitivity(
         lambda phases: (spec.model, _fit_over(
-            spec, samples, inverse, replace(spec.settings, quiet_phases=phases))[1]),
+            spec, samples, inverse, replace(spec.settings, quiet_phases=phases),
+            profile=False)[1]),
         spec.settings.quiet_phases, spec.windows, (spec.model, fit))
     reports = mark_window_dependent(reports, over)
     inside = windows_mask(samples, windows)
