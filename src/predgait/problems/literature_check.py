@@ -59,7 +59,7 @@ class LiteratureCheck:
         """JSON-ready summary (module docstring) with the sentence printed for it."""
         stats = compare(self.identified, self.band, self.literature)
         tilt = _rms(self.literature_hip_tilted - self.literature)
-        out = {"source": riener_edrich.SOURCE, "quiet_samples": int(self.angle.size),
+        out = {"literature": riener_edrich.SOURCE, "quiet_samples": int(self.angle.size),
                "angle_range_deg": [round(float(np.degrees(self.angle.min())), 2),
                                    round(float(np.degrees(self.angle.max())), 2)],
                **stats, "hip_tilt_sensitivity_n_m": tilt}
