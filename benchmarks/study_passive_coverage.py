@@ -17,7 +17,10 @@ bootstrap). Printed per fitted parameter: the largest and RMS relative error ove
 repetitions and how many 95 % intervals cover the truth ("not identifiable" counts as not
 covering); per joint, the RMS error of the fitted passive moment along the quiet samples
 in % of the true passive moment's RMS there (the issue 28 measure). The repetitions
-share the simulated motion and differ in the noise only.
+share the simulated motion and differ in the noise only. Also printed: the errors in
+units of their Fisher standard error (mean: the bias the intervals do not contain; SD:
+whether the standard errors are right, ~1) and the error of the same pipeline on the
+noise-free recording (what filtering, differentiation and sampling cost by themselves).
 """
 
 from __future__ import annotations
@@ -69,53 +72,68 @@ def main() -> None:
     model = build_model(["knee", "ankle"], fit={"knee": ["k", "c", "theta0"],
                                                 "ankle": ["k", "c", "theta0"]})
     settings = Settings(quiet_phases=(tuple(args.phases),))
-    errors, covered, cutoffs = {k: [] for k in passive_walk.TRUTH}, dict.fromkeys(
-        passive_walk.TRUTH, 0), []
+
+    def repetition(folder, seed, **noise):
+        """One pass through the pipeline: cut-off, reports, curve errors, curve sizes."""
+        options = trial.write(folder, noise_seed=1000 + seed, **noise)
+        cutoff = residual_cutoff(options) if args.cutoff == "residual" \
+            else float(args.cutoff)
+        inverse = run_inverse(replace(options, cutoff=cutoff, grf_cutoff=cutoff))
+        samples = GaitSamples.from_inverse(inverse)
+        fit = fit_decomposition(samples, model, settings)
+        boot = bootstrap(samples, model, fit, settings, repeats=60, seed=seed)
+        quiet = samples.in_phases(settings.quiet_phases)
+        if angles:
+            swing = SwingSettings(quiet_phases=settings.quiet_phases, max_iter=200)
+            windows = Windows.from_inverse(inverse, samples, swing)
+            quiet = windows_mask(samples, windows)
+            rows = MomentRows.of(samples, quiet, model) if args.method == "both" else None
+            fit = fit_swing(inverse.model, windows, model, swing, start=fit.values,
+                            moments=rows)
+            boot = None if rows is not None else \
+                bootstrap_swing(windows, model, fit, repeats=60, seed=seed)
+        # The fitted and the true passive moment (the same model at the true parameters:
+        # tests/passive_walk.passive_clinical to 1e-15 N m) along the TRUE motion of the
+        # quiet samples (rates by central differences at 100 Hz).
+        t_quiet = samples.time[quiet]
+        curve, size = {}, {}
+        for joint, column, sign in (("knee", 4, -1.0), ("ankle", 3, 1.0)):
+            angle = sign * np.interp(t_quiet, trial.truth["t"], trial.truth["q"][:, column])
+            rate = sign * np.interp(t_quiet, trial.truth["t"], np.gradient(
+                trial.truth["q"][:, column], trial.truth["t"]))
+            true = np.asarray(model.passive_joint(joint, {
+                **fit.values, **passive_walk.TRUTH}).moment(angle, rate))
+            fitted = np.asarray(model.passive_joint(joint, fit.values).moment(angle, rate))
+            curve[joint] = np.sqrt(np.mean((fitted - true) ** 2) / np.mean(true ** 2))
+            size[joint] = float(np.sqrt(np.mean(true ** 2)))
+        reports = {r.key: r for r in assess(model, fit, boot)[0] if r.key in passive_walk.TRUTH}
+        return cutoff, reports, curve, size
+
+    errors, z, covered, cutoffs = ({k: [] for k in passive_walk.TRUTH},
+                                   {k: [] for k in passive_walk.TRUTH},
+                                   dict.fromkeys(passive_walk.TRUTH, 0), [])
     curve, size = {"knee": [], "ankle": []}, {"knee": [], "ankle": []}
     with tempfile.TemporaryDirectory() as root:
         for seed in range(args.seeds):
             folder = Path(root) / f"seed{seed}"
             folder.mkdir()
-            options = trial.write(folder, noise_seed=1000 + seed)
-            cutoff = residual_cutoff(options) if args.cutoff == "residual" \
-                else float(args.cutoff)
+            cutoff, reports, curves, sizes = repetition(folder, seed)
             cutoffs.append(cutoff)
-            inverse = run_inverse(replace(options, cutoff=cutoff, grf_cutoff=cutoff))
-            samples = GaitSamples.from_inverse(inverse)
-            fit = fit_decomposition(samples, model, settings)
-            boot = bootstrap(samples, model, fit, settings, repeats=60, seed=seed)
-            quiet = samples.in_phases(settings.quiet_phases)
-            if angles:
-                swing = SwingSettings(quiet_phases=settings.quiet_phases, max_iter=200)
-                windows = Windows.from_inverse(inverse, samples, swing)
-                quiet = windows_mask(samples, windows)
-                rows = MomentRows.of(samples, quiet, model) if args.method == "both" \
-                    else None
-                fit = fit_swing(inverse.model, windows, model, swing, start=fit.values,
-                                moments=rows)
-                boot = None if rows is not None else \
-                    bootstrap_swing(windows, model, fit, repeats=60, seed=seed)
-            # The fitted and the true passive moment (the same model at the true
-            # parameters: tests/passive_walk.passive_clinical to 1e-15 N m) along the TRUE
-            # motion of the quiet samples (rates by central differences at 100 Hz).
-            t_quiet = samples.time[quiet]
-            for joint, column, sign in (("knee", 4, -1.0), ("ankle", 3, 1.0)):
-                angle = sign * np.interp(t_quiet, trial.truth["t"], trial.truth["q"][:, column])
-                rate = sign * np.interp(t_quiet, trial.truth["t"], np.gradient(
-                    trial.truth["q"][:, column], trial.truth["t"]))
-                true = np.asarray(model.passive_joint(joint, {
-                    **fit.values, **passive_walk.TRUTH}).moment(angle, rate))
-                fitted = np.asarray(model.passive_joint(joint, fit.values).moment(angle, rate))
-                curve[joint].append(np.sqrt(np.mean((fitted - true) ** 2)
-                                            / np.mean(true ** 2)))
-                size[joint].append(float(np.sqrt(np.mean(true ** 2))))
-            for report in assess(model, fit, boot)[0]:
-                true = passive_walk.TRUTH.get(report.key)
-                if true is None:
-                    continue
-                errors[report.key].append(report.value / true - 1)
+            for joint in curve:
+                curve[joint].append(curves[joint])
+                size[joint].append(sizes[joint])
+            for key, report in reports.items():
+                true = passive_walk.TRUTH[key]
+                errors[key].append(report.value / true - 1)
+                z[key].append((report.value - true) / report.fisher_se)
                 interval = report.interval95
-                covered[report.key] += interval is not None and interval[0] <= true <= interval[1]
+                covered[key] += interval is not None and interval[0] <= true <= interval[1]
+        # The same pipeline on the noise-free recording: what the processing itself (filter,
+        # differentiation, sampling) costs, which no noise-based interval contains.
+        clean = Path(root) / "noise_free"
+        clean.mkdir()
+        _, clean_reports, clean_curve, _ = repetition(clean, 0, marker_noise=0.0,
+                                                      force_noise=0.0)
     print(f"passive fit to the {args.method}, known-answer walk ({args.cycles} cycles, "
           f"simulated once in {simulated:.0f} s), {args.seeds} noise seeds, quiet phase "
           f"{args.phases[0]:g}-{args.phases[1]:g} %, cut-off {args.cutoff} "
@@ -125,12 +143,14 @@ def main() -> None:
         e = 100 * np.abs(values)
         print(f"  {key:13s} mean error {100 * np.mean(values):+6.1f} %, max |error| "
               f"{e.max():5.1f} %, RMS {np.sqrt(np.mean(e ** 2)):5.1f} %, 95 % interval covers "
-              f"the truth in {covered[key]} / {args.seeds}")
+              f"the truth in {covered[key]} / {args.seeds}; (estimate - truth) / Fisher SE: "
+              f"mean {np.mean(z[key]):+.2f}, SD {np.std(z[key], ddof=1):.2f}; noise-free "
+              f"error {100 * (clean_reports[key].value / passive_walk.TRUTH[key] - 1):+.1f} %")
     for joint, values in curve.items():
         e = 100 * np.array(values)
         print(f"  {joint} passive moment along the quiet samples: RMS error {np.mean(e):5.1f} % "
               f"of the truth's RMS ({np.mean(size[joint]):.2f} N m; largest "
-              f"{e.max():5.1f} %)")
+              f"{e.max():5.1f} %; noise-free {100 * clean_curve[joint]:.1f} %)")
 
 
 if __name__ == "__main__":

@@ -4,7 +4,8 @@ Known answer: the forward-simulated walk of tests/passive_walk.py (3 cycles, kno
 nonlinear passive knee and ankle, muscles off in 70-97 %), 1 mm marker and 1 % force
 noise, through the real inverse pipeline; the combined fit must recover the truth with
 intervals that cover it, and weight the moments by their measured noise. The CLI on the
-bundled subject01 trial must say per joint what it can and cannot identify.
+bundled subject01 trial must say per joint what it can and cannot identify, and show the
+identified curves beside Riener & Edrich (1999) at the trial's own angles.
 """
 
 import json
@@ -24,6 +25,7 @@ from predgait.problems.identifiability import Status, assess
 from predgait.problems.passive_model import build_model
 from predgait.problems.passive_moment_rows import MomentRows
 from predgait.problems.passive_swing import SwingSettings, Windows, fit_swing
+from predgait.report.plot_labels import label_problems, read_labels
 from predgait.workflows.passive_swing import windows_mask
 
 REPO = Path(__file__).resolve().parents[1]
@@ -96,6 +98,22 @@ def test_cli_on_the_bundled_trial_gives_one_answer_per_joint(tmp_path):
         assert answer["answer"] != "parameters"
         if answer["answer"] == "window_dependent":
             assert any(r["status"] == "window_dependent" for r in mine.values())
+        # Item 5: the identified curve beside Riener & Edrich 1999 at the fit's own quiet
+        # samples (the range of the answer's curve), in solution.json and on the console.
+        check = solution["literature_check"][joint]
+        assert check["quiet_samples"] == solution["quiet_samples"]
+        assert check["angle_range_deg"] == pytest.approx(
+            [answer["curve"]["angle_deg"][0], answer["curve"]["angle_deg"][-1]], abs=0.01)
+        assert 0 < check["rms_difference_n_m"] <= (check["rms_identified_n_m"]
+                                                   + check["rms_literature_n_m"])
+        assert 0.0 <= check["within_factor_fraction"] <= 1.0
+        assert check["text"] in run.stdout
+    # The relaxed leg's knee at these angles (5-65 deg flexion in swing, hip ~20 deg) and
+    # ankle near neutral with the knee extending: a few N m (Riener & Edrich 1999).
+    assert 1.0 < solution["literature_check"]["knee"]["rms_literature_n_m"] < 15.0
+    assert 1.0 < solution["literature_check"]["ankle"]["rms_literature_n_m"] < 15.0
+    assert "beside Riener & Edrich 1999" in run.stdout
+    assert not label_problems(*read_labels(out / "passive_literature.png"))
 
 
 @pytest.mark.parametrize("override, words", [

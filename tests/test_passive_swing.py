@@ -269,7 +269,7 @@ def test_cli_on_the_bundled_trial(tmp_path, assert_tidy_result):
     assert len(table) == solution["quiet_samples"]
     error = col["knee_simulated_deg"] - col["knee_measured_deg"]
     assert np.sqrt(np.mean(error ** 2)) == pytest.approx(solution["angle_rms_deg"]["knee"],
-                                                         rel=1e-6)
+                                                         rel=5e-6)   # JSON: 6 digits
     # The header's unit is the values' one: the late-swing knee (model coordinate, -flexion)
     # comes from ~60 deg flexion to near straight (Kadaba 1990), in degrees.
     from predgait.data import read_storage

@@ -63,12 +63,21 @@ def prior_rows(model: PassiveModel, z) -> tuple[np.ndarray, np.ndarray]:
     return r, jac
 
 
-def weighted_step(jac, r, row_weights, z, prior) -> np.ndarray:
-    """Gauss-Newton step dz minimising |sqrt(W)(r + J dz)|^2 + priors, z + dz in [0, 1]."""
+def weighted_step(jac, r, row_weights, z, prior, *, frozen: int | None = None) -> np.ndarray:
+    """Gauss-Newton step dz minimising |sqrt(W)(r + J dz)|^2 + priors, z + dz in [0, 1].
+
+    ``frozen``: index of an unknown held where it is (its step is 0; a profile likelihood).
+    """
     root = np.sqrt(row_weights)
     prior_r, prior_j = prior
     a = np.vstack([jac * root[:, None], prior_j])
-    return bounded_step(a, np.concatenate([r * root, prior_r]), 0.0, -z, 1.0 - z)
+    free = np.ones(np.size(z), dtype=bool)
+    if frozen is not None:
+        free[frozen] = False
+    step = np.zeros(np.size(z))
+    step[free] = bounded_step(a[:, free], np.concatenate([r * root, prior_r]), 0.0,
+                              -z[free], 1.0 - z[free])
+    return step
 
 
 def joint_row_weights(weights, inv_var) -> np.ndarray:
@@ -76,23 +85,30 @@ def joint_row_weights(weights, inv_var) -> np.ndarray:
     return np.concatenate([weights * inv_var[0], weights * inv_var[1]])
 
 
+def objective(problem: LeastSquares, z, row_weights) -> float:
+    """The fit's objective at z: |sqrt(W) r(z)|^2 + priors (-2 log likelihood + const)."""
+    r, _ = problem.evaluate(z)
+    return _cost(r.ravel(order="F"), row_weights, problem.prior_rows(z))
+
+
 def _cost(r, row_weights, prior) -> float:
     with np.errstate(over="ignore", invalid="ignore"):   # a diverged trial step: inf, halved
         return float(np.sum(row_weights * r ** 2) + np.sum(prior[0] ** 2))
 
 
-def gauss_newton(problem: LeastSquares, z, row_weights, max_iter: int
-                 ) -> tuple[np.ndarray, int, bool]:
+def gauss_newton(problem: LeastSquares, z, row_weights, max_iter: int, *,
+                 frozen: int | None = None) -> tuple[np.ndarray, int, bool]:
     """Bounded Gauss-Newton with step halving: (z, iterations, converged).
 
     ``problem`` has ``evaluate(z) -> (r (n, 2), J (2 n, f))`` (ankle rows, then knee rows)
-    and ``prior_rows(z) -> (r_prior, J_prior)``; z is scaled to [0, 1].
+    and ``prior_rows(z) -> (r_prior, J_prior)``; z is scaled to [0, 1]. ``frozen``: index
+    of an unknown held at its value in ``z``.
     """
     r, jac = problem.evaluate(z)
     r = r.ravel(order="F")
     cost = _cost(r, row_weights, problem.prior_rows(z))
     for iteration in range(1, max_iter + 1):
-        step = weighted_step(jac, r, row_weights, z, problem.prior_rows(z))
+        step = weighted_step(jac, r, row_weights, z, problem.prior_rows(z), frozen=frozen)
         if np.max(np.abs(step)) < 1e-8:
             return z, iteration, True
         for _ in range(30):

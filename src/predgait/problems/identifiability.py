@@ -9,6 +9,10 @@ Two independent views of one fit (:mod:`predgait.problems.decomposition` or
   better than its bounds (1.96 SE >= half the bound range); the report then names the
   parameters it is confounded with (|correlation| >= 0.99). A high correlation alone
   does not condemn a parameter whose own SE is small.
+* Profile likelihood, when the fit gives one (``fit.profile``: the swing fits' rest
+  angles theta0, :mod:`predgait.problems.profile_likelihood`): it replaces the Fisher
+  interval +- 1.96 SE of that parameter (theta0 is a ratio of linear terms; its
+  likelihood is skewed).
 * Bootstrap over gait cycles (or blocks of samples): half-width
   t_{U-1, 0.975} sqrt(U / (U - 1)) SD_boot (U resampling units; the small-sample
   correction of the bootstrap SE, Davison & Hinkley 1997, sec. 2.3). The reported 95 %
@@ -173,6 +177,12 @@ def _report(p, fit, keys, se, correlation, spread, method) -> ParameterReport:
                        f"[{p.lower:g}, {p.upper:g}])")
     half = 1.96 * se[i] if spread is None else max(spread[i], 1.96 * se[i])
     interval = (max(p.lower, value - half), min(p.upper, value + half))
+    profile = getattr(fit, "profile", {}).get(p.key)
+    if profile is not None and not reasons:   # the profile's ends, widened to the bootstrap's
+        spread_i = 0.0 if spread is None else spread[i]
+        interval = (max(p.lower, min(profile[0], value - spread_i)),
+                    min(p.upper, max(profile[1], value + spread_i)))
+        method += "; this one: profile likelihood (a rest angle: skewed likelihood)"
     if interval[1] - interval[0] >= BOUND_FRACTION * span and not reasons:
         reasons.append(f"its 95 % interval [{interval[0]:.3g}, {interval[1]:.3g}] spans "
                        "half its bounds or more")

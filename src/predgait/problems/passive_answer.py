@@ -70,13 +70,25 @@ def elastic_curve(model: PassiveModel, values: dict, information: np.ndarray, jo
                   angles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(angle grid, M(angle), 95 % band) over the range of ``angles`` (rad), N m."""
     grid = np.linspace(np.nanmin(angles), np.nanmax(angles), CURVE_POINTS)
+    return (grid, *elastic_moment(model, values, information, joint, grid))
+
+
+def elastic_moment(model: PassiveModel, values: dict, information: np.ndarray, joint: str,
+                   angles) -> tuple[np.ndarray, np.ndarray]:
+    """(M(angles), 95 % band) of the joint's elastic passive moment, N m (angles in rad).
+
+    M = tau_passive(theta, 0; p); band 1.96 sqrt(g^T F^-1 g), g = dM/dp by central
+    differences over the joint's fitted parameters (the delta method).
+    """
+    angles = np.asarray(angles, dtype=float)
     fitted = model.fitted
 
     def curve(vals):
-        return np.asarray(model.passive_joint(joint, vals).moment(grid, np.zeros_like(grid)))
+        return np.asarray(model.passive_joint(joint, vals).moment(angles,
+                                                                  np.zeros_like(angles)))
 
     moment = curve(values)
-    gradient = np.zeros((grid.size, len(fitted)))
+    gradient = np.zeros((angles.size, len(fitted)))
     for i, p in enumerate(fitted):
         if p.joint != joint:
             continue
@@ -87,7 +99,7 @@ def elastic_curve(model: PassiveModel, values: dict, information: np.ndarray, jo
         gradient[:, i] = (curve(up) - curve(down)) / (2 * h)
     covariance = np.linalg.pinv(information, rcond=1e-12, hermitian=True)
     variance = np.einsum("ij,jk,ik->i", gradient, covariance, gradient)
-    return grid, moment, 1.96 * np.sqrt(np.clip(variance, 0.0, None))
+    return moment, 1.96 * np.sqrt(np.clip(variance, 0.0, None))
 
 
 def _curve_ratio(moment, band) -> float:

@@ -23,16 +23,17 @@ windows are not joined (muscles act between them). Under a prescribed thigh the 
 and foot swing as a stable pendulum, so a whole quiet phase is one well-conditioned
 interval. The solver is the bounded Gauss-Newton of :mod:`predgait.problems.gauss_newton`
 (Jacobian by CasADi forward mode through the windows mapped in one call); w = 1 / m
-(m samples per correlation time of the filtered angles) and sigma_j the residual SD of a
-first pass, so J^T W J is the Fisher information; the initial states are profiled out of
-it (Schur complement). Bootstrap replicates resample the windows' gait cycles on the
-Gauss-Newton model at the fit.
+(m samples per correlation time of the filtered angles) and sigma_j the residual SD of the
+previous pass (passes until it settles), so J^T W J is the Fisher information; the initial
+states are profiled out of it (Schur complement). The rest angles theta0 also get
+profile-likelihood intervals (:mod:`predgait.problems.profile_likelihood`). Bootstrap
+replicates resample the windows' gait cycles on the Gauss-Newton model at the fit.
 """
 
 from __future__ import annotations
 
 import time as clock
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -48,6 +49,7 @@ from predgait.problems.gauss_newton import (
     prior_rows,
     weighted_step,
 )
+from predgait.problems.identifiability import BOUND_FRACTION
 from predgait.problems.passive_model import PassiveModel
 from predgait.problems.passive_moment_rows import with_moments
 from predgait.problems.passive_swing_dynamics import (
@@ -55,11 +57,15 @@ from predgait.problems.passive_swing_dynamics import (
     thigh_kinematics,
     windows_function,
 )
+from predgait.problems.profile_likelihood import profile_interval
 
 #: Ground reaction (N, vertical) above which a sample counts as stance (not a window).
 CONTACT_N = 20.0
 #: Fewest samples in a window.
 MIN_WINDOW_SAMPLES = 5
+#: Passes of the fit at most, and the relative change of the noise SDs that ends them.
+MAX_PASSES = 6
+WEIGHT_CHANGE = 0.02
 
 
 @dataclass(frozen=True)
@@ -248,6 +254,8 @@ class SwingFit:
         simulated: (w, L, 2) simulated ankle and knee angles (model coordinates), rad.
         iterations: Gauss-Newton iterations (both passes); seconds: their time.
         moment_sd: joint -> moment residual SD, N m, when the moments were fitted too.
+        profile: key -> (low, high) profile-likelihood 95 % interval of each identifiable
+            rest angle theta0, rad (:mod:`~predgait.problems.profile_likelihood`).
     """
 
     values: dict
@@ -262,12 +270,18 @@ class SwingFit:
     iterations: int
     seconds: float
     moment_sd: dict | None = None
+    profile: dict = field(default_factory=dict)
 
 
 def fit_swing(leg, windows: Windows, model: PassiveModel,
               settings: SwingSettings = SwingSettings(), *, start=None,
-              where: str = "passive_swing", moments=None) -> SwingFit:
-    """Fit the passive model to the quiet phases' angles (module docstring); two passes.
+              where: str = "passive_swing", moments=None, profile: bool = True) -> SwingFit:
+    """Fit the passive model to the quiet phases' angles (module docstring).
+
+    Passes of Gauss-Newton, each with the noise weights (sigma_j, and sigma_m of the
+    moments) re-estimated from the last one's residuals, until they change by less than
+    :data:`WEIGHT_CHANGE` (at least 2, at most :data:`MAX_PASSES`): the estimate, its
+    Fisher information and the profile intervals then share one objective.
 
     Args:
         leg: The leg model (:class:`predgait.models.loading.Model`).
@@ -281,6 +295,8 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
             quiet samples' inverse-dynamics moments as a second residual (their SD
             re-estimated after each pass, as the angles'); the Fisher information then
             holds both.
+        profile: Also the profile-likelihood intervals of the rest angles (False: the
+            sensitivity refits, which report values only).
 
     Raises:
         InputError: Fewer than 3 independent samples per unknown.
@@ -307,7 +323,7 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
     inv_var = np.array([1.0, 1.0]) / np.radians(0.1) ** 2
     dof = max(windows.samples / m - (f + 4 * n) / 2, 1.0)
     start, iterations = clock.perf_counter(), 0
-    for _ in range(2):
+    for step in range(MAX_PASSES):
         with one_blas_thread():   # small least-squares steps: BLAS threads only cost here
             z, used, converged = gauss_newton(problem, z, joint_row_weights(weights, inv_var),
                                               settings.max_iter)
@@ -319,10 +335,15 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
         r, jac = problem.evaluate(z)
         r = r * windows.mask.ravel()[:, None]
         sd = np.maximum(np.sqrt(np.sum(r ** 2, axis=0) / m / dof), np.radians(1e-6))
+        change = np.abs(np.sqrt(inv_var) * sd - 1)           # old sigma / new sigma - 1
         inv_var = 1.0 / sd ** 2
         if moments is not None:
+            old = moments.sigma
             moments = moments.with_noise_of(z[:f])
             problem = with_moments(base, moments)
+            change = np.append(change, [abs(moments.sigma[j] / old[j] - 1) for j in old])
+        if step >= 1 and np.max(change) < WEIGHT_CHANGE:
+            break
     seconds = clock.perf_counter() - start
     rows = joint_row_weights(weights, inv_var)
     _, prior_j = problem.prior_rows(z)
@@ -330,6 +351,15 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
     spans = np.array([p.upper - p.lower for p in fitted])
     profiled = full[:f, :f] - full[:f, f:] @ np.linalg.pinv(full[f:, f:], hermitian=True) \
         @ full[f:, :f]
+    intervals = {}
+    if profile:
+        half = 1.96 * np.sqrt(np.clip(np.diag(np.linalg.pinv(profiled, hermitian=True)),
+                                      0.0, None))
+        with one_blas_thread():
+            for i, p in enumerate(fitted):
+                if p.name == "theta0" and half[i] < BOUND_FRACTION:   # identifiable
+                    low, high = profile_interval(problem, z, rows, i, half[i])
+                    intervals[p.key] = (p.lower + spans[i] * low, p.lower + spans[i] * high)
     values = model.values()
     values.update({p.key: float(p.lower + span * z[i])
                    for i, (p, span) in enumerate(zip(fitted, spans, strict=True))})
@@ -338,7 +368,8 @@ def fit_swing(leg, windows: Windows, model: PassiveModel,
                     noise_sd={"ankle": float(sd[0]), "knee": float(sd[1])}, residual=r,
                     weights=weights, inv_var=inv_var, jacobian=jac, simulated=simulated,
                     iterations=iterations, seconds=seconds,
-                    moment_sd=None if moments is None else dict(moments.sigma))
+                    moment_sd=None if moments is None else dict(moments.sigma),
+                    profile=intervals)
 
 
 def bootstrap_swing(windows: Windows, model: PassiveModel, fit: SwingFit, *,

@@ -372,6 +372,10 @@ def _swing(s: dict) -> Headline:
     numbers = _parameter_numbers(fitted) + [
         ("gait cycles / quiet-phase windows", f"{s['gait_cycles']} / {s['windows']}"),
         ("angle RMS error, ankle / knee", f"{rms['ankle']:.3f} / {rms['knee']:.3f} deg")]
+    numbers += [(f"{joint} vs Riener & Edrich 1999: RMS difference; samples within a "
+                 f"factor of {c['factor']:g}",
+                 f"{c['rms_difference_n_m']:.2f} N m; {100 * c['within_factor_fraction']:.0f} %")
+                for joint, c in s.get("literature_check", {}).items()]
     identified = [k for k, r in fitted.items() if r["status"] == "identified"]
     answers = s.get("answers")
     if answers:   # passive_knee_ankle: angles and quiet moments together, one answer a joint

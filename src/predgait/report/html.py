@@ -66,6 +66,8 @@ CAPTIONS = {
     "clinical_angles": "Clinical joint angles, left and right",
     "deviation": "Deviation from the measured motion: threshold band and fall",
     "active_passive": "Inverse-dynamics moment split into passive and active parts",
+    "passive_literature": "Identified passive knee and ankle beside Riener & Edrich (1999) "
+                          "at this trial's angles",
     "clinical_moments": "Clinical joint moments, left and right",
     "heatmap_": "Sweep outcome", "outcome_vs_": "Sweep outcomes against",
 }

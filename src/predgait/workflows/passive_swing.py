@@ -24,11 +24,13 @@ from predgait.problemfile import Table
 from predgait.problems.decomposition import Settings, fit_decomposition
 from predgait.problems.gait_samples import GaitSamples
 from predgait.problems.identifiability import assess, mark_window_dependent
+from predgait.problems.literature_check import literature_check
 from predgait.problems.passive_answer import joint_answer
 from predgait.problems.passive_model import PassiveModel
 from predgait.problems.passive_moment_rows import MomentRows
 from predgait.problems.passive_swing import SwingSettings, Windows, bootstrap_swing, fit_swing
 from predgait.report.console import cutoff_lines, parameter_lines
+from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 from predgait.workflows.decomposition import (
     bootstrap_summary,
@@ -124,14 +126,20 @@ def parse_swing(table: Table) -> SwingSpec:
         windows=parse_windows(table))
 
 
-def _fit_at(spec: SwingSpec, options, cutoff: float):
+def _fit_at(spec: SwingSpec, options, cutoff: float, *, profile: bool = True):
     """Inverse dynamics at ``cutoff``, windows, decomposition start, angle fit."""
     samples, inverse = inverse_samples(options, cutoff)
-    return (samples, inverse, *_fit_over(spec, samples, inverse, spec.settings))
+    return (samples, inverse, *_fit_over(spec, samples, inverse, spec.settings,
+                                         profile=profile))
 
 
-def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings):
-    """Windows, decomposition start and angle fit over ``settings.quiet_phases``."""
+def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings, *,
+              profile: bool = True):
+    """Windows, decomposition start and angle fit over ``settings.quiet_phases``.
+
+    ``profile``: the rest angles' profile-likelihood intervals too (the main fit only;
+    the sensitivity refits report values and Fisher intervals).
+    """
     where = f"{spec.source}: quiet_phases"
     windows = Windows.from_inverse(inverse, samples, settings, where=where)
     swings = samples.cycle_counts(windows_mask(samples, windows))["quiet_swings"]
@@ -149,7 +157,7 @@ def _fit_over(spec: SwingSpec, samples, inverse, settings: SwingSettings):
     rows = MomentRows.of(samples, windows_mask(samples, windows), spec.model) \
         if spec.moments else None
     fit = fit_swing(inverse.model, windows, spec.model, settings, start=start,
-                    where=f"{spec.source}: {_kind(spec)}", moments=rows)
+                    where=f"{spec.source}: {_kind(spec)}", moments=rows, profile=profile)
     return windows, fit, start
 
 
@@ -170,7 +178,7 @@ def sensitivity(spec: SwingSpec, options) -> dict:
     table = {}
     for cutoff in spec.sensitivity_hz:
         try:
-            fit = _fit_at(spec, options, cutoff)[3]
+            fit = _fit_at(spec, options, cutoff, profile=False)[3]
         except (InputError, SolveFailed) as exc:
             table[f"{cutoff:g}"] = {"failed": str(exc)}
             continue
@@ -197,9 +205,13 @@ def solve_swing(spec: SwingSpec) -> dict:
     reports, correlation = assess(spec.model, fit, boot)
     over = window_sensitivity(
         lambda phases: (spec.model, _fit_over(
-            spec, samples, inverse, replace(spec.settings, quiet_phases=phases))[1]),
+            spec, samples, inverse, replace(spec.settings, quiet_phases=phases),
+            profile=False)[1]),
         spec.settings.quiet_phases, spec.windows, (spec.model, fit))
     reports = mark_window_dependent(reports, over)
+    inside = windows_mask(samples, windows)
+    literature = literature_check(spec.model, fit.values, fit.information, {
+        name: angle[inside] for name, angle in inverse.anatomical_angles().items()})
     residual = fit.residual.reshape(len(windows), -1, 2)[windows.mask]
     rms = np.degrees(np.sqrt(np.mean(residual ** 2, axis=0)))
     solution = {
@@ -213,6 +225,7 @@ def solve_swing(spec: SwingSpec) -> dict:
         "angle_noise_sd_deg": {j: float(np.degrees(v)) for j, v in fit.noise_sd.items()},
         "moment_noise_sd_n_m": fit.moment_sd,
         "answers": answers(spec, fit, reports, samples, windows, over),
+        "literature_check": {joint: check.as_dict() for joint, check in literature.items()},
         "quiet_phases_percent": [list(p) for p in spec.settings.quiet_phases],
         "windows": len(windows), "quiet_samples": windows.samples,
         **samples.cycle_counts(windows_mask(samples, windows)),
@@ -229,7 +242,7 @@ def solve_swing(spec: SwingSpec) -> dict:
                        **inverse.provenance},
     }
     return {"solution": solution, "samples": samples, "windows": windows, "fit": fit,
-            "time": inverse.time}
+            "time": inverse.time, "literature": literature}
 
 
 def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
@@ -256,6 +269,10 @@ def run_swing(spec: SwingSpec, out: Path, *, force: bool = False) -> dict:
                       header={"units": "deg, model coordinates (knee: -flexion)",
                               "what": "measured and simulated angles in the quiet-phase "
                                       "windows of the fit"})
+        if plots_wanted() and result["literature"]:
+            from predgait.report.passive_plots import plot_literature
+
+            plot_literature(result["literature"], stage / "passive_literature.png")
     return solution
 
 
@@ -292,6 +309,10 @@ def summary_lines(solution: dict) -> list[str]:
         lines.append("  moment residual SD (the moments' weight): " + ", ".join(
             f"{j} {v:.3g} N m" for j, v in solution["moment_noise_sd_n_m"].items()))
     lines += [f"  {joint}: {answer['text']}" for joint, answer in solution["answers"].items()]
+    if solution.get("literature_check"):
+        lines.append("  beside Riener & Edrich 1999 (passive moments of the relaxed leg, at this "
+                     "trial's quiet-sample angles): " + "; ".join(
+                         check["text"] for check in solution["literature_check"].values()))
     lines += parameter_lines(solution["parameters"])
     lines += cutoff_lines(solution["cutoff_sensitivity"])
     lines += window_lines(solution["window_sensitivity"])
