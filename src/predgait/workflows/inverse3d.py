@@ -205,7 +205,9 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
              "pelvis_residual_moment": dyn.residual_moment}
     cols = {k: masked(v) for k, v in cols.items()}
     write_storage(folder / "inverse_dynamics3d.sto", time, cols,
-                  header={"units": "N m (moments), N (pelvis_residual_force, lab frame)",
+                  header={"units": "N m (joint moments about each Cardan axis; "
+                                   "pelvis_residual_moment about the pelvis origin, lab frame), "
+                                   "N (pelvis_residual_force, lab frame)",
                           "provenance": prov})
     units = {k: "N m" for k in cols} | {"pelvis_residual_force": "N"}
     write_csv(folder / "inverse_dynamics3d.csv", time, cols, units=units, provenance=prov)
