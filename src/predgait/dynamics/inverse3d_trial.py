@@ -181,10 +181,6 @@ TRUSTED_WEIGHT = 0.5
 #: IK weight of the static joint centres (OpenSim's Gait2354 IK weighs its ASIS 10, most
 #: markers 1): they carry the anatomical landmarks the skin markers lack.
 JOINT_CENTRE_WEIGHT = 10.0
-#: IK weight of the static ankle centres: the model's ankle centre IS the malleoli
-#: mid-point (subject01: within 0.2 mm on both sides; at 10 the heel and toe landmarks,
-#: 3-7 cm off the model's sole points, pulled it 4.5 and 5.6 mm away, asymmetrically).
-ANKLE_CENTRE_WEIGHT = 1000.0
 
 
 def _static_joint_centres(marker_map: MarkerMap, static: Markers) -> dict[str, np.ndarray]:
@@ -324,8 +320,7 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
                                     axis=1)
     static_weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
                       for f, m in posing.items()}
-    static_weights |= {f: ANKLE_CENTRE_WEIGHT if f.startswith("ankle_center") else
-                       JOINT_CENTRE_WEIGHT if f in JOINT_CENTRES else 1.0 for f in centres}
+    static_weights |= {f: JOINT_CENTRE_WEIGHT if f in JOINT_CENTRES else 1.0 for f in centres}
 
     def fit_static(body):
         return solve_ik(body, calib.time, static_xyz, static_frames, weights=static_weights,

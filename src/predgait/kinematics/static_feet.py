@@ -9,8 +9,9 @@ labs build the foot frame from its landmarks instead (Vicon Plug-in Gait's stati
 calibration and its "Foot Flat" option; pyCGM2, Leboeuf et al. 2019, Gait Posture
 69:235-241): here, in every static frame and by one rule for both feet,
 
-* origin: the ankle centre, the model's (the static fit holds it on the malleoli mid-point,
-  :data:`predgait.dynamics.inverse3d_trial.ANKLE_CENTRE_WEIGHT`);
+* origin: the model's ankle centre, fitted to the malleoli mid-point (the static fit's
+  ``static_joint_centre_residual_mm``; subject01: 4.5 / 5.6 mm, the chain's compromise
+  with the hip and knee centres);
 * foot flat (the foot stands on the level floor): Z the lab vertical, X the heel-to-toe
   direction in the floor plane, Y = Z x X.
 
