@@ -45,7 +45,7 @@ class FootFlatMode(Enum):
     """Foot flat: ``auto`` and ``on`` level the feet, ``off`` does not.
 
     Without a static trial the soles are levelled on the walk (this module); with one, the
-    static trial's feet stand flat (:mod:`predgait.kinematics.anatomical_frames`).
+    static trial's feet stand flat (:mod:`predgait.kinematics.static_feet`).
     """
 
     AUTO = "auto"
