@@ -30,8 +30,9 @@ the two. Measured, t = 0.4..1.6 s (stance: vertical force > 20 N), right / left:
 * hip flexion: 0.188 / 0.181 N m/kg RMS from OpenSim; our wrench at OpenSim's hip centre
   (ours lies 27-28 mm anterior and 14-21 mm superior of it) and about its flexion axis
   0.102 / 0.094, of which the ground reaction's part 0.007: the hip centre accounts for
-  half; the rest is the segments' inertia and gravity (de Leva's thigh 10.3 kg, shank 3.1,
-  foot 1.0 against Gait2354's 9.0, 3.6, 1.5) with each model's kinematics.
+  half. The rest is inertial: with Gait2354's leg segments too (its thigh 9.0 kg, shank
+  3.6, foot 1.5 against de Leva's 10.3, 3.1, 1.0) 0.071 / 0.062, the foot's mass most
+  (0.077 / 0.072 alone); what remains is each model's kinematics (its accelerations).
 * knee flexion: 0.116 / 0.261; at OpenSim's knee centre with its translation coupler
   (the tibia slides on the femur with the knee angle) 0.030 / 0.030, without the coupler
   0.050 / 0.046.
