@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from predgait.data import read_storage
 from predgait.dynamics.inverse3d_trial import read_marker_map
 from predgait.errors import InputError
 from predgait.workflows.inverse3d import run_inverse_fullbody
@@ -45,8 +46,12 @@ def test_subject01_whole_body(tmp_path, assert_tidy_result):
     weight = 72.6 * 9.81
     assert info["pelvis_residual_force_N"]["rms"] < 0.15 * weight
     peaks = info["peak_joint_moments_Nm"]
-    # Sagittal peaks within walking ranges (ankle ~1-1.6 N m/kg, knee and hip < 1.5 N m/kg).
-    assert 0.7 * 72.6 < peaks["ankle_r_y"] < 1.8 * 72.6
+    # Sagittal peaks: the ankle's within 5 % of OpenSim's on this trial (Gait2354: 128.0 N m,
+    # 1.76 N m/kg, at 1.233 s about its oblique ankle axis; ours 131 N m about the Cardan Y
+    # axis, of a 132 N m moment), knee and hip < 1.5 N m/kg (walking ranges).
+    reference = read_storage(REPO / "tests" / "data" / "opensim_gait2354_reference"
+                             / "inverse_dynamics.sto").column("ankle_angle_r_moment")
+    assert abs(peaks["ankle_r_y"] / np.abs(reference).max() - 1.0) < 0.05
     assert peaks["knee_r_y"] < 1.5 * 72.6 and peaks["hip_r_y"] < 1.5 * 72.6
     # The 3D viewer draws each plate's ground reaction at its COP, under the loaded foot:
     # within 0.15 m (horizontally) of a point of that foot's stick lines.

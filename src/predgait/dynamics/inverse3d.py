@@ -129,6 +129,20 @@ class InverseDynamics3D:
         return {name: self.tau[:, 6 + i] for i, name in enumerate(self.joint_names)}
 
 
+def _plate_loads(plates: Sequence[ForcePlate], sides: np.ndarray, k: int) -> list[Load]:
+    """Frame k's plate loads on the feet they are assigned to."""
+    return [Load(f"foot_{sides[p, k]}", plate.force[k], plate.cop[k], plate.free_moment[k])
+            for p, plate in enumerate(plates) if sides[p, k]]
+
+
+def _rnea(model: Model3D, data, q, v, a, loads: list[Load]) -> np.ndarray:
+    """RNEA with the loads (frames placed in ``data`` already); fills data.f."""
+    pm = model.pin_model
+    if not loads:
+        return pin.rnea(pm, data, q, v, a)
+    return pin.rnea(pm, data, q, v, a, joint_forces(model, data, loads))
+
+
 def inverse_dynamics_3d(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                         plates: Sequence[ForcePlate] = (), sides: np.ndarray | None = None
                         ) -> InverseDynamics3D:
@@ -151,16 +165,46 @@ def inverse_dynamics_3d(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndar
     force, moment = np.empty((n, 3)), np.empty((n, 3))
     for k in range(n):
         pin.framesForwardKinematics(pm, data, q[k])
-        loads = [Load(f"foot_{sides[p, k]}", plate.force[k], plate.cop[k],
-                      plate.free_moment[k])
-                 for p, plate in enumerate(plates) if sides[p, k]]
-        fext = joint_forces(model, data, loads) if loads else None
-        tau[k] = (pin.rnea(pm, data, q[k], v[k], a[k], fext) if fext is not None
-                  else pin.rnea(pm, data, q[k], v[k], a[k]))
+        tau[k] = _rnea(model, data, q[k], v[k], a[k], _plate_loads(plates, sides, k))
         rot = data.oMi[1].rotation
         force[k], moment[k] = rot @ tau[k, :3], rot @ tau[k, 3:6]
     return InverseDynamics3D(tau=tau, residual_force=force, residual_moment=moment,
                              joint_names=model.joint_names)
+
+
+def joint_wrenches(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                   plates: Sequence[ForcePlate], sides: np.ndarray, joints: Sequence[str]
+                   ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The wrench each joint transmits to the body beyond it (RNEA, as :func:`inverse_dynamics_3d`).
+
+    A joint's generalised force is this wrench's moment projected on its axis; about
+    another point or axis (another model's joint centre) it gives that model's moment.
+
+    Args:
+        model: whole-body model.
+        q: (n, nq) configurations.
+        v: (n, nv) velocities.
+        a: (n, nv) accelerations.
+        plates: plates at the same n times.
+        sides: (len(plates), n) foot per plate and frame (:func:`assign_plates`).
+        joints: revolute joint names (e.g. ``ankle_r_z``: the ankle's wrench on the foot).
+
+    Returns:
+        joint -> (force (n, 3) N, moment about the joint's origin (n, 3) N m, that origin
+        (n, 3) m), lab frame.
+    """
+    pm, data = model.pin_model, model.pin_model.createData()
+    ids = {name: pm.getJointId(name) for name in joints}
+    out = {name: tuple(np.empty((q.shape[0], 3)) for _ in range(3)) for name in joints}
+    for k in range(q.shape[0]):
+        pin.framesForwardKinematics(pm, data, q[k])
+        _rnea(model, data, q[k], v[k], a[k], _plate_loads(plates, sides, k))
+        for name, j in ids.items():
+            rot = data.oMi[j].rotation
+            out[name][0][k] = rot @ data.f[j].linear
+            out[name][1][k] = rot @ data.f[j].angular
+            out[name][2][k] = data.oMi[j].translation
+    return out
 
 
 def velocities(model: Model3D, time: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -19,8 +19,11 @@ Marker map (TOML, read with :func:`predgait.problemfile.load_problem`)::
     [scaling]     # optional, segment lengths from the static trial (needs one), see
                   # predgait.kinematics.scaling; the scaled URDF is scaled_model.urdf
     [calibration] # optional
-    foot_flat = "auto"   # level the soles at loaded mid-stance (predgait.kinematics.foot_flat):
-                         # "auto" (when there is no static trial), "on" or "off"
+    foot_flat = "auto"   # "auto" or "on": the feet stand flat in the static trial (their
+                         # frames level, headed from the heel to the toe landmark,
+                         # predgait.kinematics.static_feet) or, without one, the soles are
+                         # levelled at loaded mid-stance (predgait.kinematics.foot_flat);
+                         # "off": neither (the static fit's pose)
 """
 
 from __future__ import annotations
@@ -50,6 +53,7 @@ from predgait.dynamics.inverse3d import (
     velocities,
 )
 from predgait.errors import InputError
+from predgait.kinematics.ankle_jcs import in_jcs
 from predgait.kinematics.bounded_ik import frames_near
 from predgait.kinematics.clinical import PELVIS_3D, clinical_angles_3d
 from predgait.kinematics.foot_flat import FootFlatMode, calibrate_feet
@@ -63,6 +67,7 @@ from predgait.kinematics.ik3d import (
     with_marker_frames,
 )
 from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling, scale_fullbody
+from predgait.kinematics.static_feet import level_static_feet
 from predgait.models.fullbody import CONTACTS, JOINT_CENTRES, MARKERS
 from predgait.models.loading3d import Model3D, fullbody_for_subject
 from predgait.problemfile import load_problem
@@ -329,6 +334,10 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         first = fit_static(model)
     model = calibrate_markers(model, first.q, calib.select(list(names)).xyz, frames,
                               marker_map.segments)
+    static_feet = None
+    if centres and marker_map.foot_flat is not FootFlatMode.OFF:  # flat in the static trial
+        model, static_feet = level_static_feet(model, first.q, centres,
+                                               {f: body_of(model, f) for f in frames})
     if window is not None:
         markers = markers.window(*window)
     markers, trimmed = _trim_unseen(markers, list(names))
@@ -364,6 +373,10 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "scaling": None if scaling is None else {
             "factors": {k: round(v, 5) for k, v in scaling.factors.items()},
             "lengths_m": {k: round(v, 5) for k, v in scaling.lengths.items()}},
+        "static_joint_centre_residual_mm": {
+            f: round(1000 * float(np.sqrt(np.nanmean(first.residuals[:, i] ** 2))), 2)
+            for i, f in enumerate(first.marker_frames) if f in centres and f in JOINT_CENTRES},
+        "static_feet": static_feet,
         "foot_flat_calibration": None if feet is None else {
             side: f if isinstance(f, str) else f.summary() for side, f in feet.items()},
         "coordinate_cutoff_hz": cutoff, "grf_cutoff_hz": grf_cutoff,
@@ -390,13 +403,17 @@ def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, 
 def clinical(result: Inverse3DResult) -> tuple[dict, dict]:
     """Clinical angles (deg; pelvis first) and joint moments (N m); NaN at flagged frames.
 
-    Names and signs: :data:`predgait.kinematics.clinical.CLINICAL_3D`.
+    Names and signs: :data:`predgait.kinematics.clinical.CLINICAL_3D`. The ankles' three
+    are in the ISB joint coordinate system (:mod:`predgait.kinematics.ankle_jcs`:
+    dorsiflexion about the shank's medio-lateral axis, inversion about the floating axis,
+    internal rotation about the foot's vertical axis); the other joints' are their Cardan
+    coordinates.
     """
     names = result.model.joint_names
+    q_joints, tau_joints = in_jcs(names, result.q[:, 7:], result.dynamics.tau[:, 6:])
     angles = dict(zip(PELVIS_3D, np.degrees(pelvis_cardan(result.q)).T, strict=True))
-    angles |= {k: np.degrees(v) for k, v in clinical_angles_3d(names, result.q[:, 7:]).items()}
-    moments = {f"{k}_moment": v for k, v in
-               clinical_angles_3d(names, result.dynamics.tau[:, 6:]).items()}
+    angles |= {k: np.degrees(v) for k, v in clinical_angles_3d(names, q_joints).items()}
+    moments = {f"{k}_moment": v for k, v in clinical_angles_3d(names, tau_joints).items()}
     valid = result.valid
     return ({k: np.where(valid, v, np.nan) for k, v in angles.items()},
             {k: np.where(valid, v, np.nan) for k, v in moments.items()})

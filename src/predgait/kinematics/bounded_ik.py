@@ -31,6 +31,9 @@ from predgait.numerics.lsq import bounded_step
 
 #: A joint coordinate closer than this to its limit (rad or m) counts as on the limit.
 ON_LIMIT = 1e-7
+#: Initial Levenberg-Marquardt damping of a cold start, relative to max diag(J^T J)
+#: (Madsen et al. 2004: 1e-3 when the start is believed far from the solution).
+COLD_DAMPING = 1e-3
 
 
 @dataclass(frozen=True)
@@ -135,7 +138,7 @@ class BoundedSolver:
 
     def solve(self, q: np.ndarray, residual: Callable[[np.ndarray], np.ndarray],
               jacobian: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
-              max_iterations: int | None = None) -> FrameSolution:
+              max_iterations: int | None = None, *, cold: bool = False) -> FrameSolution:
         """Fit one frame from the feasible start ``q``.
 
         Args:
@@ -143,11 +146,18 @@ class BoundedSolver:
             residual: q -> (m,) weighted residual.
             jacobian: q -> ((m,) residual, (m, nv) its Jacobian w.r.t. the velocity).
             max_iterations: overrides the options' cap.
+            cold: ``q`` is a rough guess, far from the fit (the first frame): the damping
+                starts at :data:`COLD_DAMPING` times the largest diagonal entry of J^T J
+                (Madsen, Nielsen & Tingleff 2004, Methods for non-linear least squares
+                problems, eq. 3.14) and adapts down from there, instead of a nearly
+                Gauss-Newton first step that overshoots to a joint limit.
         """
         opts = self.options
         cap = max_iterations or opts.max_iterations
-        lam = opts.damping
         r, jac = jacobian(q)
+        lam = opts.damping
+        if cold and lam > 0:
+            lam = max(lam, COLD_DAMPING * float(np.max(np.sum(jac * jac, axis=0))))
         cost = float(r @ r)
         converged, it = False, 0
         for it in range(1, cap + 1):  # noqa: B007 - the count is kept

@@ -42,15 +42,19 @@ FEET = ("r", "l")
 
 
 class FootFlatMode(Enum):
-    """When to level the soles: ``auto`` (no static trial), ``on`` or ``off``."""
+    """Foot flat: ``auto`` and ``on`` level the feet, ``off`` does not.
+
+    Without a static trial the soles are levelled on the walk (this module); with one, the
+    static trial's feet stand flat (:mod:`predgait.kinematics.static_feet`).
+    """
 
     AUTO = "auto"
     ON = "on"
     OFF = "off"
 
     def applies(self, has_static: bool) -> bool:
-        """Whether the calibration runs for a trial with or without a static trial."""
-        return self is FootFlatMode.ON or (self is FootFlatMode.AUTO and not has_static)
+        """Whether the walk's soles are levelled (only without a static trial)."""
+        return self is not FootFlatMode.OFF and not has_static
 
 
 @dataclass(frozen=True)

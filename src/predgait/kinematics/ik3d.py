@@ -218,7 +218,7 @@ class _Fitter:
     def residual(self, q, targets):
         return self.points(q) - targets
 
-    def solve(self, q, targets, max_iterations):
+    def solve(self, q, targets, max_iterations, *, cold=False):
         """Bounded Levenberg-Marquardt (:mod:`predgait.kinematics.bounded_ik`) on one frame."""
         ok = np.repeat(np.isfinite(targets).all(axis=1), 3)
         w = self.w[ok]
@@ -233,7 +233,7 @@ class _Fitter:
                     self.jacobian(pts)[ok] * w[:, None] * self.free)
 
         solver = self.solver
-        fit = solver.solve(solver.project(q), residual, jacobian, max_iterations)
+        fit = solver.solve(solver.project(q), residual, jacobian, max_iterations, cold=cold)
         res = self.residual(fit.q, targets)
         return fit.q, np.linalg.norm(res, axis=1), fit.iterations, fit.converged, fit.at_limit
 
@@ -281,9 +281,10 @@ def solve_ik(model: Model3D, time: np.ndarray, xyz: np.ndarray,
     iterations = np.zeros(n, dtype=int)
     converged = np.zeros(n, dtype=bool)
     at_limit = np.zeros((n, model.nv), dtype=bool)
-    for k in range(n):
+    for k in range(n):  # the first frame from the rough start (5x the iterations)
         cap = options.max_iterations * (5 if k == 0 else 1)
-        q, dist, iterations[k], converged[k], at_limit[k] = fitter.solve(q, xyz[k], cap)
+        q, dist, iterations[k], converged[k], at_limit[k] = fitter.solve(
+            q, xyz[k], cap, cold=k == 0 and q0 is None)
         qs[k] = q
         visible = np.isfinite(xyz[k]).all(axis=1)
         residuals[k, visible] = dist[visible]

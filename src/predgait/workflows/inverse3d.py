@@ -9,7 +9,8 @@ low-pass the coordinates, differentiate, assign the plates to the feet and run R
 ``kinematics3d.sto`` (deg, m), ``inverse_dynamics3d.sto`` and ``.csv`` (N m per Cardan
 axis, pelvis residual force N and moment N m in the lab), ``ik_residuals.csv`` (m per
 marker, RMS, flag), ``clinical_angles.sto`` (deg) and ``clinical_moments.sto`` (N m) with
-clinical names and signs (both also in ``clinical.csv``), ``model.osim`` and ``motion.mot``
+clinical names and signs, the ankles' in the ISB joint coordinate system (header ``axes``;
+both also in ``clinical.csv``), ``model.osim`` and ``motion.mot``
 (the body and its motion for OpenSim) and ``summary.json``.
 
 The marker map is described in :mod:`predgait.dynamics.inverse3d_trial`.
@@ -185,6 +186,14 @@ def inverse3d_checks(result: Inverse3DResult, moments: dict, residual: np.ndarra
     return checks
 
 
+#: The axes of the clinical angles and moments (header ``axes`` of the clinical files).
+AXES = ("ankles: ISB joint coordinate system (predgait.kinematics.ankle_jcs; Wu et al. "
+        "2002): dorsiflexion about the shank's medio-lateral axis, inversion about the "
+        "floating axis (the Cardan X after the sagittal rotation, sequence Y-X-Z), internal "
+        "rotation about the foot's vertical axis; moments: the net ankle moment projected "
+        "on these axes. Other joints: their Cardan X-Y-Z coordinates and generalised forces")
+
+
 def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     """Write the output files into an existing (staging) folder; returns the summary."""
     time, model, dyn = result.ik.time, result.model, result.dynamics
@@ -205,7 +214,9 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
              "pelvis_residual_moment": dyn.residual_moment}
     cols = {k: masked(v) for k, v in cols.items()}
     write_storage(folder / "inverse_dynamics3d.sto", time, cols,
-                  header={"units": "N m (moments), N (pelvis_residual_force, lab frame)",
+                  header={"units": "N m (joint moments about each Cardan axis; "
+                                   "pelvis_residual_moment about the pelvis origin, lab frame), "
+                                   "N (pelvis_residual_force, lab frame)",
                           "provenance": prov})
     units = {k: "N m" for k in cols} | {"pelvis_residual_force": "N"}
     write_csv(folder / "inverse_dynamics3d.csv", time, cols, units=units, provenance=prov)
@@ -213,9 +224,11 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     signs = "signs: predgait.kinematics.clinical.CLINICAL_3D (flexion, adduction, internal " \
             "rotation, dorsiflexion, inversion positive; internal moments toward + angle)"
     write_storage(folder / "clinical_angles.sto", time, angles, in_degrees=True,
-                  header={"units": "deg", "conventions": signs, "provenance": prov})
+                  header={"units": "deg", "conventions": signs, "axes": AXES,
+                          "provenance": prov})
     write_storage(folder / "clinical_moments.sto", time, moments,
-                  header={"units": "N m", "conventions": signs, "provenance": prov})
+                  header={"units": "N m", "conventions": signs, "axes": AXES,
+                          "provenance": prov})
     write_csv(folder / "clinical.csv", time, angles | moments,
               units=dict.fromkeys(angles, "deg") | dict.fromkeys(moments, "N m"),
               provenance=prov)
