@@ -35,7 +35,8 @@ bundled with predgait are used. Without OPENSIM_PYTHON, or if Moco does not fini
 With ``--moco-solution`` (Moco's gaitPrediction_solution.sto, e.g. from
 benchmarks/opensim_moco_2d_walking.py --write) its objective and kinematics beside ours
 (no time: a time from a file is not a measurement of this run); with ``--coretypes`` one
-run per OPENBLAS_CORETYPE and the spread of the objective and kinematics between them; the
+run per OPENBLAS_CORETYPE and the spread of the objective and kinematics between them; two
+muscle scenarios (cold process; the edited re-solve from the baseline and its build); the
 human-likeness run (problems/predict_2d_muscles_physiological.toml) with its failed checks.
 
 Run:  [OPENSIM_PYTHON=... MOCO_2D_GAIT_DIR=...] .venv/bin/python benchmarks/bench_predict.py
@@ -73,6 +74,10 @@ def fresh_model():
 PEER = "OpenSim Moco example2DWalking"
 #: The example's files bundled with predgait (2D_gait.osim, references, referenceGRF.xml).
 BUNDLED_MOCO_FILES = HERE.parent / "src" / "predgait" / "datasets" / "moco_2d_walking"
+
+
+#: Muscle scenarios timed (issue 26: a re-solve from the baseline in under 20 s).
+SCENARIOS = ("scenario_muscle_plantarflexor_weakness.toml", "scenario_muscle_afo_2d.toml")
 
 
 def moco_folder() -> str | None:
@@ -153,10 +158,10 @@ def bench(nodes: int, repeat: int) -> tuple[Timing, Timing]:
     return built, recipe
 
 
-def solve_muscles(problem: str, extra: tuple[str, ...] = (), env: dict | None = None
-                  ) -> tuple[float, float, dict]:
-    """One cold ``predgait solve`` of a muscle problem in a fresh process: (wall s, CPU s,
-    summary)."""
+def solve_muscles(problem: str, extra: tuple[str, ...] = (), env: dict | None = None,
+                  command: str = "solve") -> tuple[float, float, dict]:
+    """One cold ``predgait COMMAND`` of a muscle problem file in a fresh process: (wall s,
+    CPU s, summary)."""
     import resource
     import sys
     import tempfile
@@ -167,7 +172,7 @@ def solve_muscles(problem: str, extra: tuple[str, ...] = (), env: dict | None = 
         out = Path(tmp) / "out"
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
-        done = subprocess.run([sys.executable, "-m", "predgait", "solve",
+        done = subprocess.run([sys.executable, "-m", "predgait", command,
                                str(HERE.parent / "problems" / problem), "--out", str(out),
                                "--no-plots", *extra], capture_output=True, text=True,
                               env={**os.environ, **(env or {})})
@@ -246,6 +251,14 @@ def bench_muscles(repeat: int, peer_repeat: int, peer_minutes: float,
                      for c in curves for j in c)
         print(f"  OPENBLAS_CORETYPE: objectives {objectives}; right-leg angles differ by "
               f"up to {spread:.2f} deg between kernels")
+    for scenario in SCENARIOS:
+        wall, cpu, summary = solve_muscles(scenario, command="scenario")
+        b, e = summary["baseline"]["ipopt"], summary["edited"]["ipopt"]
+        print(f"  scenario {scenario}, cold `predgait scenario` {wall:.1f} s wall ({cpu:.1f} s "
+              f"CPU): baseline {b['iterations']} iterations {b['solve_time_s']:.1f} s, edited "
+              f"re-solve from the baseline {e['status']} {e['iterations']} iterations "
+              f"{e['solve_time_s']:.1f} s (build {summary['edited']['build_s']:.1f} s); "
+              f"{load_text()}")
     _, _, phys = solve_muscles("predict_2d_muscles_physiological.toml")
     print(f"  physiological bounds: {phys['status']}, objective {phys['objective']:.5g}; "
           f"{len(phys['warnings'])} of {len(phys['human_likeness'])} checks fail: "
