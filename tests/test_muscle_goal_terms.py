@@ -7,6 +7,8 @@
 * a problem built without the metabolic rate refuses a metabolic goal.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -98,3 +100,36 @@ def test_metabolic_goal_needs_the_metabolic_rate(built):
     bounds = bounds_for(plant, planar, MOCO_BOUNDS, (0.4, 0.6))
     with pytest.raises(InputError, match="metabolic"):
         problem.solve(path, bounds, Goal(metabolic_weight=1.0))
+
+
+HUMAN = Path(__file__).resolve().parents[1] / "problems" / "predict_2d_muscles_human.toml"
+
+
+def _spec(*overrides):
+    from predgait.problemfile import load_problem
+    from predgait.problems.muscle_prediction import parse_muscle_predict
+
+    return parse_muscle_predict(load_problem(HUMAN, overrides))
+
+
+def test_metabolic_stage_solves_the_goal_without_its_metabolic_term_first():
+    from dataclasses import replace
+
+    from predgait.problems.muscle_prediction import stages_before
+
+    spec = _spec()
+    assert spec.metabolic_stage and spec.goal.metabolic_weight == 0.5
+    (what, goal, _), = stages_before(spec)
+    assert what == "without the metabolic term"
+    assert goal == replace(spec.goal, metabolic_weight=0.0)       # every other term kept
+    # After a tracking stage; none without a metabolic term or when not asked for.
+    both = stages_before(_spec("guess.tracking_stage=true"))
+    assert [w for w, _, _ in both] == ["tracking the reference", "without the metabolic term"]
+    assert both[0][1].tracking_weight > 0 and both[1][1].tracking_weight == 0
+    assert stages_before(_spec("goal.metabolic_weight=0")) == []
+    assert stages_before(_spec("guess.metabolic_stage=false")) == []
+
+
+def test_metabolic_stage_must_be_true_or_false():
+    with pytest.raises(InputError, match="metabolic_stage"):
+        _spec("guess.metabolic_stage=3")
