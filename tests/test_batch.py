@@ -324,6 +324,62 @@ def test_fullbody_trial_equals_the_single_trial_command_and_the_report(tmp_path)
     assert "subject01__self-selected__subject01_walk1</td>" in page
 
 
+def test_fullbody_calibration_once_per_subject_per_worker(tmp_path, monkeypatch):
+    """Three walks of one subject and one of another mass, in one worker: two static
+    calibrations; a trial on the kept calibration equals the single-trial command (every
+    file), and the kept calibration is refused for another subject."""
+    from predgait.data.bundled import bundled_path
+    from predgait.dynamics import fullbody_calibration
+    from predgait.dynamics.inverse3d_trial import inverse_fullbody, read_trial
+    from predgait.workflows import batch_trial
+
+    walk, folder = bundled_path("subject01_walk1"), tmp_path / "walks"
+    folder.mkdir()
+    for stem in ("a", "b", "c", "d"):
+        shutil.copy(walk / "subject01_walk1.trc", folder / f"{stem}.trc")
+        shutil.copy(walk / "subject01_walk1_grf.mot", folder / f"{stem}_grf.mot")
+        shutil.copy(walk / "subject01_walk1_grf.xml", folder / f"{stem}_grf.xml")
+    subject = ('[[subjects]]\nname = "{name}"\nmass = {mass}\nheight = 1.8034\n'
+               'static = "bundled:subject01_walk1/subject01_static.trc"\n'
+               f'marker_map = "{REPO}/problems/markers_fullbody_subject01.toml"\n\n'
+               '[[trials]]\nsubject = "{name}"\ncondition = "walk"\nmarkers = {files}\n'
+               'grf = "{{stem}}_grf.mot"\n\n')
+    dataset = tmp_path / "two.toml"
+    dataset.write_text('name = "two"\nanalyses = ["fullbody"]\n\n'
+                       + subject.format(name="s1", mass=72.6,
+                                        files='["walks/a.trc", "walks/b.trc", "walks/c.trc"]')
+                       + subject.format(name="s2", mass=80.0, files='"walks/d.trc"'))
+    calls = []
+    real = fullbody_calibration.calibrate_fullbody
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs["mass"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fullbody_calibration, "calibrate_fullbody", counted)
+    monkeypatch.setattr(batch_trial, "_calibrations", type(batch_trial._calibrations)())
+    out = tmp_path / "out"
+    assert main(["batch", str(dataset), "--out", str(out), "--workers", "1",
+                 "--no-plots"]) == 0
+    assert calls == [72.6, 80.0]
+    single = tmp_path / "single"
+    assert main(["inverse", str(folder / "c.trc"), "--grf", str(folder / "c_grf.mot"),
+                 "--static", str(walk / "subject01_static.trc"), "--mass", "72.6",
+                 "--height", "1.8034", "--model", "fullbody", "--marker-map",
+                 str(REPO / "problems" / "markers_fullbody_subject01.toml"), "--out",
+                 str(single), "--no-plots"]) == 0
+    trial = out / "trials" / "s1__walk__c" / "fullbody"
+    names = sorted(p.name for p in single.glob("[!.]*"))   # not the folder's marker
+    assert sorted(p.name for p in trial.iterdir()) == names
+    for name in names:
+        assert (trial / name).read_text() == (single / name).read_text(), name
+    kept = next(iter(batch_trial._calibrations.values()))
+    markers, plates = read_trial([folder / "d.trc", folder / "d_grf.mot"])
+    with pytest.raises(ValueError, match="another subject"):
+        inverse_fullbody(markers, plates, kept[0], mass=80.0, height=1.8034,
+                         static=kept[1], calibration=kept[2])
+
+
 def test_a_bad_normative_band_is_refused_before_any_work(batch, tmp_path, capsys):
     _, dataset, _, _, _ = batch
     band = tmp_path / "band.csv"
