@@ -24,6 +24,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from predgait import __version__
 from predgait.errors import InputError
 from predgait.report.dataset_tables import CURVES, TIDY, mean_curves, read_cycles, write_rows
@@ -260,20 +262,25 @@ def _write_dataset(run: BatchRun, dataset: Dataset, bands) -> None:
 
 
 def _write_parquet(path: Path, cycles) -> None:
-    """The tidy table as Parquet (pyarrow; ImportError without it)."""
+    """The tidy table as Parquet (pyarrow; ImportError without it).
+
+    Built column by column from the cycles' arrays: 101 rows per cycle.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     n = 101
+    rows = pa.array(np.repeat(np.arange(len(cycles)), n))   # row -> its cycle
 
-    def each(values: list) -> list:   # one entry per cycle -> one per row
-        return [v for v in values for _ in range(n)]
+    def each(values: list) -> pa.Array:   # one entry per cycle -> one per row
+        return pa.array(values).take(rows)
 
     columns = {name: each([c.key[i] for c in cycles]) for i, name in enumerate(TIDY[:5])}
     columns["cycle"] = each([c.cycle for c in cycles])
-    columns["percent"] = list(range(n)) * len(cycles)
+    columns["percent"] = np.tile(np.arange(n, dtype=np.int64), len(cycles))
     columns["variable"] = each([c.variable for c in cycles])
-    columns["value"] = [float(v) for c in cycles for v in c.values]
+    columns["value"] = (np.concatenate([np.asarray(c.values, dtype=float) for c in cycles])
+                        if cycles else np.empty(0))
     columns["unit"] = each([c.unit for c in cycles])
     columns["flagged"] = each([int(c.flagged) for c in cycles])
     pq.write_table(pa.table({k: columns[k] for k in TIDY}), path)
