@@ -7,15 +7,14 @@ of ``predgait inverse --model fullbody``), ``cycles.csv`` and ``cycles.npz`` (it
 cycles: tidy rows and the same numbers, :mod:`predgait.report.dataset_tables`) and
 ``trial.json`` (status, flags, the content hash that ``--resume`` compares). Models are
 cached per worker process (:func:`predgait.models.loading.load_model`, the full-body
-builder's caches), so a worker keeps them warm across trials, and so is each subject's
-full-body calibration (:func:`subject_calibration`: computed once per subject per worker).
+builder's caches), so a worker keeps them warm across trials, and so are each subject's
+static calibrations (:mod:`predgait.workflows.batch_warm`: once per subject per worker).
 """
 
 from __future__ import annotations
 
 import json
 import time
-from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,21 +24,21 @@ from predgait.report.dataset_tables import cycles_of, write_cycles
 from predgait.report.figures import plots_off
 from predgait.scenarios.sweep import SweepPoint
 from predgait.textfile import source_name
-from predgait.workflows.batch_spec import TrialJob, digest
+from predgait.workflows.batch_spec import TrialJob
+from predgait.workflows.batch_warm import fullbody_calibration, leg_calibration
 
 #: File that marks a whole trial result (written last in its staging folder).
 TRIAL_JSON = "trial.json"
-#: Subjects' full-body calibrations a worker keeps (the most recently used).
-CALIBRATIONS_KEPT = 8
-_calibrations: OrderedDict = OrderedDict()   # content hash -> (marker map, calibration)
 
 
 def _leg(options, stage: Path, key: dict) -> tuple[list, dict]:
     """Leg inverse of one side into ``stage/leg_<side>``; its tidy rows and notes."""
     from predgait.dynamics.inverse_trial import run_inverse
+    from predgait.dynamics.leg_measurements import read_trial
     from predgait.workflows.inverse_io import write_inverse_outputs
 
-    result = run_inverse(options)
+    trial, turn = read_trial(options)
+    result = run_inverse(options, loaded=(trial, turn), static=leg_calibration(options, turn))
     inputs = [p for p in (options.markers, options.grf, options.static) if p]
     write_inverse_outputs(result, stage / f"leg_{options.side}", inputs=inputs)
     mass = result.body_mass
@@ -62,35 +61,6 @@ def _side_of(name: str) -> tuple[str, str]:
     return name, "both"
 
 
-def subject_calibration(body: dict):
-    """(marker map, static trial, full-body calibration) of a trial's subject, kept warm.
-
-    Computed once per worker for each content hash of the static trial and marker map
-    files with the mass, height and sex (the calibration the single-trial command
-    computes from them); without a static trial the walk calibrates: (map, None, None).
-    """
-    from predgait.data import read_trc
-    from predgait.dynamics import fullbody_calibration
-    from predgait.dynamics.inverse3d_trial import read_marker_map
-    from predgait.kinematics.ik3d import IKOptions
-
-    if body["static"] is None:
-        return read_marker_map(body["marker_map"]), None, None
-    options = IKOptions()
-    key = digest([body["static"], body["marker_map"]],
-                 {k: body[k] for k in ("mass", "height", "sex")} | {"ik": repr(options)})
-    kept = _calibrations.pop(key, None)
-    if kept is None:
-        marker_map, static = read_marker_map(body["marker_map"]), read_trc(body["static"])
-        kept = (marker_map, static, fullbody_calibration.calibrate_fullbody(
-            marker_map, mass=body["mass"], height=body["height"], sex=body["sex"],
-            static=static, options=options))
-    _calibrations[key] = kept   # the most recently used last
-    while len(_calibrations) > CALIBRATIONS_KEPT:
-        _calibrations.popitem(last=False)
-    return kept
-
-
 def _fullbody(body: dict, stage: Path, key: dict) -> tuple[list, dict]:
     """Full-body inverse into ``stage/fullbody``; its tidy rows and notes.
 
@@ -100,7 +70,7 @@ def _fullbody(body: dict, stage: Path, key: dict) -> tuple[list, dict]:
     from predgait.workflows.inverse3d import scaled_urdf, write_outputs
 
     markers, plates = read_trial(body["files"])
-    marker_map, static, calibration = subject_calibration(body)
+    marker_map, static, calibration = fullbody_calibration(body)
     result = inverse_fullbody(markers, plates, marker_map, mass=body["mass"],
                               height=body["height"], sex=body["sex"], static=static,
                               calibration=calibration)
