@@ -229,18 +229,24 @@ class _Fitter:
         ok = np.repeat(np.isfinite(targets).all(axis=1), 3)
         w = self.w[ok]
         flat = np.where(np.isfinite(targets), targets, 0.0).ravel()[ok]
+        last = {}   # the last pose evaluated (the array itself), its points; data.J is its
+
+        def evaluate(qq):   # an accepted step's Jacobian reuses its residual's kinematics
+            if last.get("q") is not qq:
+                last["q"], last["points"] = qq, self.points(qq, jacobians=True)
+            return last["points"]
 
         def residual(qq):
-            return w * (self.points(qq).ravel()[ok] - flat)
+            return w * (evaluate(qq).ravel()[ok] - flat)
 
         def jacobian(qq):
-            pts = self.points(qq, jacobians=True)
+            pts = evaluate(qq)
             return (w * (pts.ravel()[ok] - flat),
                     self.jacobian(pts)[ok] * w[:, None] * self.free)
 
         solver = self.solver
         fit = solver.solve(solver.project(q), residual, jacobian, max_iterations, cold=cold)
-        res = self.residual(fit.q, targets)
+        res = evaluate(fit.q) - targets
         return fit.q, np.linalg.norm(res, axis=1), fit.iterations, fit.converged, fit.at_limit
 
 
