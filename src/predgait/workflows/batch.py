@@ -182,7 +182,7 @@ def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
     started = time.perf_counter()
     given = contextlib.nullcontext(client) if client is not None else None
     try:
-        with given or _local_cluster(workers) as target:
+        with given or _local_cluster(min(workers, len(todo))) as target:   # 0-1: here
             outcomes = run_sweep(task, todo, workers=workers, scheduler=target,
                                  progress=progress, desc="batch", unit="trial")
     except SweepInterrupted as exc:
