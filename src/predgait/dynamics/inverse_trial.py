@@ -164,11 +164,9 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     grf_cutoff = plate_cutoff(trial.plates, options.grf_cutoff, cutoff)
     if cutoff is not None:
         markers = markers.with_xyz(lowpass(markers.xyz, markers.rate, cutoff))
-    if options.static is None:
-        static = None
-    elif static is None:
+    if static is None and options.static is not None:
         static = leg_static(options, turn)
-    elif not static.fits(options, turn):
+    elif static is not None and not static.fits(options, turn):
         raise ValueError("run_inverse: the static calibration is another subject's (options "
                          "or the trial's rotation differ).")
     points = joint_points(markers, options, None if static is None else static.markers)
