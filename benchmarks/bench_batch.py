@@ -14,8 +14,11 @@ every trial, the dataset tables and report): trials per minute = trials x 60 / w
 The peer: ``benchmarks/opensim_subject01.py GAIT2354_DIR --tools ik,id`` as one process
 per trial (OpenSim's InverseKinematicsTool and InverseDynamicsTool on Gait2354, the
 0.4-1.6 s window of 76 frames, model loading included), one trial after another; its
-trials per minute = 60 / wall of one process. Needs OPENSIM_PYTHON and GAIT2354_DIR, else
-"peer not available". The machine's load average is printed before and after.
+trials per minute = 60 / wall of one process, timed (--peer-repeat times) right before
+each batch, so both see the same load. Needs OPENSIM_PYTHON and GAIT2354_DIR, else
+"peer not available". The machine's load average is printed before and after. Note the
+work per trial differs: predgait analyses the whole walk (151 frames), the peer's setup
+files the 0.4-1.6 s window (76 frames).
 """
 
 from __future__ import annotations
@@ -108,11 +111,12 @@ def peer_timing(repeat: int) -> Timing | None:
 
 def rows(repeat: int = 3, *, trials=(20, 80), analyses=("leg", "fullbody"),
          workers: int = 2) -> list[Row]:
-    """Per-trial wall of each batch against the peer's per-trial process."""
-    peer = peer_timing(repeat)
+    """Per-trial wall of each batch against the peer's per-trial process, the peer timed
+    again right before each batch (the machine's load drifts between rows)."""
     out = []
     for analysis in analyses:
         for count in trials:
+            peer = peer_timing(repeat)
             timing, summary = batch_timing(count, analysis, workers)
             does = (f"{count} trials, {workers} workers, whole process / trials "
                     f"({60 / timing.best:.1f} trials/min; in-run "

@@ -324,6 +324,119 @@ def test_fullbody_trial_equals_the_single_trial_command_and_the_report(tmp_path)
     assert "subject01__self-selected__subject01_walk1</td>" in page
 
 
+def test_fullbody_calibration_once_per_subject_per_worker(tmp_path, monkeypatch):
+    """Three walks of one subject and one of another mass, in one worker: two static
+    calibrations; a trial on the kept calibration equals the single-trial command (every
+    file), and the kept calibration is refused for another subject."""
+    from predgait.data.bundled import bundled_path
+    from predgait.dynamics import fullbody_calibration
+    from predgait.dynamics.inverse3d_trial import inverse_fullbody, read_trial
+    from predgait.workflows import batch_warm
+
+    walk, folder = bundled_path("subject01_walk1"), tmp_path / "walks"
+    folder.mkdir()
+    for stem in ("a", "b", "c", "d"):
+        shutil.copy(walk / "subject01_walk1.trc", folder / f"{stem}.trc")
+        shutil.copy(walk / "subject01_walk1_grf.mot", folder / f"{stem}_grf.mot")
+        shutil.copy(walk / "subject01_walk1_grf.xml", folder / f"{stem}_grf.xml")
+    subject = ('[[subjects]]\nname = "{name}"\nmass = {mass}\nheight = 1.8034\n'
+               'static = "bundled:subject01_walk1/subject01_static.trc"\n'
+               f'marker_map = "{REPO}/problems/markers_fullbody_subject01.toml"\n\n'
+               '[[trials]]\nsubject = "{name}"\ncondition = "walk"\nmarkers = {files}\n'
+               'grf = "{{stem}}_grf.mot"\n\n')
+    dataset = tmp_path / "two.toml"
+    dataset.write_text('name = "two"\nanalyses = ["fullbody"]\n\n'
+                       + subject.format(name="s1", mass=72.6,
+                                        files='["walks/a.trc", "walks/b.trc", "walks/c.trc"]')
+                       + subject.format(name="s2", mass=80.0, files='"walks/d.trc"'))
+    calls = []
+    real = fullbody_calibration.calibrate_fullbody
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs["mass"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fullbody_calibration, "calibrate_fullbody", counted)
+    monkeypatch.setattr(batch_warm, "_kept", type(batch_warm._kept)())
+    out = tmp_path / "out"
+    assert main(["batch", str(dataset), "--out", str(out), "--workers", "1",
+                 "--no-plots"]) == 0
+    assert calls == [72.6, 80.0]
+    single = tmp_path / "single"
+    assert main(["inverse", str(folder / "c.trc"), "--grf", str(folder / "c_grf.mot"),
+                 "--static", str(walk / "subject01_static.trc"), "--mass", "72.6",
+                 "--height", "1.8034", "--model", "fullbody", "--marker-map",
+                 str(REPO / "problems" / "markers_fullbody_subject01.toml"), "--out",
+                 str(single), "--no-plots"]) == 0
+    trial = out / "trials" / "s1__walk__c" / "fullbody"
+    names = sorted(p.name for p in single.glob("[!.]*"))   # not the folder's marker
+    assert sorted(p.name for p in trial.iterdir()) == names
+    for name in names:
+        assert (trial / name).read_text() == (single / name).read_text(), name
+    kept = next(iter(batch_warm._kept.values()))
+    markers, plates = read_trial([folder / "d.trc", folder / "d_grf.mot"])
+    with pytest.raises(ValueError, match="another subject"):
+        inverse_fullbody(markers, plates, kept[0], mass=80.0, height=1.8034,
+                         static=kept[1], calibration=kept[2])
+
+
+def test_leg_static_calibration_once_per_subject_side_per_worker(tmp_path, monkeypatch):
+    """Two walks of subject01, both legs, in one worker: one static calibration per side;
+    the second walk's files equal 'predgait inverse' of it (each side), and the kept
+    calibration is refused for other options."""
+    from dataclasses import replace
+
+    from predgait.data.bundled import bundled_path
+    from predgait.dynamics import leg_static
+    from predgait.dynamics.inverse_trial import run_inverse
+    from predgait.dynamics.leg_measurements import read_trial
+    from predgait.workflows import batch_warm
+
+    walk, folder = bundled_path("subject01_walk1"), tmp_path / "walks"
+    folder.mkdir()
+    for stem in ("a", "b"):
+        shutil.copy(walk / "subject01_walk1.trc", folder / f"{stem}.trc")
+        shutil.copy(walk / "subject01_walk1_grf.mot", folder / f"{stem}_grf.mot")
+        shutil.copy(walk / "subject01_walk1_grf.xml", folder / f"{stem}_grf.xml")
+    text = (REPO / "problems" / "batch_subject01.toml").read_text().replace(
+        '"inverse_subject01', f'"{REPO}/problems/inverse_subject01').replace(
+        '"markers_fullbody', f'"{REPO}/problems/markers_fullbody').replace(
+        '"bundled:subject01_walk1/subject01_walk1.trc"', '["walks/a.trc", "walks/b.trc"]')
+    dataset = tmp_path / "legs.toml"
+    dataset.write_text(text)
+    calls = []
+    real = leg_static.leg_static
+
+    def counted(options, turn):
+        calls.append(str(options.side))
+        return real(options, turn)
+
+    monkeypatch.setattr(leg_static, "leg_static", counted)
+    monkeypatch.setattr(batch_warm, "_kept", type(batch_warm._kept)())
+    out = tmp_path / "out"
+    assert main(["batch", str(dataset), "--out", str(out), "--workers", "1",
+                 "--no-plots"]) == 0
+    assert sorted(calls) == ["left", "right"]
+    for side, problem in (("right", "inverse_subject01.toml"),
+                          ("left", "inverse_subject01_left.toml")):
+        single = tmp_path / f"single_{side}"
+        assert main(["inverse", str(REPO / "problems" / problem), "--set",
+                     f"trial.markers={folder / 'b.trc'}", "--set",
+                     f"trial.grf={folder / 'b_grf.mot'}", "--set",
+                     "trial.static=bundled:subject01_walk1/subject01_static.trc", "--out",
+                     str(single), "--no-plots"]) == 0
+        trial = out / "trials" / "subject01__self-selected__b" / f"leg_{side}"
+        names = sorted(p.name for p in single.glob("[!.]*"))   # not the folders' markers
+        assert sorted(p.name for p in trial.glob("[!.]*")) == names
+        for name in names:
+            assert (trial / name).read_text() == (single / name).read_text(), (side, name)
+    kept = [v for v in batch_warm._kept.values() if isinstance(v, leg_static.LegStatic)]
+    options = replace(kept[0].options, mass=kept[0].options.mass + 1.0)
+    trial, turn = read_trial(options)
+    with pytest.raises(ValueError, match="another subject"):
+        run_inverse(options, loaded=(trial, turn), static=kept[0])
+
+
 def test_a_bad_normative_band_is_refused_before_any_work(batch, tmp_path, capsys):
     _, dataset, _, _, _ = batch
     band = tmp_path / "band.csv"

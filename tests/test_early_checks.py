@@ -78,7 +78,8 @@ def test_trial_longer_than_its_plates_is_refused_before_the_full_read(lab, capsy
     def no_full_read(*args, **kwargs):
         raise AssertionError("the whole TRC was read before the plates were checked")
 
-    monkeypatch.setattr("predgait.dynamics.inverse_trial.read_trc", no_full_read)
+    for reader in ("leg_measurements", "leg_static"):   # the walk's and the static's
+        monkeypatch.setattr(f"predgait.dynamics.{reader}.read_trc", no_full_read)
     message = _one_error(capsys, main(["inverse", "inverse.toml", "--out", "res"]),
                          "covers t = 0.0000..2.5000 s", f"walk.trc run 0.0000..{last:.4f} s")
     assert message.startswith("predgait: error: subject01_walk1_grf.mot: force plate")

@@ -16,12 +16,15 @@ from pathlib import Path
 from predgait.errors import InputError
 
 _READ: set[Path] = set()
+_HOLDING: set[Path] = set()   # every folder holding a file of _READ
 _STAGES: dict[Path, Path] = {}  # staging folder -> the --out it becomes
 
 
 def note_input(path: str | Path) -> None:
     """Remember ``path`` as an input of this process (outputs may never replace it)."""
-    _READ.add(Path(path).resolve())
+    path = Path(path).resolve()
+    _READ.add(path)
+    _HOLDING.update(path.parents)
 
 
 def check_not_input(out: str | Path, inputs: Iterable[str | Path] = (), *,
@@ -37,7 +40,11 @@ def check_not_input(out: str | Path, inputs: Iterable[str | Path] = (), *,
         InputError: Naming the output and the input.
     """
     target = Path(out).resolve()
-    for path in [*(Path(p).resolve() for p in inputs if p is not None), *sorted(_READ)]:
+    # The files read are scanned only when one is in the way (set lookups): a batch
+    # worker reads hundreds of files and writes thousands.
+    in_way = target in _READ or target in _HOLDING or any(p in _READ for p in target.parents)
+    read = sorted(_READ) if in_way else []
+    for path in [*(Path(p).resolve() for p in inputs if p is not None), *read]:
         if path == target:
             raise InputError(f"{option} {out}: refusing to overwrite an input file ({path}); "
                              "choose another path.")

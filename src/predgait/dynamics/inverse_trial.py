@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import functools
 import logging
-from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -25,15 +24,13 @@ from predgait.data import (
     events_from_plate,
     fill_gaps,
     lowpass,
-    read_trc,
 )
 from predgait.data.body_weight import PLATES, PlateMass, plate_body_mass, resolve_mass
 from predgait.data.cutoffs import marker_cutoff, plate_cutoff
 from predgait.data.events import Events, Side
-from predgait.data.frames import rotate_markers
 from predgait.data.trial import ForcePlate, Trial
 from predgait.dynamics.inverse import LegInverse, LoadHistory, leg_inverse_dynamics
-from predgait.dynamics.inverse_options import InverseOptions, StaticCentre, bundled_options
+from predgait.dynamics.inverse_options import InverseOptions, bundled_options
 from predgait.dynamics.leg_measurements import (
     cop_hint,
     foot_grf,
@@ -44,6 +41,7 @@ from predgait.dynamics.leg_measurements import (
     needed_markers,
     read_trial,
 )
+from predgait.dynamics.leg_static import LegStatic, leg_static
 from predgait.errors import InputError
 from predgait.kinematics import clinical
 from predgait.kinematics.bounded_ik import frames_near
@@ -138,20 +136,15 @@ def flagged_outputs(ik_flagged: np.ndarray, *, stencil: int = 2) -> np.ndarray:
     return frames_near(ik_flagged, stencil)
 
 
-def static_knee_flexion(model: Model, static_points: Mapping[str, np.ndarray]) -> float:
-    """Mean knee flexion (rad) of the leg fitted to the static trial's joint centres."""
-    pitch = foot_pitch(static_points)
-    ik = solve_ik(model, {f"{k}_center": static_points[k] for k in ("hip", "knee", "ankle")},
-                  pitch - np.mean(pitch), limit_margin=np.radians(30.0))
-    return float(np.mean(clinical.clinical_angles(ik.q)["knee_flexion"]))
-
-
-def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | None = None
-                ) -> InverseResult:
+def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | None = None,
+                static: LegStatic | None = None) -> InverseResult:
     """Run the pipeline (module docstring) on one trial and leg.
 
     ``loaded`` is the trial already read with its rotation (:func:`read_trial`), e.g. with
-    noise added for a noise bootstrap; None reads ``options.markers``.
+    noise added for a noise bootstrap; None reads ``options.markers``. ``static``: the
+    leg's static calibration (:func:`~predgait.dynamics.leg_static.leg_static`) for these
+    options and the trial's rotation (a batch worker keeps it per subject); None: made
+    here from ``options.static``.
     """
     trial, turn = read_trial(options) if loaded is None else loaded
     weighed = options.mass == PLATES
@@ -171,21 +164,19 @@ def run_inverse(options: InverseOptions, *, loaded: tuple[Trial, np.ndarray] | N
     grf_cutoff = plate_cutoff(trial.plates, options.grf_cutoff, cutoff)
     if cutoff is not None:
         markers = markers.with_xyz(lowpass(markers.xyz, markers.rate, cutoff))
-    static = None
-    static_points = None
-    if options.static is not None:
-        static = rotate_markers(read_trc(options.static), turn)
-        static_names = [n for s in options.points.values() if isinstance(s, StaticCentre)
-                        for n in (s.medial, s.lateral)]
-        static = fill_gaps(static, names=list(dict.fromkeys(needed + static_names)),
-                           edges="trim")
-        static_points = joint_points(static, options, static)
-    points = joint_points(markers, options, static)
+    if static is None and options.static is not None:
+        static = leg_static(options, turn)
+    elif static is not None and not static.fits(options, turn):
+        raise ValueError("run_inverse: the static calibration is another subject's (options "
+                         "or the trial's rotation differ).")
+    points = joint_points(markers, options, None if static is None else static.markers)
     pitch = foot_pitch(points)
-    if static_points is not None:
-        pitch = pitch - float(np.mean(foot_pitch(static_points)))
-    model, leg = leg_model(options, static_points if static_points is not None else points)
-    knee_static = 0.0 if static_points is None else static_knee_flexion(model, static_points)
+    if static is None:
+        model, leg = leg_model(options, points)
+        knee_static = 0.0
+    else:
+        pitch = pitch - float(np.mean(foot_pitch(static.points)))
+        model, leg, knee_static = static.model, static.leg, static.knee_static
     ik = solve_ik(model, {f"{k}_center": points[k] for k in ("hip", "knee", "ankle")}, pitch,
                   limit_margin=np.radians(options.limit_margin))
     if ik.flagged.any():

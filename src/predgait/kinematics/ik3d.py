@@ -183,6 +183,7 @@ class _Fitter:
     def __init__(self, model: Model3D, frame_ids, weights, options: IKOptions, free=None):
         pm = model.pin_model
         self.pm, self.data, self.options = pm, pm.createData(), options
+        self.oMi = self.data.oMi   # the joint placements, updated in place
         self.free = np.ones(pm.nv) if free is None else np.asarray(free, dtype=float)
         joint = np.array([pm.frames[f].parentJoint for f in frame_ids])
         joints, self.of_marker = np.unique(joint, return_inverse=True)
@@ -205,15 +206,20 @@ class _Fitter:
             pin.computeJointJacobians(pm, data, q)
         else:
             pin.forwardKinematics(pm, data, q)
-        rot = np.array([data.oMi[j].rotation for j in self.joints])[self.of_marker]
-        pos = np.array([data.oMi[j].translation for j in self.joints])[self.of_marker]
-        return np.einsum("mij,mj->mi", rot, self.offset) + pos
+        placed = np.array([self.oMi[j].homogeneous for j in self.joints])[self.of_marker]
+        return np.einsum("mij,mj->mi", placed[:, :3, :3], self.offset) + placed[:, :3, 3]
 
     def jacobian(self, points: np.ndarray) -> np.ndarray:
         """(3m, nv) linear Jacobians of the marker frames (after ``points(jacobians=True)``)."""
         world = self.data.J
-        jac = world[:3][None] + np.cross(world[3:].T[None], points[:, None, :]).transpose(0, 2, 1)
-        return (jac * self.support[:, None, :]).reshape(-1, self.pm.nv)
+        w, p = world[3:], points[:, :, None]
+        jac = np.empty((points.shape[0], 3, world.shape[1]))   # omega x p, then + v_O
+        jac[:, 0] = w[1] * p[:, 2] - w[2] * p[:, 1]
+        jac[:, 1] = w[2] * p[:, 0] - w[0] * p[:, 2]
+        jac[:, 2] = w[0] * p[:, 1] - w[1] * p[:, 0]
+        jac += world[:3]
+        jac *= self.support[:, None, :]
+        return jac.reshape(-1, self.pm.nv)
 
     def residual(self, q, targets):
         return self.points(q) - targets
@@ -223,18 +229,24 @@ class _Fitter:
         ok = np.repeat(np.isfinite(targets).all(axis=1), 3)
         w = self.w[ok]
         flat = np.where(np.isfinite(targets), targets, 0.0).ravel()[ok]
+        last = {}   # the last pose evaluated (the array itself), its points; data.J is its
+
+        def evaluate(qq):   # an accepted step's Jacobian reuses its residual's kinematics
+            if last.get("q") is not qq:
+                last["q"], last["points"] = qq, self.points(qq, jacobians=True)
+            return last["points"]
 
         def residual(qq):
-            return w * (self.points(qq).ravel()[ok] - flat)
+            return w * (evaluate(qq).ravel()[ok] - flat)
 
         def jacobian(qq):
-            pts = self.points(qq, jacobians=True)
+            pts = evaluate(qq)
             return (w * (pts.ravel()[ok] - flat),
                     self.jacobian(pts)[ok] * w[:, None] * self.free)
 
         solver = self.solver
         fit = solver.solve(solver.project(q), residual, jacobian, max_iterations, cold=cold)
-        res = self.residual(fit.q, targets)
+        res = evaluate(fit.q) - targets
         return fit.q, np.linalg.norm(res, axis=1), fit.iterations, fit.converged, fit.at_limit
 
 

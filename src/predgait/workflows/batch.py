@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import importlib.util
 import json
 import os
 import shutil
@@ -23,6 +24,8 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import numpy as np
 
 from predgait import __version__
 from predgait.errors import InputError
@@ -91,32 +94,56 @@ def _publish(out: Path, fill) -> None:
         shutil.rmtree(stage, ignore_errors=True)
 
 
+#: The modules a batch trial runs on, imported once in the process workers fork from.
+WORKER_MODULES = ("predgait.workflows.batch_trial", "predgait.dynamics.inverse3d_trial",
+                  "predgait.workflows.inverse3d", "predgait.dynamics.inverse_trial",
+                  "predgait.workflows.inverse_io")
+
+
+def _start_forkserver() -> bool:
+    """Start the forkserver the local workers will fork from; False where there is none.
+
+    It imports Dask's ``distributed`` and :data:`WORKER_MODULES` once (while this process
+    imports Dask), so each worker starts with them instead of importing them anew in a
+    spawned Python (about 2 s less per run on 2 cores).
+    """
+    import multiprocessing
+    from multiprocessing import forkserver
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return False
+    forkserver.set_forkserver_preload(["distributed", *WORKER_MODULES])
+    forkserver.ensure_running()
+    return True
+
+
 @contextlib.contextmanager
 def _local_cluster(workers: int):
     """A local Dask cluster's client (``workers`` processes, one thread each), or None.
 
     None: the runner's local processes (one worker, or dask is not installed).
     """
-    if workers <= 1:
-        yield None
+    if workers <= 1 or importlib.util.find_spec("distributed") is None:
+        yield None   # without dask: concurrent.futures processes, warm across trials too
         return
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError:
-        yield None   # concurrent.futures processes, warm across trials too
-        return
+    method = "forkserver" if _start_forkserver() else "spawn"
+    import dask
+    from dask.distributed import Client, LocalCluster
+
     from predgait.scenarios.sweep import _quiet_dask
 
-    with _quiet_dask():
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=50)
-        client = Client(cluster)
-    try:
-        yield client
-    finally:
-        with _quiet_dask(), contextlib.suppress(Exception):
-            client.close(timeout=10)
-            cluster.close(timeout=10)
+    # also a killed worker's replacement is forked from the forkserver
+    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+        with _quiet_dask():
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=50)
+            client = Client(cluster)
+        try:
+            yield client
+        finally:
+            with _quiet_dask(), contextlib.suppress(Exception):
+                client.close(timeout=10)
+                cluster.close(timeout=10)
 
 
 def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
@@ -155,7 +182,7 @@ def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
     started = time.perf_counter()
     given = contextlib.nullcontext(client) if client is not None else None
     try:
-        with given or _local_cluster(workers) as target:
+        with given or _local_cluster(min(workers, len(todo))) as target:   # 0-1: here
             outcomes = run_sweep(task, todo, workers=workers, scheduler=target,
                                  progress=progress, desc="batch", unit="trial")
     except SweepInterrupted as exc:
@@ -230,20 +257,25 @@ def _write_dataset(run: BatchRun, dataset: Dataset, bands) -> None:
 
 
 def _write_parquet(path: Path, cycles) -> None:
-    """The tidy table as Parquet (pyarrow; ImportError without it)."""
+    """The tidy table as Parquet (pyarrow; ImportError without it).
+
+    Built column by column from the cycles' arrays: 101 rows per cycle.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     n = 101
+    rows = pa.array(np.repeat(np.arange(len(cycles)), n))   # row -> its cycle
 
-    def each(values: list) -> list:   # one entry per cycle -> one per row
-        return [v for v in values for _ in range(n)]
+    def each(values: list) -> pa.Array:   # one entry per cycle -> one per row
+        return pa.array(values).take(rows)
 
     columns = {name: each([c.key[i] for c in cycles]) for i, name in enumerate(TIDY[:5])}
     columns["cycle"] = each([c.cycle for c in cycles])
-    columns["percent"] = list(range(n)) * len(cycles)
+    columns["percent"] = np.tile(np.arange(n, dtype=np.int64), len(cycles))
     columns["variable"] = each([c.variable for c in cycles])
-    columns["value"] = [float(v) for c in cycles for v in c.values]
+    columns["value"] = (np.concatenate([np.asarray(c.values, dtype=float) for c in cycles])
+                        if cycles else np.empty(0))
     columns["unit"] = each([c.unit for c in cycles])
     columns["flagged"] = each([int(c.flagged) for c in cycles])
     pq.write_table(pa.table({k: columns[k] for k in TIDY}), path)

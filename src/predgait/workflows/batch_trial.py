@@ -7,7 +7,8 @@ of ``predgait inverse --model fullbody``), ``cycles.csv`` and ``cycles.npz`` (it
 cycles: tidy rows and the same numbers, :mod:`predgait.report.dataset_tables`) and
 ``trial.json`` (status, flags, the content hash that ``--resume`` compares). Models are
 cached per worker process (:func:`predgait.models.loading.load_model`, the full-body
-builder's caches), so a worker keeps them warm across trials.
+builder's caches), so a worker keeps them warm across trials, and so are each subject's
+static calibrations (:mod:`predgait.workflows.batch_warm`: once per subject per worker).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from predgait.report.figures import plots_off
 from predgait.scenarios.sweep import SweepPoint
 from predgait.textfile import source_name
 from predgait.workflows.batch_spec import TrialJob
+from predgait.workflows.batch_warm import fullbody_calibration, leg_calibration
 
 #: File that marks a whole trial result (written last in its staging folder).
 TRIAL_JSON = "trial.json"
@@ -32,9 +34,11 @@ TRIAL_JSON = "trial.json"
 def _leg(options, stage: Path, key: dict) -> tuple[list, dict]:
     """Leg inverse of one side into ``stage/leg_<side>``; its tidy rows and notes."""
     from predgait.dynamics.inverse_trial import run_inverse
+    from predgait.dynamics.leg_measurements import read_trial
     from predgait.workflows.inverse_io import write_inverse_outputs
 
-    result = run_inverse(options)
+    trial, turn = read_trial(options)
+    result = run_inverse(options, loaded=(trial, turn), static=leg_calibration(options, turn))
     inputs = [p for p in (options.markers, options.grf, options.static) if p]
     write_inverse_outputs(result, stage / f"leg_{options.side}", inputs=inputs)
     mass = result.body_mass
@@ -62,25 +66,19 @@ def _fullbody(body: dict, stage: Path, key: dict) -> tuple[list, dict]:
 
     Cycles: between the starts of consecutive stances of the same foot on the plates.
     """
-    from predgait.data import read_trc
-    from predgait.dynamics.inverse3d_trial import (
-        clinical,
-        inverse_fullbody,
-        read_marker_map,
-        read_trial,
-    )
-    from predgait.workflows.inverse3d import write_outputs
+    from predgait.dynamics.inverse3d_trial import clinical, inverse_fullbody, read_trial
+    from predgait.workflows.inverse3d import scaled_urdf, write_outputs
 
     markers, plates = read_trial(body["files"])
-    static = read_trc(body["static"]) if body["static"] is not None else None
-    result = inverse_fullbody(markers, plates, read_marker_map(body["marker_map"]),
-                              mass=body["mass"], height=body["height"], sex=body["sex"],
-                              static=static)
+    marker_map, static, calibration = fullbody_calibration(body)
+    result = inverse_fullbody(markers, plates, marker_map, mass=body["mass"],
+                              height=body["height"], sex=body["sex"], static=static,
+                              calibration=calibration)
     folder = stage / "fullbody"
     folder.mkdir()
     write_outputs(result, folder)
     if result.scaling is not None:
-        (folder / "scaled_model.urdf").write_text(result.model.urdf)
+        (folder / "scaled_model.urdf").write_text(scaled_urdf(result))
     angles, moments = clinical(result)
     mass = result.model.total_mass()
     by_side: dict[str, dict] = {"right": {}, "left": {}, "both": {}}
