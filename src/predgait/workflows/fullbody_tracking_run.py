@@ -107,8 +107,10 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
 
 
 def floor_summary(data: TrackingData) -> dict:
-    """The contacts' floor, its source, and the planes of the plates' COP and of the
-    foot-moment cost (m; the last equals the floor, issue 27)."""
+    """The contacts' floor (m), its source, the plates' COP plane and the foot-moment plane.
+
+    The last is the floor (issue 27): the moments are about the plates' line of action there.
+    """
     return {"z_m": float(data.ground_z), "source": data.floor_source,
             "plates_cop_plane_z_m": data.plate_z,
             "foot_moment_plane_z_m": float(np.median(data.cop[:, :, 2]))}
