@@ -20,6 +20,8 @@ the rest the truth's).
 
 Run:  python benchmarks/walking_known_answer.py [--window 1.05 1.40] [--settle 0 0.05]
           [--sub 1 4] [--set key=value ...]
+      (--window 1.45 1.80 --settle 0.05 --sub 1: the left single support, no contact
+      switch, the test's window in tests/test_fullbody_tracking_cycle.py)
 """
 
 from __future__ import annotations
