@@ -3,7 +3,8 @@
 Solves each problem file (default: subject01's first right gait cycle and walking5) and
 prints, per sagittal joint, the corrected-minus-measured RMS (N m and N m/kg), the
 largest |corrected - measured|, the corrected torque's largest node-to-node change next
-to the measured one's, and the spike above the measured peak; then the issue's Done-when
+to the measured one's, and the spike above the measured peak; the floor, its source, the
+plane of the foot-moment cost and the plates' COP plane; then the issue's Done-when
 yardstick: within 0.15 N m/kg RMS, no spike above the measured peak + 30 N m, no
 node-to-node change above 30 N m (all joints). No re-simulation.
 
@@ -35,6 +36,9 @@ def report(path: Path, overrides: list[str]) -> bool:
     mass = drive.model.total_mass()
     print(f"{path.name}: {solution.status}, {solution.iterations} iterations, "
           f"{seconds:.1f} s with IK/ID, {data.nodes} nodes")
+    plates = "none" if data.plate_z is None else f"{data.plate_z:.4f} m"
+    print(f"  floor {data.ground_z:.4f} m ({data.floor_source}); foot-moment plane "
+          f"{float(data.cop[:, :, 2].mean()):.4f} m; plates' COP plane {plates}")
     print(f"  {'joint':10s} {'RMS N m':>8s} {'N m/kg':>7s} {'peak':>7s} {'d/node':>7s} "
           f"{'meas d':>7s} {'spike':>7s}")
     for name in SAGITTAL + ("lumbar_y",):

@@ -238,6 +238,22 @@ def test_subject01_stays_near_the_measured_data(subject01):
     assert np.all(np.abs(on[:, :2]) <= data.friction * on[:, 2:3] + 1e-6)
 
 
+def test_subject01_foot_moment_about_the_contacts_floor(subject01):
+    """The foot-moment cost's COP lies on the floor the contacts use (within 1 mm), not on
+    the plates' COP plane 36.8 mm below it (issue 27), and on each plate's line of action:
+    the plates' wrench about the lab origin is what it was."""
+    drive, data, solution = subject01
+    assert data.ground_z - data.plate_z > 0.03          # a real test case: two planes
+    assert np.abs(data.cop[:, :, 2] - data.ground_z).max() < 1e-3
+    k = np.flatnonzero(np.isin(drive.time, data.time))
+    for j, side in enumerate("rl"):
+        loaded = data.force[:, j, 2] > 20.0
+        assert loaded.sum() > 5
+        moment = (np.cross(data.cop[loaded, j], data.force[loaded, j])
+                  + np.outer(data.free_moment[loaded, j], [0, 0, 1]))
+        np.testing.assert_allclose(moment, drive.foot_wrench[side][k[loaded], 3:], atol=1e-6)
+
+
 def test_cli_writes_the_result(tmp_path, capsys, assert_tidy_result):
     from predgait.cli import main
     from predgait.data.storage import read_storage
@@ -253,6 +269,10 @@ def test_cli_writes_the_result(tmp_path, capsys, assert_tidy_result):
     summary = assert_tidy_result(out / "summary.json")
     assert summary["pelvis_residual_max_n"] < 1e-6
     assert set(summary["feedback"]) >= {"with_feedback", "without_feedback"}
+    floor = summary["floor"]
+    assert floor["source"] == "median lowest sole point of the measured motion"
+    assert abs(floor["foot_moment_plane_z_m"] - floor["z_m"]) < 1e-3
+    assert floor["z_m"] - floor["plates_cop_plane_z_m"] > 0.03
     moments = read_storage(out / "corrected_moments3d.sto")
     assert "knee_r_y_moment" in moments.columns
     assert "pelvis residual" in capsys.readouterr().out

@@ -129,6 +129,9 @@ class TrackingData:
         fade_nodes: a point that lifts off (or lands) while its foot stays on the floor
             carries at most d / (fade_nodes + 1) of 1.5 body weights d nodes before
             (after) the switch: its force fades over this many nodes.
+        floor_source: where ``ground_z`` comes from (for the summary).
+        plate_z: m, the plates' COP plane (median COP height), or None; ``cop`` lies on
+            z = ground_z, the plates' line of action there.
     """
 
     time: np.ndarray
@@ -147,6 +150,8 @@ class TrackingData:
     points: tuple[str, ...] = POINTS
     tau: np.ndarray | None = None
     fade_nodes: int = 3
+    floor_source: str = ""
+    plate_z: float | None = None
 
     @property
     def nodes(self) -> int:

@@ -189,6 +189,19 @@ def foot_wrenches(plates, sides: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
+def _foot_flat_floors(drive: FullbodyDrive) -> list[float]:
+    """The plates' surface (m) each foot was levelled on (foot flat), if any."""
+    return [f["floor_z_m"] for f in (drive.calibration.get("foot_flat_calibration")
+                                      or {}).values() if isinstance(f, dict)]
+
+
+def ground_source(drive: FullbodyDrive) -> str:
+    """Where :func:`measured_ground`'s floor height comes from, in words."""
+    if _foot_flat_floors(drive):
+        return "plates' surface (feet levelled on it: foot flat)"
+    return "median lowest sole point of the measured motion"
+
+
 def measured_ground(drive: FullbodyDrive, frames=CONTACTS, *, threshold: float = 20.0
                     ) -> tuple[float, float]:
     """Floor height (m) and belt velocity along X (m/s) seen in the measured motion.
@@ -200,8 +213,7 @@ def measured_ground(drive: FullbodyDrive, frames=CONTACTS, *, threshold: float =
     above ``threshold`` N); about 0 over ground, the belt speed on a treadmill.
     """
     model = drive.model
-    floor = [f["floor_z_m"] for f in (drive.calibration.get("foot_flat_calibration")
-                                       or {}).values() if isinstance(f, dict)]
+    floor = _foot_flat_floors(drive)
     if not floor:
         pm, data = model.pin_model, model.pin_model.createData()
         ids = [model.frame_id(f) for f in frames]

@@ -39,7 +39,12 @@ from predgait.problems.fullbody_tracking import (
     point_positions,
 )
 from predgait.problems.fullbody_tracking_stage import point_feet
-from predgait.simulations.forward3d import ContactSettings, FullbodyDrive, measured_ground
+from predgait.simulations.forward3d import (
+    ContactSettings,
+    FullbodyDrive,
+    ground_source,
+    measured_ground,
+)
 from predgait.workflows.forward3d_spec import TrialSpec, parse_contact, parse_trial
 
 #: Plate force above which a foot is loaded, N.
@@ -170,23 +175,35 @@ def tracking_data(drive: FullbodyDrive, plate_z: float, window: tuple[float, flo
     within ``contact_height`` (m) of the floor
     (:func:`~predgait.simulations.forward3d.measured_ground`). The measured joint
     moments (the drive's inverse dynamics) are the torque cost's target.
+
+    The foot-moment cost is taken about the plates' COP on the contacts' floor: the
+    point where each plate's line of action meets z = floor (issue 27). The plates'
+    wrench is unchanged (the same force, and about any point the same moment); only the
+    point moves, from the plates' COP plane ``plate_z`` (m, reported) to the plane the
+    model's soles stand on. On subject01 the floor (median lowest sole point, 0.0293 m)
+    lies 36.8 mm above the plates' COP plane (-0.0075 m): the marker-placed soles are
+    that far above the plates (shoe soles), and no still loaded frame sets them onto the
+    plates (foot flat), so the floor stays the soles' and the moment comes to it.
     """
     points = tuple(contact.frames)
     feet = list(point_feet(points))
     ground_z, belt = measured_ground(drive, points, threshold=LOAD_THRESHOLD)
-    ground_z = ground_z if contact.ground_z is None else contact.ground_z
+    source = ground_source(drive)
+    if contact.ground_z is not None:
+        ground_z, source = contact.ground_z, "[contact] ground_z"
     belt = belt if contact.belt_velocity is None else contact.belt_velocity
     keep = np.flatnonzero((drive.time >= window[0] - 1e-9) & (drive.time <= window[1] + 1e-9))
     keep = keep[::stride]
     heights = point_positions(drive.model, drive.q[keep], points)[:, :, 2]
-    force, cop, free = foot_cop(drive, plate_z)
+    force, cop, free = foot_cop(drive, ground_z)
     loaded = force[keep][:, feet, 2] > LOAD_THRESHOLD
     law = contact.contact
     return TrackingData(drive.time[keep], drive.q[keep], drive.v[keep], drive.a[keep],
                         loaded & (heights < ground_z + contact_height), force[keep],
                         cop[keep], free[keep], ground_z, belt, stiffness=law.stiffness,
                         friction=law.friction, slip_transition=law.slip_transition,
-                        points=points, tau=drive.tau[keep, 6:], fade_nodes=fade_nodes)
+                        points=points, tau=drive.tau[keep, 6:], fade_nodes=fade_nodes,
+                        floor_source=source, plate_z=plate_z)
 
 
 def plate_height(inverse) -> float:

@@ -96,6 +96,7 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
         "measured_pelvis_residual_rms_n": float(np.sqrt(np.mean(
             drive.tau[np.isin(drive.time, data.time), :3] ** 2))),
         "floor_z_m": data.ground_z, "belt_velocity_m_per_s": data.belt_velocity,
+        "floor": floor_summary(data),
         "contact_nodes": {p: int(data.contact[:, i].sum())
                           for i, p in enumerate(data.points)},
         "deviation": deviations(model, data, solution),
@@ -103,6 +104,16 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
         "provenance": {"problem": spec.source, "trial": drive.source,
                        "predgait": __version__, **drive.calibration},
     }, tracking_checks(model, solution))
+
+
+def floor_summary(data: TrackingData) -> dict:
+    """The contacts' floor (m), its source, the plates' COP plane and the foot-moment plane.
+
+    The last is the floor (issue 27): the moments are about the plates' line of action there.
+    """
+    return {"z_m": float(data.ground_z), "source": data.floor_source,
+            "plates_cop_plane_z_m": data.plate_z,
+            "foot_moment_plane_z_m": float(np.median(data.cop[:, :, 2]))}
 
 
 def tracking_checks(model, solution) -> list:
@@ -211,6 +222,12 @@ def summary_lines(info: dict) -> list[str]:
         + ", ".join(f"{k} {v:.1f}" for k, v in dev["grf_rms_percent_bw"].items())
         + " % BW RMS",
     ]
+    floor = info.get("floor")
+    if floor:
+        plates = floor["plates_cop_plane_z_m"]
+        lines.append(f"  floor z = {floor['z_m']:.4f} m ({floor['source']}); foot moments "
+                     "about the plates' line of action there"
+                     + ("" if plates is None else f" (plates' COP plane {plates:.4f} m)"))
     torque = dev.get("torque")
     if torque:
         rms, peak, step = (torque["worst"][k] for k in
