@@ -188,7 +188,8 @@ def bench_muscles(repeat: int, peer_repeat: int, peer_minutes: float,
                   moco_solution: str | None, coretypes: list[str]) -> None:
     """The muscle-driven prediction cold (fresh processes) against Moco's example run here,
     interleaved; Moco's solution from a file; BLAS kernels."""
-    extra = ("--set", f"compare.moco_solution={moco_solution}") if moco_solution else ()
+    extra = (("--set", f"compare.moco_solution={os.path.abspath(moco_solution)}")
+             if moco_solution else ())
     python, folder = opensim_python(), moco_folder()
     why = ("OPENSIM_PYTHON is not set to a Python that imports opensim" if python is None
            else "MOCO_2D_GAIT_DIR has no referenceGRF.xml" if folder is None else "")
@@ -262,8 +263,7 @@ def bench_muscles(repeat: int, peer_repeat: int, peer_minutes: float,
     _, _, phys = solve_muscles("predict_2d_muscles_physiological.toml")
     print(f"  physiological bounds: {phys['status']}, objective {phys['objective']:.5g}; "
           f"{len(phys['warnings'])} of {len(phys['human_likeness'])} checks fail: "
-          + "; ".join(f"{w['name']} {w['value']:.3g} ({w['bound']})"
-                      for w in phys["warnings"]))
+          + "; ".join(str(w) for w in phys["warnings"]))
 
 
 def main():

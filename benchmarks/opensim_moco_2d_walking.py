@@ -157,11 +157,19 @@ def timed(run):
     return result, time.perf_counter() - w0, time.process_time() - c0
 
 
+def mesh_intervals(solver):
+    """The solver's mesh intervals (MocoTrack may set its mesh as a list: then None)."""
+    try:
+        return solver.get_num_mesh_intervals()
+    except RuntimeError:   # "an index must be provided for a property that takes a list"
+        return None
+
+
 def describe(solution, solver, wall, cpu):
     return {"wall": wall, "cpu": cpu, "iterations": solution.getNumIterations(),
             "status": solution.getStatus(), "success": bool(solution.success()),
             "objective": solution.getObjective(),
-            "mesh_intervals": solver.get_num_mesh_intervals(),
+            "mesh_intervals": mesh_intervals(solver),
             "transcription": solver.get_transcription_scheme(),
             "time_points": solution.getNumTimes(), "states": solution.getNumStates(),
             "controls": solution.getNumControls(), "final_time": solution.getFinalTime()}
