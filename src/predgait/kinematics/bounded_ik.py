@@ -21,6 +21,7 @@ follow the markers there, and the frame's results are not presented as results.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -28,6 +29,11 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.numerics.lsq import bounded_step
+
+try:   # LAPACK's gesv without np.linalg.solve's wrapping (~10 us a call), same numbers
+    from scipy.linalg.lapack import dgesv as _dgesv
+except ImportError:  # pragma: no cover - SciPy is a dependency
+    _dgesv = None
 
 #: A joint coordinate closer than this to its limit (rad or m) counts as on the limit.
 ON_LIMIT = 1e-7
@@ -92,6 +98,26 @@ def velocity_bounds(model: pin.Model, lower: np.ndarray, upper: np.ndarray
     return index, lo, hi
 
 
+def _normal(jac: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(J^T J, -J^T r): the normal equations of the linearised least squares."""
+    return jac.T @ jac, -jac.T @ r
+
+
+def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a^-1 b by LAPACK's LU (gesv), the routine and numbers of ``np.linalg.solve``."""
+    if _dgesv is None:  # pragma: no cover
+        return np.linalg.solve(a, b)
+    x, info = _dgesv(a, b)[2:]
+    if info != 0:
+        raise np.linalg.LinAlgError("Singular matrix")
+    return x
+
+
+def _norm(x: np.ndarray) -> float:
+    """Euclidean norm of a vector (sqrt(x . x), as np.linalg.norm computes it)."""
+    return math.sqrt(x @ x)
+
+
 class BoundedSolver:
     """Bounded Levenberg-Marquardt for one model (see module docstring).
 
@@ -117,11 +143,18 @@ class BoundedSolver:
         q[qi] = np.clip(q[qi], self.vlo[self.bounded], self.vhi[self.bounded])
         return q
 
-    def _step(self, jac: np.ndarray, r: np.ndarray, damping: float, q: np.ndarray
-              ) -> np.ndarray:
-        """The bounded increment at q (closed form when the free step stays inside)."""
+    def _step(self, jac: np.ndarray, r: np.ndarray, damping: float, q: np.ndarray,
+              normal: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """The bounded increment at q (closed form when the free step stays inside).
+
+        ``normal``: (J^T J, -J^T r) of this ``jac`` and ``r`` when already formed (the
+        damped steps tried at one point share them; the same numbers as forming them here).
+        """
         if damping > 0:
-            step = np.linalg.solve(jac.T @ jac + damping * np.eye(jac.shape[1]), -jac.T @ r)
+            hessian, gradient = normal if normal is not None else _normal(jac, r)
+            hessian = hessian.copy()
+            hessian.flat[::hessian.shape[0] + 1] += damping   # J^T J + damping I
+            step = _solve(hessian, gradient)
         else:
             step = np.linalg.lstsq(jac, -r, rcond=None)[0]
         moved = q[self._q] + step[self._v]
@@ -160,6 +193,7 @@ class BoundedSolver:
             lam = max(lam, COLD_DAMPING * float(np.max(np.sum(jac * jac, axis=0))))
         cost = float(r @ r)
         converged, it = False, 0
+        model, integrate = self.model, pin.integrate
         for it in range(1, cap + 1):  # noqa: B007 - the count is kept
             if opts.damping == 0:   # Gauss-Newton: every (bounded) step is taken
                 step = self._step(jac, r, 0.0, q)
@@ -169,9 +203,10 @@ class BoundedSolver:
                     break
                 r, jac = jacobian(q)
                 continue
+            normal = _normal(jac, r)   # shared by the damped steps tried at q
             for _ in range(12):
-                step = self._step(jac, r, lam, q)
-                trial = pin.integrate(self.model, q, step)
+                step = self._step(jac, r, lam, q, normal)
+                trial = integrate(model, q, step)
                 r_new = residual(trial)
                 cost_new = float(r_new @ r_new)
                 if cost_new <= cost:
@@ -179,11 +214,11 @@ class BoundedSolver:
                     break
                 lam *= 4.0
             else:  # no step lowers the cost: at the minimum to rounding
-                converged = bool(np.linalg.norm(step) < 1e3 * opts.tolerance)
+                converged = bool(_norm(step) < 1e3 * opts.tolerance)
                 break
             previous = cost
             q, cost = trial, cost_new
-            if (np.linalg.norm(step) < opts.tolerance
+            if (_norm(step) < opts.tolerance
                     or previous - cost <= opts.cost_tolerance * previous):
                 converged = True
                 break

@@ -171,23 +171,32 @@ def initial_pose(model: Model3D, frame_ids, targets: np.ndarray) -> np.ndarray:
     return q
 
 
+#: The cross product omega x p row by row, (omega x p)_a = omega_b p_c - omega_c p_b with
+#: (a, b, c) cyclic: the rows b and c of data.J's angular part (rows 3-5) and of the point.
+_B, _C = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
 class _Fitter:
     """One frame's fit; marker positions and Jacobians vectorised over the markers.
 
     A marker frame rides on a joint's body at a fixed offset, so with the joint
     placements and the world-frame joint Jacobian ``data.J`` (``computeJointJacobians``)
     its position is p = R_j c + t_j and its linear Jacobian is J_lin + J_ang x p on the
-    columns supporting joint j (the velocity of a point: v_O + omega x p).
+    columns supporting joint j (the velocity of a point: v_O + omega x p). The weights,
+    the supporting columns and the locked joints scale the Jacobian's rows and columns as
+    one (3m, nv) factor; each pose evaluated keeps its points and weighted residual, so an
+    accepted step's Jacobian reuses its residual's kinematics.
     """
 
     def __init__(self, model: Model3D, frame_ids, weights, options: IKOptions, free=None):
         pm = model.pin_model
         self.pm, self.data, self.options = pm, pm.createData(), options
-        self.oMi = self.data.oMi   # the joint placements, updated in place
         self.free = np.ones(pm.nv) if free is None else np.asarray(free, dtype=float)
         joint = np.array([pm.frames[f].parentJoint for f in frame_ids])
         joints, self.of_marker = np.unique(joint, return_inverse=True)
         self.joints = [int(j) for j in joints]
+        # the placements' elements of data.oMi, which forward kinematics updates in place
+        self.placements = [self.data.oMi[j] for j in self.joints]
         self.offset = np.array([pm.frames[f].placement.translation for f in frame_ids])
         self.support = np.zeros((len(joint), pm.nv), dtype=bool)
         for i, j in enumerate(joint):
@@ -195,6 +204,8 @@ class _Fitter:
                 start = pm.joints[s].idx_v
                 self.support[i, start:start + pm.joints[s].nv] = True
         self.w = np.repeat(np.sqrt(np.asarray(weights, dtype=float)), 3)
+        # weight x supporting column x free coordinate, per Jacobian entry (3m, nv)
+        self.scale = (np.repeat(self.support, 3, axis=0) * self.w[:, None]) * self.free
         lower, upper = _limits(model, options.limit_margin)
         self.solver = BoundedSolver(pm, lower, upper, SolverOptions(
             options.max_iterations, options.tolerance, options.cost_tolerance, options.damping))
@@ -206,19 +217,18 @@ class _Fitter:
             pin.computeJointJacobians(pm, data, q)
         else:
             pin.forwardKinematics(pm, data, q)
-        placed = np.array([self.oMi[j].homogeneous for j in self.joints])[self.of_marker]
+        placed = np.array([m.homogeneous for m in self.placements])[self.of_marker]
         return np.einsum("mij,mj->mi", placed[:, :3, :3], self.offset) + placed[:, :3, 3]
 
     def jacobian(self, points: np.ndarray) -> np.ndarray:
-        """(3m, nv) linear Jacobians of the marker frames (after ``points(jacobians=True)``)."""
+        """(3m, nv) linear Jacobians of the marker frames (after ``points(jacobians=True)``).
+
+        Unweighted and on every column (:attr:`scale` keeps the supporting ones).
+        """
         world = self.data.J
-        w, p = world[3:], points[:, :, None]
-        jac = np.empty((points.shape[0], 3, world.shape[1]))   # omega x p, then + v_O
-        jac[:, 0] = w[1] * p[:, 2] - w[2] * p[:, 1]
-        jac[:, 1] = w[2] * p[:, 0] - w[0] * p[:, 2]
-        jac[:, 2] = w[0] * p[:, 1] - w[1] * p[:, 0]
+        jac = world[3 + _B] * points[:, _C, None]   # omega x p, then + v_O
+        jac -= world[3 + _C] * points[:, _B, None]
         jac += world[:3]
-        jac *= self.support[:, None, :]
         return jac.reshape(-1, self.pm.nv)
 
     def residual(self, q, targets):
@@ -226,27 +236,32 @@ class _Fitter:
 
     def solve(self, q, targets, max_iterations, *, cold=False):
         """Bounded Levenberg-Marquardt (:mod:`predgait.kinematics.bounded_ik`) on one frame."""
-        ok = np.repeat(np.isfinite(targets).all(axis=1), 3)
-        w = self.w[ok]
-        flat = np.where(np.isfinite(targets), targets, 0.0).ravel()[ok]
-        last = {}   # the last pose evaluated (the array itself), its points; data.J is its
+        seen = np.isfinite(targets).all(axis=1)
+        ok = None if seen.all() else np.repeat(seen, 3)   # None: every marker seen
+        w, scale = (self.w, self.scale) if ok is None else (self.w[ok], self.scale[ok])
+        flat = targets.ravel() if ok is None else \
+            np.where(np.isfinite(targets), targets, 0.0).ravel()[ok]
+        last = [None, None, None]   # the last pose evaluated (the array itself), its points
+        # and weighted residual; data.J is its
 
-        def evaluate(qq):   # an accepted step's Jacobian reuses its residual's kinematics
-            if last.get("q") is not qq:
-                last["q"], last["points"] = qq, self.points(qq, jacobians=True)
-            return last["points"]
+        def evaluate(qq):
+            if last[0] is not qq:
+                pts = self.points(qq, jacobians=True)
+                rows = pts.ravel() if ok is None else pts.ravel()[ok]
+                last[:] = qq, pts, w * (rows - flat)
+            return last
 
         def residual(qq):
-            return w * (evaluate(qq).ravel()[ok] - flat)
+            return evaluate(qq)[2]
 
         def jacobian(qq):
-            pts = evaluate(qq)
-            return (w * (pts.ravel()[ok] - flat),
-                    self.jacobian(pts)[ok] * w[:, None] * self.free)
+            _, pts, r = evaluate(qq)
+            jac = self.jacobian(pts)
+            return r, (jac if ok is None else jac[ok]) * scale
 
         solver = self.solver
         fit = solver.solve(solver.project(q), residual, jacobian, max_iterations, cold=cold)
-        res = evaluate(fit.q) - targets
+        res = evaluate(fit.q)[1] - targets
         return fit.q, np.linalg.norm(res, axis=1), fit.iterations, fit.converged, fit.at_limit
 
 
