@@ -202,6 +202,7 @@ class Inverse3DResult:
     scaling: Scaling | None = None
     plate_mass: PlateMass | None = None   # body mass the plates measure (data.body_weight)
     trusted: tuple[str, ...] = ()   # trial markers with IK weight > TRUSTED_WEIGHT
+    _clinical: dict = field(default_factory=dict, init=False, repr=False)  # clinical()'s
 
     @property
     def valid(self) -> np.ndarray:
@@ -304,8 +305,18 @@ def clinical(result: Inverse3DResult) -> tuple[dict, dict]:
     are in the ISB joint coordinate system (:mod:`predgait.kinematics.ankle_jcs`:
     dorsiflexion about the shank's medio-lateral axis, inversion about the floating axis,
     internal rotation about the foot's vertical axis); the other joints' are their Cardan
-    coordinates.
+    coordinates. Computed once per result (the files, the summary and a batch's cycles all
+    ask): new dicts of the same read-only arrays.
     """
+    if not result._clinical:
+        result._clinical.update(zip(("angles", "moments"), _clinical(result), strict=True))
+        for values in result._clinical.values():
+            for v in values.values():
+                v.setflags(write=False)
+    return dict(result._clinical["angles"]), dict(result._clinical["moments"])
+
+
+def _clinical(result: Inverse3DResult) -> tuple[dict, dict]:
     names = result.model.joint_names
     q_joints, tau_joints = in_jcs(names, result.q[:, 7:], result.dynamics.tau[:, 6:])
     angles = dict(zip(PELVIS_3D, np.degrees(pelvis_cardan(result.q)).T, strict=True))

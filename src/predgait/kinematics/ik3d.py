@@ -120,14 +120,21 @@ def weighted_rms(residuals: np.ndarray, weights: np.ndarray) -> np.ndarray:
 
 
 def pelvis_cardan(q: np.ndarray) -> np.ndarray:
-    """Pelvis orientation as Cardan X-Y-Z angles (R = Rx Ry Rz), (n, 3) rad."""
+    """Pelvis orientation as Cardan X-Y-Z angles (R = Rx Ry Rz), (n, 3) rad.
+
+    The rotation matrix entries of the quaternion q[3:7] (x, y, z, w) as Eigen's
+    ``Quaternion::toRotationMatrix`` forms them, for all frames at once.
+    """
     q = np.atleast_2d(q)
-    out = np.empty((q.shape[0], 3))
-    for k, row in enumerate(q):
-        rot = pin.Quaternion(row[6], *row[3:6]).toRotationMatrix()
-        beta = np.arcsin(np.clip(rot[0, 2], -1.0, 1.0))
-        out[k] = (np.arctan2(-rot[1, 2], rot[2, 2]), beta, np.arctan2(-rot[0, 1], rot[0, 0]))
-    return out
+    x, y, z, w = q[:, 3], q[:, 4], q[:, 5], q[:, 6]
+    tx, ty, tz = 2.0 * x, 2.0 * y, 2.0 * z
+    r00 = 1.0 - (ty * y + tz * z)
+    r01 = ty * x - tz * w
+    r02 = tz * x + ty * w
+    r12 = tz * y - tx * w
+    r22 = 1.0 - (tx * x + ty * y)
+    return np.column_stack([np.arctan2(-r12, r22), np.arcsin(np.clip(r02, -1.0, 1.0)),
+                            np.arctan2(-r01, r00)])
 
 
 def coordinate_columns(q: np.ndarray, joint_names) -> dict[str, np.ndarray]:
