@@ -66,6 +66,10 @@ BINARY_USE = {
 }
 
 
+#: Control bytes (not tab, newline, vertical tab, form feed or carriage return).
+_CONTROL = bytes(b for b in range(32) if b < 9 or b > 13)
+
+
 def binary_kind(path: Path, data: bytes) -> str | None:
     """"a C3D file (...)" or "a binary file" when ``data`` is not text, else None.
 
@@ -77,7 +81,7 @@ def binary_kind(path: Path, data: bytes) -> str | None:
     if path.suffix.lower() == ".c3d" or (len(head) >= 512 and head[1] == C3D_KEY
                                          and 1 <= head[0] <= 127 and b"\x00" in head):
         return "a C3D file (binary motion capture)"
-    control = sum(b < 9 or 13 < b < 32 for b in head)
+    control = len(head) - len(head.translate(None, _CONTROL))
     if b"\x00" in head or (head and control > 0.3 * len(head)):
         return "a binary file"
     return None

@@ -83,18 +83,23 @@ def read_storage(path) -> Storage:
     labels = body[0].split("\t") if "\t" in body[0] else body[0].split()
     labels = [lb.strip() for lb in labels if lb.strip()]
     duplicate_labels(labels, source=str(path))
-    rows = []
-    for number, line in enumerate(body[1:], start=end + 3):
-        fields = line.split()
-        if len(fields) != len(labels):
-            raise InputError(
-                f"{path}: line {number} has {len(fields)} values for {len(labels)} columns; "
-                "the file may be truncated."
-            )
-        try:
-            rows.append([float(f) for f in fields])
-        except ValueError:
-            raise InputError(f"{path}: line {number} has a non-numeric value.") from None
+    rows = [line.split() for line in body[1:]]
+    try:   # all rows at once (NumPy parses each field as float() does)
+        if any(len(fields) != len(labels) for fields in rows):
+            raise ValueError
+        rows = np.array(rows, dtype=float)
+    except ValueError:   # the first bad line, for the message
+        for number, fields in enumerate(rows, start=end + 3):
+            if len(fields) != len(labels):
+                raise InputError(
+                    f"{path}: line {number} has {len(fields)} values for {len(labels)} "
+                    "columns; the file may be truncated."
+                ) from None
+            try:
+                [float(f) for f in fields]
+            except ValueError:
+                raise InputError(f"{path}: line {number} has a non-numeric value.") from None
+        raise
     if "nRows" in header and header["nRows"].isdigit() and int(header["nRows"]) > len(rows):
         raise InputError(
             f"{path}: {len(rows)} rows but the header says nRows={header['nRows']}; "
@@ -103,7 +108,7 @@ def read_storage(path) -> Storage:
     if len(rows) < 2:
         raise InputError(f"{path}: {len(rows)} data row(s) after the column labels; a trial "
                          "needs at least two rows.")
-    data = np.array(rows, dtype=float).reshape(len(rows), len(labels))
+    data = rows.reshape(len(rows), len(labels))
     lower = [lb.lower() for lb in labels]
     t_index = lower.index("time") if "time" in lower else 0
     steps = np.diff(data[:, t_index])

@@ -110,19 +110,19 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
     if n_markers < 1 or n_frames < 0:
         raise InputError(f"{path}: header line 3 gives NumMarkers={n_markers}, "
                          f"NumFrames={n_frames}; a TRC needs at least one marker.")
-    rows = []
-    for number, line in enumerate(lines[_N_HEADER:], start=_N_HEADER + 1):
-        if not line.strip():
-            continue
-        fields = _split(line)
-        try:
-            values_ = np.array([f or "nan" for f in fields[: 2 + 3 * n_markers]],
-                               dtype=float).tolist()
-        except ValueError:
-            bad = next(f for f in fields[: 2 + 3 * n_markers] if f and not _is_number(f))
-            raise InputError(f"{path}: line {number} has a non-numeric value {bad!r}.") from None
-        values_ += [np.nan] * (2 + 3 * n_markers - len(values_))
-        rows.append(values_)
+    width = 2 + 3 * n_markers
+    numbered = [(number, _split(line)[:width]) for number, line in
+                enumerate(lines[_N_HEADER:], start=_N_HEADER + 1) if line.strip()]
+    try:   # all rows at once: empty fields and short rows are NaN
+        rows = np.array([[f or "nan" for f in fields] + ["nan"] * (width - len(fields))
+                         for _, fields in numbered], dtype=float).reshape(-1, width)
+    except ValueError:   # the first non-numeric field, for the message
+        for number, fields in numbered:
+            bad = next((f for f in fields if f and not _is_number(f)), None)
+            if bad is not None:
+                raise InputError(f"{path}: line {number} has a non-numeric value {bad!r}.") \
+                    from None
+        raise
     if len(rows) < n_frames:
         raise InputError(
             f"{path}: {len(rows)} data rows but the header says NumFrames={n_frames}; "
@@ -132,7 +132,7 @@ def read_trc(path, *, axes: FileAxes | str = FileAxes.OPENSIM,
         raise InputError(f"{path}: {len(rows)} data row(s); a trial needs at least two frames.")
     if len(rows) > n_frames:
         logger.warning("%s: %d rows, NumFrames=%d; reading all rows", path, len(rows), n_frames)
-    data = np.array(rows, dtype=float)
+    data = rows
     if np.isnan(data[:, 1]).any():
         frame = int(np.flatnonzero(np.isnan(data[:, 1]))[0]) + 1
         raise InputError(f"{path}: data row {frame} has no time value.")
