@@ -178,9 +178,10 @@ def initial_pose(model: Model3D, frame_ids, targets: np.ndarray) -> np.ndarray:
     return q
 
 
-#: The cross product omega x p row by row, (omega x p)_a = omega_b p_c - omega_c p_b with
-#: (a, b, c) cyclic: the rows b and c of data.J's angular part (rows 3-5) and of the point.
-_B, _C = np.array([1, 2, 0]), np.array([2, 0, 1])
+#: omega x p = K(p) omega with K(p) = -[p]x, row-major: which coordinate of p (and its sign)
+#: each of K's nine entries is.
+_CROSS = np.array([0, 2, 1, 2, 0, 0, 1, 0, 0])
+_CROSS_SIGN = np.array([0.0, 1.0, -1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0])
 
 
 class _Fitter:
@@ -205,6 +206,12 @@ class _Fitter:
         # the placements' elements of data.oMi, which forward kinematics updates in place
         self.placements = [self.data.oMi[j] for j in self.joints]
         self.offset = np.array([pm.frames[f].placement.translation for f in frame_ids])
+        m, n_joints = len(frame_ids), len(self.joints)
+        # p = [R_j t_j] [c; 1]: every joint's top 3 rows times every offset is one product
+        # (3 n_joints, m); marker i takes rows 3 j_i + (0, 1, 2) of column i
+        self._homogeneous = np.vstack([self.offset.T, np.ones(m)])
+        self._take = (3 * self.of_marker[:, None] + np.arange(3)) * m + np.arange(m)[:, None]
+        self._rows = 3 * n_joints
         self.support = np.zeros((len(joint), pm.nv), dtype=bool)
         for i, j in enumerate(joint):
             for s in pm.supports[int(j)][1:]:
@@ -224,8 +231,8 @@ class _Fitter:
             pin.computeJointJacobians(pm, data, q)
         else:
             pin.forwardKinematics(pm, data, q)
-        placed = np.array([m.homogeneous for m in self.placements])[self.of_marker]
-        return np.einsum("mij,mj->mi", placed[:, :3, :3], self.offset) + placed[:, :3, 3]
+        placed = np.array([m.homogeneous for m in self.placements])[:, :3]
+        return (placed.reshape(self._rows, 4) @ self._homogeneous).take(self._take)
 
     def jacobian(self, points: np.ndarray) -> np.ndarray:
         """(3m, nv) linear Jacobians of the marker frames (after ``points(jacobians=True)``).
@@ -233,8 +240,8 @@ class _Fitter:
         Unweighted and on every column (:attr:`scale` keeps the supporting ones).
         """
         world = self.data.J
-        jac = world[3 + _B] * points[:, _C, None]   # omega x p, then + v_O
-        jac -= world[3 + _C] * points[:, _B, None]
+        cross = (points[:, _CROSS] * _CROSS_SIGN).reshape(-1, 3)   # K(p_i) stacked (3m, 3)
+        jac = (cross @ world[3:]).reshape(points.shape[0], 3, -1)
         jac += world[:3]
         return jac.reshape(-1, self.pm.nv)
 
