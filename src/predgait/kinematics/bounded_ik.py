@@ -231,8 +231,9 @@ class BoundedSolver:
         return FrameSolution(q, it, converged, at_limit)
 
     def solve_frames(self, q: np.ndarray,
-                     jacobian: Callable[[int, np.ndarray], tuple[np.ndarray, np.ndarray]]
-                     ) -> list[FrameSolution]:
+                     jacobian: Callable[[int, np.ndarray], tuple[np.ndarray, np.ndarray]],
+                     batch: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+                     | None = None) -> list[FrameSolution]:
         """Bounded Gauss-Newton (damping 0) on independent frames, iterated together.
 
         Each frame takes the steps :meth:`solve` takes with damping 0 from its own start;
@@ -243,6 +244,8 @@ class BoundedSolver:
         Args:
             q: (n, nq) feasible starts, one per frame.
             jacobian: (frame index, q) -> ((m,) residual, (m, nv) its Jacobian).
+            batch: optional, the same for many frames at once: (frame indices (k,),
+                q (k, nq)) -> ((k, m) residuals, (k, m, nv) Jacobians).
         """
         if self.options.damping != 0:
             raise ValueError("solve_frames is Gauss-Newton: SolverOptions.damping must be 0")
@@ -254,9 +257,12 @@ class BoundedSolver:
         for it in range(1, self.options.max_iterations + 1):
             if not active.size:
                 break
-            pairs = [jacobian(k, q[k]) for k in active]
-            r = np.stack([pair[0] for pair in pairs])
-            jac = np.stack([pair[1] for pair in pairs])
+            if batch is not None:
+                r, jac = batch(active, q[active])
+            else:
+                pairs = [jacobian(k, q[k]) for k in active]
+                r = np.stack([pair[0] for pair in pairs])
+                jac = np.stack([pair[1] for pair in pairs])
             jac_t = np.swapaxes(jac, 1, 2)
             step = -np.linalg.solve(jac_t @ jac, (jac_t @ r[:, :, None]))[:, :, 0]
             moved = q[active][:, self._q] + step[:, self._v]

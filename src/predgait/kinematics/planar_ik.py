@@ -87,6 +87,61 @@ def joint_limits(model: Model, *, margin: float = 0.0) -> tuple[np.ndarray, np.n
     return lower - margin, upper + margin
 
 
+class _FramesJacobian:
+    """The weighted residuals and Jacobians of many frames at once (``solve_frames``' batch).
+
+    Per frame one ``computeJointJacobians``; the points' positions (p = R_j c + t_j) and
+    their LOCAL_WORLD_ALIGNED Jacobians (v - p x omega on the columns supporting joint j,
+    as ``getFrameJacobian`` forms them) for all frames and points as array operations.
+    """
+
+    def __init__(self, model: Model, ids, weight, sagittal, pitch_row, pitch_weight,
+                 foot_pitch):
+        pm = model.pin_model
+        self.pm, self.data = pm, pm.createData()
+        parents = [pm.frames[f].parentJoint for f in ids]
+        joints, self.of_point = np.unique(parents, return_inverse=True)
+        self.placements = [self.data.oMi[int(j)] for j in joints]   # updated in place
+        self.offset = np.array([pm.frames[f].placement.translation for f in ids])   # (p, 3)
+        self.support = np.zeros((len(ids), pm.nv), dtype=bool)
+        for i, j in enumerate(parents):
+            for s in pm.supports[j][1:]:
+                self.support[i, pm.joints[s].idx_v:pm.joints[s].idx_v + pm.joints[s].nv] = True
+        self.weight = np.asarray(weight, dtype=float)[None, :, None]
+        self.targets = np.stack(sagittal, axis=1)   # (n, p, 2)
+        self.pitch_row, self.pitch_weight = pitch_row[0], pitch_weight
+        self.foot_pitch = np.asarray(foot_pitch, dtype=float)
+
+    def __call__(self, ks: np.ndarray, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pm, data = self.pm, self.data
+        n, count = len(ks), len(self.offset)
+        world = np.empty((n, 6, pm.nv))
+        placed = np.empty((n, len(self.placements), 4, 4))
+        for i, q in enumerate(qs):
+            pin.computeJointJacobians(pm, data, q)
+            world[i] = data.J
+            for j, placement in enumerate(self.placements):
+                placed[i, j] = placement.homogeneous
+        placed = placed[:, self.of_point]   # (n, p, 4, 4)
+        rot, c = placed[..., :3, :3], self.offset
+        points = rot[..., 0] * c[:, 0, None] + rot[..., 1] * c[:, 1, None] \
+            + rot[..., 2] * c[:, 2, None] + placed[..., :3, 3]   # (n, p, 3)
+        lin, ang = world[:, None, :3], world[:, None, 3:]   # (n, 1, 3, nv)
+        p = points[..., None]   # (n, p, 3, 1)
+        cross = np.stack([p[:, :, 1] * ang[:, :, 2] - p[:, :, 2] * ang[:, :, 1],
+                          p[:, :, 2] * ang[:, :, 0] - p[:, :, 0] * ang[:, :, 2],
+                          p[:, :, 0] * ang[:, :, 1] - p[:, :, 1] * ang[:, :, 0]], axis=2)
+        frame = np.where(self.support[None, :, None, :], lin - cross, 0.0)   # (n, p, 3, nv)
+        w = self.weight
+        rows = np.empty((n, 2 * count + 1))
+        rows[:, :-1] = (w * (points[..., ::2] - self.targets[ks])).reshape(n, -1)
+        rows[:, -1] = self.pitch_weight * (qs[:, 2] - self.foot_pitch[ks])
+        jac = np.empty((n, 2 * count + 1, pm.nv))
+        jac[:, :-1] = (w[..., None] * frame[:, :, ::2]).reshape(n, -1, pm.nv)
+        jac[:, -1] = self.pitch_row
+        return rows, jac
+
+
 def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndarray, *,
              weights: Mapping[str, float] | None = None, pitch_weight: float = 0.1,
              tolerance: float = 1e-10, max_iterations: int = 30,
@@ -129,6 +184,7 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
         rows[-1] = pitch_weight * (q[2] - foot_pitch[k])
         return rows, jac
 
+    batch = _FramesJacobian(model, ids, weight, sagittal, pitch_row, pitch_weight, foot_pitch)
     lower, upper = joint_limits(model, margin=limit_margin)
     settings = SolverOptions(max_iterations=max_iterations, tolerance=tolerance,
                              cost_tolerance=0.0, damping=0.0)
@@ -136,7 +192,7 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
     starts = np.array([solver.project(initial_guess(model, {n: points[n][k] for n in POINTS},
                                                     foot_pitch[k]))
                        for k in range(len(foot_pitch))])
-    fits = solver.solve_frames(starts, jacobian)
+    fits = solver.solve_frames(starts, jacobian, batch)
     out = np.array([fit.q for fit in fits])
     resid = np.zeros((len(fits), len(names)))
     for k, q in enumerate(out):
