@@ -36,6 +36,20 @@ class Load:
     moment: np.ndarray | None = None
 
 
+_ZERO_FORCES: dict[int, pin.StdVec_Force] = {}   # njoints -> zero forces (copied)
+
+
+def _zero_forces(njoints: int) -> pin.StdVec_Force:
+    """A new ``StdVec_Force`` of ``njoints`` zero forces (a copy of one kept per size)."""
+    zeros = _ZERO_FORCES.get(njoints)
+    if zeros is None:
+        zeros = pin.StdVec_Force()
+        for _ in range(njoints):
+            zeros.append(pin.Force.Zero())
+        _ZERO_FORCES[njoints] = zeros
+    return zeros.copy()
+
+
 def joint_forces(model: Model, data: pin.Data, loads: Sequence[Load]) -> pin.StdVec_Force:
     """Per-joint local forces for Pinocchio; needs ``framesForwardKinematics`` done.
 
@@ -43,9 +57,7 @@ def joint_forces(model: Model, data: pin.Data, loads: Sequence[Load]) -> pin.Std
         A ``StdVec_Force`` of length ``njoints`` (zero where nothing acts).
     """
     pm = model.pin_model
-    fext = pin.StdVec_Force()
-    for _ in range(pm.njoints):
-        fext.append(pin.Force.Zero())
+    fext = _zero_forces(pm.njoints)
     for load in loads:
         frame_id = model.frame_id(load.segment)
         joint = pm.frames[frame_id].parentJoint

@@ -26,7 +26,7 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.dynamics.external import Load
-from predgait.models.loading import Model
+from predgait.models.loading import Model, new_data
 
 
 @dataclass(frozen=True)
@@ -121,7 +121,7 @@ def leg_inverse_dynamics(model: Model, q: np.ndarray, v: np.ndarray, a: np.ndarr
             :class:`Load` with points given.
     """
     pm = model.pin_model
-    data = pm.createData()
+    data = new_data(pm)
     q, v, a = (np.asarray(x, dtype=float) for x in (q, v, a))
     n = len(q)
     ankle, knee = pm.getJointId("ankle"), pm.getJointId("knee")

@@ -23,6 +23,7 @@ import pinocchio as pin
 from predgait.data.trial import ForcePlate
 from predgait.dynamics.external import Load, assign_contacts, joint_forces
 from predgait.errors import InputError
+from predgait.models.loading import new_data
 from predgait.models.loading3d import Model3D
 
 FEET = ("r", "l")
@@ -30,7 +31,7 @@ FEET = ("r", "l")
 
 def foot_points(model: Model3D, q: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Lab positions of each foot's sole heel and toe per frame, side -> ((n, 3), (n, 3)) m."""
-    pm, data = model.pin_model, model.pin_model.createData()
+    pm, data = model.pin_model, new_data(model.pin_model)
     ids = {s: (model.frame_id(f"heel_contact_{s}"), model.frame_id(f"toe_contact_{s}"))
            for s in FEET}
     out = {s: (np.empty((q.shape[0], 3)), np.empty((q.shape[0], 3))) for s in FEET}
@@ -157,7 +158,7 @@ def inverse_dynamics_3d(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndar
         sides: (len(plates), n) foot per plate and frame ("r", "l" or ""), e.g. from
             :func:`assign_plates`.
     """
-    pm, data = model.pin_model, model.pin_model.createData()
+    pm, data = model.pin_model, new_data(model.pin_model)
     n = q.shape[0]
     if plates and sides is None:
         raise InputError("inverse_dynamics_3d: plates given without their foot assignment.")
@@ -193,7 +194,7 @@ def joint_wrenches(model: Model3D, q: np.ndarray, v: np.ndarray, a: np.ndarray,
         joint -> (force (n, 3) N, moment about the joint's origin (n, 3) N m, that origin
         (n, 3) m), lab frame.
     """
-    pm, data = model.pin_model, model.pin_model.createData()
+    pm, data = model.pin_model, new_data(model.pin_model)
     ids = {name: pm.getJointId(name) for name in joints}
     out = {name: tuple(np.empty((q.shape[0], 3)) for _ in range(3)) for name in joints}
     for k in range(q.shape[0]):

@@ -32,6 +32,7 @@ import pinocchio as pin
 
 from predgait.data.trial import ForcePlate
 from predgait.kinematics.ik3d import with_marker_frames
+from predgait.models.loading import new_data
 from predgait.models.loading3d import Model3D
 
 LOADED_FRACTION = 0.2   # of body weight: the foot carries load
@@ -92,7 +93,7 @@ class FootFlat:
 
 def foot_poses(model: Model3D, q: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:
     """Foot frame rotations (n, 3, 3) and origins (n, 3), m, lab frame."""
-    pm, data = model.pin_model, model.pin_model.createData()
+    pm, data = model.pin_model, new_data(model.pin_model)
     fid = model.frame_id(f"foot_{side}")
     rot, pos = np.empty((q.shape[0], 3, 3)), np.empty((q.shape[0], 3))
     for k, row in enumerate(q):

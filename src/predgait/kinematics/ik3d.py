@@ -27,6 +27,7 @@ import pinocchio as pin
 
 from predgait.errors import InputError
 from predgait.kinematics.bounded_ik import BoundedSolver, SolverOptions
+from predgait.models.loading import new_data
 from predgait.models.loading3d import Model3D
 
 
@@ -161,7 +162,7 @@ def _limits(model: Model3D, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray
 
 def initial_pose(model: Model3D, frame_ids, targets: np.ndarray) -> np.ndarray:
     """Neutral posture moved rigidly onto the markers (Kabsch fit of all visible ones)."""
-    pm, data = model.pin_model, model.pin_model.createData()
+    pm, data = model.pin_model, new_data(model.pin_model)
     q = model.neutral()
     pin.framesForwardKinematics(pm, data, q)
     ok = np.isfinite(targets).all(axis=1)
@@ -198,7 +199,7 @@ class _Fitter:
 
     def __init__(self, model: Model3D, frame_ids, weights, options: IKOptions, free=None):
         pm = model.pin_model
-        self.pm, self.data, self.options = pm, pm.createData(), options
+        self.pm, self.data, self.options = pm, new_data(pm), options
         self.free = np.ones(pm.nv) if free is None else np.asarray(free, dtype=float)
         joint = np.array([pm.frames[f].parentJoint for f in frame_ids])
         joints, self.of_marker = np.unique(joint, return_inverse=True)
@@ -407,7 +408,7 @@ def calibrate_markers(model: Model3D, q: np.ndarray, xyz: np.ndarray,
     Returns:
         Model with each frame at the mean position of its marker in its body frame.
     """
-    pm, data = model.pin_model, model.pin_model.createData()
+    pm, data = model.pin_model, new_data(model.pin_model)
     parents = {f: segments.get(f) or body_of(model, f) for f in frames}
     sums = {f: np.zeros(3) for f in frames}
     counts = dict.fromkeys(frames, 0)

@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.kinematics.bounded_ik import BoundedSolver, SolverOptions
-from predgait.models.loading import Model
+from predgait.models.loading import Model, new_data
 
 POINTS = ("ankle_center", "knee_center", "hip_center")
 
@@ -98,7 +98,7 @@ class _FramesJacobian:
     def __init__(self, model: Model, ids, weight, sagittal, pitch_row, pitch_weight,
                  foot_pitch):
         pm = model.pin_model
-        self.pm, self.data = pm, pm.createData()
+        self.pm, self.data = pm, new_data(pm)
         parents = [pm.frames[f].parentJoint for f in ids]
         joints, self.of_point = np.unique(parents, return_inverse=True)
         self.placements = [self.data.oMi[int(j)] for j in joints]   # updated in place
@@ -162,7 +162,7 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
         limit_margin: rad added to both ends of every joint range.
     """
     pm = model.pin_model
-    data = pm.createData()
+    data = new_data(pm)
     names = [n for n in POINTS if n in points]
     weight = np.array([(weights or {}).get(n, 1.0) for n in names])
     ids = [model.frame_id(n) for n in names]

@@ -45,6 +45,7 @@ from predgait.data.trial import Markers
 from predgait.errors import InputError
 from predgait.kinematics.joint_centres import harrington_hip
 from predgait.models.fullbody import CONTACTS, JOINT_CENTRES, LENGTHS, MARKERS, segment_lengths
+from predgait.models.loading import new_data
 from predgait.models.loading3d import Model3D, fullbody_for_subject
 from predgait.problemfile import Table
 
@@ -200,7 +201,7 @@ def read_scaling(table: Table, markers: Mapping[str, str]) -> ScalingSpec:
 
 def frame_distances(model: Model3D, pairs, q: np.ndarray | None = None) -> np.ndarray:
     """Distances (m) between model frame pairs in configuration ``q`` (default neutral)."""
-    pm, data = model.pin_model, model.pin_model.createData()
+    pm, data = model.pin_model, new_data(model.pin_model)
     pin.framesForwardKinematics(pm, data, model.neutral() if q is None else q)
     return np.array([np.linalg.norm(data.oMf[model.frame_id(a)].translation
                                     - data.oMf[model.frame_id(b)].translation)

@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from predgait.kinematics.ik3d import with_marker_frames
+from predgait.models.loading import new_data
 from predgait.models.loading3d import Model3D
 
 SIDES = ("r", "l")
@@ -82,7 +83,7 @@ def level_static_feet(model: Model3D, q: np.ndarray, points: Mapping[str, np.nda
         pitch and yaw, deg, about the foot's X, Y and Z axes: Pinocchio's rpy) or why the
         foot kept its IK pose.
     """
-    pm, data = model.pin_model, model.pin_model.createData()
+    pm, data = model.pin_model, new_data(model.pin_model)
     placements: dict[str, tuple[str, np.ndarray]] = {}
     report: dict[str, dict | str] = {}
     for side in SIDES:

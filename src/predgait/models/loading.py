@@ -31,6 +31,16 @@ DEFAULT_SUBJECT = {"mass": 72.6, "height": 1.8034}
 BASE_COORDINATES = ("base_x", "base_z", "base_pitch")
 
 
+def new_data(pin_model: pin.Model) -> pin.Data:
+    """A fresh Pinocchio ``Data`` of ``pin_model``, as ``pin_model.createData()`` gives.
+
+    Constructed directly (``pin.Data(model)``): the ``createData`` binding of Pinocchio 4.1
+    costs about 2 ms on the 35-DOF body (185 frames), the constructor 0.06 ms, and a batch
+    trial makes several.
+    """
+    return pin.Data(pin_model)
+
+
 @dataclass(frozen=True, eq=False)
 class RigidBodyModel:
     """A predgait model: the URDF text and its Pinocchio model (planar or 3D base).
