@@ -118,6 +118,13 @@ def _norm(x: np.ndarray) -> float:
     return math.sqrt(x @ x)
 
 
+def _as_slice(index: np.ndarray) -> np.ndarray | slice:
+    """``index`` as a slice when it is a run of consecutive indices (the same selection)."""
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + index.size)
+    return index
+
+
 class BoundedSolver:
     """Bounded Levenberg-Marquardt for one model (see module docstring).
 
@@ -135,6 +142,7 @@ class BoundedSolver:
         self._v = np.flatnonzero(self.bounded)           # bounded velocity coordinates
         self._q = self.index[self._v]                    # their position coordinates
         self._lo, self._hi = self.vlo[self._v], self.vhi[self._v]
+        self._v, self._q = _as_slice(self._v), _as_slice(self._q)   # views where they can
 
     def project(self, q: np.ndarray) -> np.ndarray:
         """A start point inside the limits (only for a first guess, never after a step)."""
