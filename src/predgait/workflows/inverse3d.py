@@ -18,6 +18,7 @@ The marker map is described in :mod:`predgait.dynamics.inverse3d_trial`.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -255,10 +256,8 @@ def write_opensim(result: Inverse3DResult, folder: Path) -> None:
     The model: the scaled, calibrated body (:mod:`predgait.models.osim_write`); the motion:
     its coordinates (deg, m) at every frame, flagged frames as fitted.
     """
-    from predgait.models.osim_write import osim_text
-
-    markers = dict(zip(result.ik.marker_frames, result.ik.marker_names, strict=True))
-    (folder / "model.osim").write_text(osim_text(result.model, markers), encoding="utf-8")
+    markers = tuple(zip(result.ik.marker_frames, result.ik.marker_names, strict=True))
+    (folder / "model.osim").write_text(_osim_text(result.model, markers), encoding="utf-8")
     prov = "; ".join(f"{k}={v}" for k, v in result.provenance.items())
     write_storage(folder / "motion.mot", result.ik.time,
                   coordinate_columns(result.q, result.model.joint_names), in_degrees=True,
@@ -271,11 +270,24 @@ def scaled_urdf(result: Inverse3DResult) -> str:
 
     So the per-marker residuals can be recomputed from the outputs.
     """
+    return _scaled_urdf(result.model, tuple(result.ik.marker_frames))
+
+
+# A model's texts depend on the model only: a batch worker's trials of one subject share
+# its calibrated model (the same object), so each text is made once per subject.
+@functools.lru_cache(maxsize=8)
+def _osim_text(model, markers: tuple[tuple[str, str], ...]) -> str:
+    from predgait.models.osim_write import osim_text
+
+    return osim_text(model, dict(markers))
+
+
+@functools.lru_cache(maxsize=8)
+def _scaled_urdf(model, frames: tuple[str, ...]) -> str:
     from predgait.kinematics.ik3d import marker_placements
     from predgait.models.urdf import with_fixed_frames
 
-    return with_fixed_frames(result.model.urdf,
-                             marker_placements(result.model, result.ik.marker_frames))
+    return with_fixed_frames(model.urdf, marker_placements(model, frames))
 
 
 def run_inverse_fullbody(trial_files: Sequence[str | Path], marker_map: str | Path, *,
