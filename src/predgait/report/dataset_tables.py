@@ -71,6 +71,9 @@ def cycles_of(key: Mapping[str, str], time: np.ndarray,
     return out
 
 
+_PERCENTS = [str(p) for p in range(PERCENT.size)]
+
+
 def _csv_cells(*cells) -> str:
     handle = io.StringIO()
     csv.writer(handle, lineterminator="").writerow(cells)
@@ -93,7 +96,10 @@ def tidy_text(cycles: Sequence[Cycle]) -> str:
             parts += [f"{head}{p}{middle}{v}{tail}" for p, v in enumerate(numbers)]
             continue
         head, middle, tail = (t.replace("%", "%%") for t in (head, middle, tail))
-        rows = "".join(f"{head}{p}{middle}%.10g{tail}" for p in range(values.size))
+        # the lines head p middle %.10g tail for p = 0, 1, ...: one join, one format
+        value = f"{middle}%.10g{tail}"
+        percents = _PERCENTS if values.size == len(_PERCENTS) else map(str, range(values.size))
+        rows = head + (value + head).join(percents) + value
         parts.append(rows % tuple(values.tolist()))   # one format per cycle: 3x faster
     return "".join(parts)
 
