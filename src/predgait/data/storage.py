@@ -247,10 +247,22 @@ def _expand(columns: Mapping[str, np.ndarray], n: int, source: str) -> dict[str,
     return out
 
 
+#: The tab-separated rows of the last tables written, by their exact bytes: a result
+#: written both as .sto and .csv (or a motion both as kinematics and .mot) is formatted once.
+_FORMATTED: dict[tuple, list[str]] = {}
+
+
 def _rows(data: np.ndarray, sep: str) -> list[str]:
     """Each row of ``data`` as text, every value with 10 significant digits (%.10g)."""
-    line = sep.join(["%.10g"] * data.shape[1])   # one format per row: 3x faster per value
-    return [line % tuple(row) for row in data.tolist()]
+    key = (data.shape, data.tobytes())
+    rows = _FORMATTED.get(key)
+    if rows is None:
+        line = "\t".join(["%.10g"] * data.shape[1])   # one format per row: 3x faster
+        rows = [line % tuple(row) for row in data.tolist()]
+        if len(_FORMATTED) >= 4:
+            _FORMATTED.pop(next(iter(_FORMATTED)))
+        _FORMATTED[key] = rows
+    return rows if sep == "\t" else [row.replace("\t", sep) for row in rows]
 
 
 def write_storage(path, time, columns: Mapping[str, np.ndarray], *, name: str | None = None,
