@@ -145,10 +145,13 @@ class BoundedSolver:
         self._v, self._q = _as_slice(self._v), _as_slice(self._q)   # views where they can
 
     def project(self, q: np.ndarray) -> np.ndarray:
-        """A start point inside the limits (only for a first guess, never after a step)."""
+        """A start point inside the limits (only for a first guess, never after a step).
+
+        ``q``: (nq,) or (n, nq), one start per row.
+        """
         q = np.array(q, dtype=float)
         qi = self.index[self.bounded]
-        q[qi] = np.clip(q[qi], self.vlo[self.bounded], self.vhi[self.bounded])
+        q[..., qi] = np.clip(q[..., qi], self.vlo[self.bounded], self.vhi[self.bounded])
         return q
 
     def _step(self, jac: np.ndarray, r: np.ndarray, damping: float, q: np.ndarray,

@@ -63,16 +63,21 @@ class IKResult:
         return {name: float(np.sqrt(np.mean(r**2))) for name, r in self.residuals.items()}
 
 
-def initial_guess(model: Model, points: Mapping[str, np.ndarray], pitch: float) -> np.ndarray:
-    """Coordinates from the segment directions of the first frame (absolute angles)."""
+def initial_guess(model: Model, points: Mapping[str, np.ndarray], pitch) -> np.ndarray:
+    """Coordinates from the segment directions (absolute angles).
+
+    ``points``: name -> (3,) or (n, 3) positions; ``pitch``: scalar or (n,): one frame's
+    (nq,) coordinates, or every frame's (n, nq).
+    """
     def angle(upper, lower):
-        d = upper - lower
-        return np.arctan2(d[0], d[2])
+        d = np.asarray(upper) - np.asarray(lower)
+        return np.arctan2(d[..., 0], d[..., 2])
 
     shank = angle(points["knee_center"], points["ankle_center"])
     thigh = angle(points["hip_center"], points["knee_center"])
-    ankle = points["ankle_center"]
-    return np.array([ankle[0], ankle[2], pitch, shank - pitch, thigh - shank])
+    ankle = np.asarray(points["ankle_center"])
+    return np.stack([ankle[..., 0], ankle[..., 2], np.broadcast_to(pitch, shank.shape),
+                     shank - pitch, thigh - shank], axis=-1)
 
 
 def joint_limits(model: Model, *, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -112,20 +117,31 @@ class _FramesJacobian:
         self.pitch_row, self.pitch_weight = pitch_row[0], pitch_weight
         self.foot_pitch = np.asarray(foot_pitch, dtype=float)
 
-    def __call__(self, ks: np.ndarray, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def points(self, qs: np.ndarray, world: np.ndarray | None = None) -> np.ndarray:
+        """(n, p, 3) lab positions of the points at the frames' q (n, nq).
+
+        ``world``: (n, 6, nv) to fill with each frame's data.J as well.
+        """
         pm, data = self.pm, self.data
-        n, count = len(ks), len(self.offset)
-        world = np.empty((n, 6, pm.nv))
-        placed = np.empty((n, len(self.placements), 4, 4))
+        placed = np.empty((len(qs), len(self.placements), 4, 4))
         for i, q in enumerate(qs):
-            pin.computeJointJacobians(pm, data, q)
-            world[i] = data.J
+            if world is None:
+                pin.forwardKinematics(pm, data, q)
+            else:
+                pin.computeJointJacobians(pm, data, q)
+                world[i] = data.J
             for j, placement in enumerate(self.placements):
                 placed[i, j] = placement.homogeneous
         placed = placed[:, self.of_point]   # (n, p, 4, 4)
         rot, c = placed[..., :3, :3], self.offset
-        points = rot[..., 0] * c[:, 0, None] + rot[..., 1] * c[:, 1, None] \
-            + rot[..., 2] * c[:, 2, None] + placed[..., :3, 3]   # (n, p, 3)
+        return rot[..., 0] * c[:, 0, None] + rot[..., 1] * c[:, 1, None] \
+            + rot[..., 2] * c[:, 2, None] + placed[..., :3, 3]
+
+    def __call__(self, ks: np.ndarray, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pm = self.pm
+        n, count = len(ks), len(self.offset)
+        world = np.empty((n, 6, pm.nv))
+        points = self.points(qs, world)
         lin, ang = world[:, None, :3], world[:, None, 3:]   # (n, 1, 3, nv)
         p = points[..., None]   # (n, p, 3, 1)
         cross = np.stack([p[:, :, 1] * ang[:, :, 2] - p[:, :, 2] * ang[:, :, 1],
@@ -189,16 +205,11 @@ def solve_ik(model: Model, points: Mapping[str, np.ndarray], foot_pitch: np.ndar
     settings = SolverOptions(max_iterations=max_iterations, tolerance=tolerance,
                              cost_tolerance=0.0, damping=0.0)
     solver = BoundedSolver(pm, lower, upper, settings)
-    starts = np.array([solver.project(initial_guess(model, {n: points[n][k] for n in POINTS},
-                                                    foot_pitch[k]))
-                       for k in range(len(foot_pitch))])
+    starts = solver.project(initial_guess(model, {n: points[n] for n in POINTS},
+                                          np.asarray(foot_pitch, dtype=float)))
     fits = solver.solve_frames(starts, jacobian, batch)
     out = np.array([fit.q for fit in fits])
-    resid = np.zeros((len(fits), len(names)))
-    for k, q in enumerate(out):
-        pin.framesForwardKinematics(pm, data, q)
-        resid[k] = [np.linalg.norm(data.oMf[fid].translation[plane] - target[k])
-                    for fid, target in zip(ids, sagittal, strict=True)]
+    resid = np.linalg.norm(batch.points(out)[..., ::2] - batch.targets, axis=2)
     return IKResult(out, {n: resid[:, i] for i, n in enumerate(names)},
                     out[:, 2] - np.asarray(foot_pitch),
                     np.array([fit.iterations for fit in fits]),
