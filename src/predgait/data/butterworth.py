@@ -16,6 +16,8 @@ sec. 7.2 (bilinear transform) and 6.5 (transposed direct form II).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 #: Samples per block of the block recursion.
@@ -60,11 +62,15 @@ def steady_state(b: np.ndarray, a: np.ndarray) -> np.ndarray:
     return np.linalg.solve(np.eye(len(B)) - A, B)
 
 
-def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, state: np.ndarray
-            ) -> np.ndarray:
-    """Filter along axis 0 from the initial ``state`` (order, ...) ; returns y like x."""
-    A, B, C, D = _state_space(b, a)
-    size = min(BLOCK, len(x))
+@functools.lru_cache(maxsize=16)
+def _block_matrices(b: bytes, a: bytes, size: int) -> tuple[np.ndarray, ...]:
+    """The block recursion's matrices of the filter ``b``, ``a`` (float64 bytes).
+
+    (A^j for j = 0..size, C A^j, the impulse-response Toeplitz matrix, A^(size-1-j) B)
+    for blocks of ``size`` samples. Kept per filter and block size: a trial filters many
+    signals with the same filter.
+    """
+    A, B, _, D = _state_space(np.frombuffer(b), np.frombuffer(a))
     # Powers A^j (j = 0..size); C = e_0, so C A^j is row 0 of A^j.
     powers = np.empty((size + 1, len(B), len(B)))
     powers[0] = np.eye(len(B))
@@ -75,7 +81,18 @@ def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, state: np.ndarray
     lag = np.subtract.outer(np.arange(size), np.arange(size))
     toeplitz = np.where(lag >= 0, h[np.maximum(lag, 0)], 0.0)
     drive = (powers[size - 1::-1] @ B).T                                   # A^(size-1-j) B
-    z = np.asarray(state, dtype=float).reshape(len(B), -1)
+    for array in (powers, observe, toeplitz, drive):
+        array.setflags(write=False)
+    return powers, observe, toeplitz, drive
+
+
+def lfilter(b: np.ndarray, a: np.ndarray, x: np.ndarray, state: np.ndarray
+            ) -> np.ndarray:
+    """Filter along axis 0 from the initial ``state`` (order, ...) ; returns y like x."""
+    b, a = np.asarray(b, dtype=float), np.asarray(a, dtype=float)
+    size = min(BLOCK, len(x))
+    powers, observe, toeplitz, drive = _block_matrices(b.tobytes(), a.tobytes(), size)
+    z = np.asarray(state, dtype=float).reshape(len(a) - 1, -1)
     flat = np.reshape(x, (len(x), -1))
     out = np.empty(flat.shape)
     for start in range(0, len(x), size):
