@@ -58,17 +58,20 @@ def read_markers_csv(path, columns: Mapping[str, tuple[str, str, str]], *,
         if len(triple) != 3:
             raise InputError(f"{path}: marker {name!r} maps to {triple}; give (x, y, z) labels.")
         wanted += [column(label) for label in triple]
-    data = np.full((len(rows) - 1, len(wanted)), np.nan)
-    for r, row in enumerate(rows[1:]):
-        for c, index in enumerate(wanted):
-            text = row[index].strip() if index < len(row) else ""
-            if text:
+    cells = [[(row[index].strip() if index < len(row) else "") or "nan" for index in wanted]
+             for row in rows[1:]]
+    try:   # all cells at once (NumPy parses each as float() does); empty ones are NaN
+        data = np.array(cells, dtype=float).reshape(len(cells), len(wanted))
+    except ValueError:   # the first bad cell, for the message
+        for r, row in enumerate(cells):
+            for c, text in enumerate(row):
                 try:
-                    data[r, c] = float(text)
+                    float(text)
                 except ValueError:
                     raise InputError(
-                        f"{path}: row {r + 2}, column {labels[index]!r}: {text!r} is not a number."
-                    ) from None
+                        f"{path}: row {r + 2}, column {labels[wanted[c]]!r}: {text!r} is not a "
+                        "number.") from None
+        raise
     time = data[:, 0]
     if np.isnan(time).any():
         raise InputError(f"{path}: time column {time_column!r} has empty values.")
