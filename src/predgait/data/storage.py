@@ -9,6 +9,7 @@ and ``<prefix>ground_torque_x/y/z`` (N m), one prefix per foot or plate.
 from __future__ import annotations
 
 import re
+import threading
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -247,21 +248,23 @@ def _expand(columns: Mapping[str, np.ndarray], n: int, source: str) -> dict[str,
     return out
 
 
-#: The tab-separated rows of the last tables written, by their exact bytes: a result
-#: written both as .sto and .csv (or a motion both as kinematics and .mot) is formatted once.
-_FORMATTED: dict[tuple, list[str]] = {}
+#: Per thread, the tab-separated rows of the last tables written, by their exact bytes: a
+#: result written both as .sto and .csv (or a motion both as kinematics3d.sto and
+#: motion.mot) is formatted once.
+_FORMATTED = threading.local()
 
 
 def _rows(data: np.ndarray, sep: str) -> list[str]:
     """Each row of ``data`` as text, every value with 10 significant digits (%.10g)."""
+    kept = _FORMATTED.__dict__.setdefault("tables", {})
     key = (data.shape, data.tobytes())
-    rows = _FORMATTED.get(key)
+    rows = kept.get(key)
     if rows is None:
         line = "\t".join(["%.10g"] * data.shape[1])   # one format per row: 3x faster
         rows = [line % tuple(row) for row in data.tolist()]
-        if len(_FORMATTED) >= 4:
-            _FORMATTED.pop(next(iter(_FORMATTED)))
-        _FORMATTED[key] = rows
+        if len(kept) >= 4:
+            kept.pop(next(iter(kept)))
+        kept[key] = rows
     return rows if sep == "\t" else [row.replace("\t", sep) for row in rows]
 
 
