@@ -30,10 +30,10 @@ import pinocchio as pin
 
 from predgait.numerics.lsq import bounded_step
 
-try:   # LAPACK's gesv without np.linalg.solve's wrapping (~10 us a call), same numbers
-    from scipy.linalg.lapack import dgesv as _dgesv
-except ImportError:  # pragma: no cover - SciPy is a dependency
-    _dgesv = None
+try:   # np.linalg.solve's own LAPACK gufunc without its wrapping (half the time a call)
+    from numpy.linalg._umath_linalg import solve1 as _solve1
+except ImportError:  # pragma: no cover - a NumPy without it
+    _solve1 = None
 
 #: A joint coordinate closer than this to its limit (rad or m) counts as on the limit.
 ON_LIMIT = 1e-7
@@ -103,14 +103,21 @@ def _normal(jac: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return jac.T @ jac, -jac.T @ r
 
 
+def _singular(*_) -> None:
+    raise np.linalg.LinAlgError("Singular matrix")
+
+
 def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a^-1 b by LAPACK's LU (gesv), the routine and numbers of ``np.linalg.solve``."""
-    if _dgesv is None:  # pragma: no cover
+    """a^-1 b for square float64 ``a`` and vector ``b``, as ``np.linalg.solve``.
+
+    Its gufunc (LAPACK's gesv), numbers and singular-matrix error, without its argument
+    checks.
+    """
+    if _solve1 is None:  # pragma: no cover
         return np.linalg.solve(a, b)
-    x, info = _dgesv(a, b)[2:]
-    if info != 0:
-        raise np.linalg.LinAlgError("Singular matrix")
-    return x
+    with np.errstate(call=_singular, invalid="call", over="ignore", divide="ignore",
+                     under="ignore"):
+        return _solve1(a, b)
 
 
 def _norm(x: np.ndarray) -> float:
