@@ -31,6 +31,7 @@ from predgait import __version__
 from predgait.errors import InputError
 from predgait.report.dataset_tables import CURVES, TIDY, mean_curves, read_cycles, write_rows
 from predgait.textfile import check_not_input
+from predgait.workflows import batch_server
 from predgait.workflows.batch_spec import Dataset
 from predgait.workflows.batch_trial import TrialPoint, finished_digest, run_trial
 
@@ -94,39 +95,21 @@ def _publish(out: Path, fill) -> None:
         shutil.rmtree(stage, ignore_errors=True)
 
 
-#: The modules a batch trial runs on, imported once in the process workers fork from.
-WORKER_MODULES = ("predgait.workflows.batch_trial", "predgait.dynamics.inverse3d_trial",
-                  "predgait.workflows.inverse3d", "predgait.dynamics.inverse_trial",
-                  "predgait.workflows.inverse_io")
-
-
-def _start_forkserver() -> bool:
-    """Start the forkserver the local workers will fork from; False where there is none.
-
-    It imports Dask's ``distributed`` and :data:`WORKER_MODULES` once (while this process
-    imports Dask), so each worker starts with them instead of importing them anew in a
-    spawned Python (about 2 s less per run on 2 cores).
-    """
-    import multiprocessing
-    from multiprocessing import forkserver
-
-    if "forkserver" not in multiprocessing.get_all_start_methods():
-        return False
-    forkserver.set_forkserver_preload(["distributed", *WORKER_MODULES])
-    forkserver.ensure_running()
-    return True
-
-
 @contextlib.contextmanager
-def _local_cluster(workers: int):
+def _local_cluster(workers: int, dataset: Dataset, todo: list[TrialPoint]):
     """A local Dask cluster's client (``workers`` processes, one thread each), or None.
 
-    None: the runner's local processes (one worker, or dask is not installed).
+    None: the runner's local processes (one worker, or dask is not installed). The workers
+    fork from a forkserver (:mod:`predgait.workflows.batch_server`; started here unless
+    the command started it already, and then ended here).
     """
     if workers <= 1 or importlib.util.find_spec("distributed") is None:
         yield None   # without dask: concurrent.futures processes, warm across trials too
         return
-    method = "forkserver" if _start_forkserver() else "spawn"
+    first = todo[:workers]
+    started = batch_server.start(dataset.path, first=first[-1].index + 1,
+                                 trials=[p.job.id for p in first])
+    method = "forkserver" if batch_server.running() else "spawn"
     import dask
     from dask.distributed import Client, LocalCluster
 
@@ -144,6 +127,8 @@ def _local_cluster(workers: int):
             with _quiet_dask(), contextlib.suppress(Exception):
                 client.close(timeout=10)
                 cluster.close(timeout=10)
+            if started:
+                batch_server.stop()
 
 
 def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
@@ -182,7 +167,8 @@ def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
     started = time.perf_counter()
     given = contextlib.nullcontext(client) if client is not None else None
     try:
-        with given or _local_cluster(min(workers, len(todo))) as target:   # 0-1: here
+        with given or _local_cluster(min(workers, len(todo)), dataset,   # 0-1: here
+                                     todo) as target:
             outcomes = run_sweep(task, todo, workers=workers, scheduler=target,
                                  progress=progress, desc="batch", unit="trial")
     except SweepInterrupted as exc:

@@ -192,8 +192,11 @@ def _job(subject: dict, condition: str, markers: Path, grf: Path | None) -> Tria
                     grf=grf, legs=legs, fullbody=body, digest=digest(files, settings))
 
 
-def read_dataset(path: str | Path) -> Dataset:
+def read_dataset(path: str | Path, *, first: int | None = None) -> Dataset:
     """Read and check a dataset file (see the module docstring).
+
+    ``first``: read only the file's first trials, as many (the same jobs the whole file
+    gives for them; the checks of the later trials are not made).
 
     Raises:
         InputError: no trial, a glob matching nothing, a trial whose subject has no row,
@@ -227,6 +230,8 @@ def read_dataset(path: str | Path) -> Dataset:
             raise row.error("subject", f"'{name}' has no [[subjects]] row (subjects: {known}).")
         condition = row.get("condition", str, "default")
         for markers in _marker_files(row):
+            if first is not None and len(jobs) >= first:
+                break
             jobs.append(_job(subjects[name], condition, markers, _grf(row, markers)))
     seen: dict[str, TrialJob] = {}
     for job in jobs:
