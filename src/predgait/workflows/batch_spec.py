@@ -90,8 +90,6 @@ def _file(table: Table, key: str) -> Path | None:
 
 def _subject(table: Table, analyses: tuple[str, ...]) -> dict:
     """One ``[[subjects]]`` row: name, mass, height, static, legs, full-body settings."""
-    from predgait.workflows.inverse_io import options_from_problem
-
     table.check_keys(("name", "mass", "height", "static", "leg", "marker_map", "sex", "model"))
     row = {"name": table.get("name", str),
            "mass": table.number("mass", low=20, high=300, unit="kg"),
@@ -101,6 +99,8 @@ def _subject(table: Table, analyses: tuple[str, ...]) -> dict:
     if not re.fullmatch(r"[\w.+-]+", row["name"]):
         raise table.error("name", f"{row['name']!r}: use letters, digits, '.', '-', '_'.")
     if "leg" in analyses:
+        from predgait.workflows.inverse_io import options_from_problem
+
         if not table.has("leg"):
             raise table.error("leg", "the leg analysis needs the subject's inverse problem "
                                      "files (points and options), e.g. leg = "
