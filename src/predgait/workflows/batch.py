@@ -103,6 +103,12 @@ def _publish(out: Path, fill) -> None:
         shutil.rmtree(stage, ignore_errors=True)
 
 
+#: Dask's monitors that sample the workers while trials run, which a batch does not read:
+#: the statistical profiler (every 10 ms) and the GIL-contention poll (every 1 ms).
+QUIET_WORKERS = {"distributed.worker.profile.enabled": False,
+                 "distributed.admin.system-monitor.gil.enabled": False}
+
+
 @contextlib.contextmanager
 def _local_cluster(workers: int, dataset: Dataset, todo: list[TrialPoint]):
     """A local Dask cluster's client (``workers`` processes, one thread each), or None.
@@ -124,7 +130,8 @@ def _local_cluster(workers: int, dataset: Dataset, todo: list[TrialPoint]):
     from predgait.scenarios.sweep import _quiet_dask
 
     # also a killed worker's replacement is forked from the forkserver
-    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+    settings = {"distributed.worker.multiprocessing-method": method, **QUIET_WORKERS}
+    with dask.config.set(settings):
         with _quiet_dask():
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=50)
