@@ -275,6 +275,13 @@ def test_another_datasets_folder_and_an_unreachable_scheduler(batch, tmp_path, c
     assert {p: p.stat().st_mtime_ns for p in out.rglob("*")} == before
 
 
+def test_the_workers_forkserver_is_ended_with_the_batch(batch):
+    """The 2-worker run started its workers' forkserver and ended it on its way out."""
+    from predgait.workflows import batch_server
+
+    assert not batch_server.running()
+
+
 def test_a_killed_worker_loses_no_trial(batch):
     """The worker SIGKILLed while it wrote a trial: Dask reran that trial, it is whole."""
     _, _, out, _, killed = batch

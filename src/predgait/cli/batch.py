@@ -53,6 +53,19 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the dataset, run its trials, write the results folder."""
+    from predgait.workflows import batch_server
+
+    # the workers' forkserver imports Dask and warms up while this process reads the dataset
+    early = batch_server.wanted(args.workers, args.scheduler) and \
+        args.dataset.is_file() and batch_server.start(args.dataset, first=args.workers)
+    try:
+        return _run(args)
+    finally:
+        if early:
+            batch_server.stop()
+
+
+def _run(args: argparse.Namespace) -> int:
     from predgait.errors import PredgaitError
     from predgait.workflows.batch import run_batch
     from predgait.workflows.batch_spec import read_dataset

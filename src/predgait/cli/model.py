@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from predgait.models.describe import format_model
-from predgait.models.loading import DEFAULT_SUBJECT, generate_urdf, load_model
+from predgait.models.anthropometry import DEFAULT_SUBJECT
 from predgait.models.urdf import check_output_file, write_text_atomic
 
 BUILD_HELP = """\
@@ -60,7 +59,7 @@ def register(commands: argparse._SubParsersAction) -> None:
 def run_build(args: argparse.Namespace) -> int:
     """Generate, validate (by loading it) and write the URDF."""
     from predgait.errors import InputError
-    from predgait.models.loading import model_from_urdf
+    from predgait.models.loading import generate_urdf, model_from_urdf
 
     check_output_file(args.output, force=args.force,
                       inputs=[args.segments] if args.segments else ())  # before any work
@@ -118,6 +117,9 @@ def run_show(args: argparse.Namespace) -> int:
                 com = ", ".join(f"{v:+.3f}" for v in inertia.lever)
                 print(f"{pm.names[j]:<22}{inertia.mass:>10.3f}{com:>40}")
         return 0
+    from predgait.models.describe import format_model
+    from predgait.models.loading import load_model
+
     print(format_model(load_model(args.urdf)))
     return 0
 

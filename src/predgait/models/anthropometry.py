@@ -24,6 +24,9 @@ from pathlib import Path
 
 from predgait.errors import InputError
 
+#: Subject of the bundled trial (OpenSim subject01: 72.6 kg, 1.8034 m).
+DEFAULT_SUBJECT = {"mass": 72.6, "height": 1.8034}
+
 MASS_RANGE_KG = (20.0, 300.0)
 HEIGHT_RANGE_M = (0.5, 2.5)
 

@@ -25,8 +25,7 @@ from predgait.textfile import read_text
 #: Standard gravity used by both Pinocchio and ADAM unless a problem file says otherwise.
 GRAVITY = 9.81
 
-#: Subject of the bundled trial (OpenSim subject01: 72.6 kg, 1.8034 m).
-DEFAULT_SUBJECT = {"mass": 72.6, "height": 1.8034}
+DEFAULT_SUBJECT = anthropometry.DEFAULT_SUBJECT
 
 BASE_COORDINATES = ("base_x", "base_z", "base_pitch")
 

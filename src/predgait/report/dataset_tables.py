@@ -104,21 +104,46 @@ def tidy_text(cycles: Sequence[Cycle]) -> str:
     return "".join(parts)
 
 
-def write_cycles(folder: Path, cycles: Sequence[Cycle]) -> None:
-    """``cycles.csv`` (tidy, :data:`TIDY`) and ``cycles.npz`` (the same numbers) in ``folder``."""
-    (folder / "cycles.csv").write_text(",".join(TIDY) + "\n" + tidy_text(cycles))
+def cycle_arrays(cycles: Sequence[Cycle]) -> dict[str, np.ndarray]:
+    """The cycles as arrays (those of ``cycles.npz``).
+
+    ``keys`` (n, 8) str: subject, condition, trial, analysis, side, cycle, variable, unit;
+    ``flagged`` (n,) bool; ``values`` (n, 101).
+    """
     keys = np.array([[*c.key, str(c.cycle), c.variable, c.unit] for c in cycles], dtype=str)
-    np.savez(folder / "cycles.npz", keys=keys.reshape(-1, 8),
-             flagged=np.array([c.flagged for c in cycles], dtype=bool),
-             values=np.array([c.values for c in cycles], dtype=float).reshape(-1, PERCENT.size))
+    return {"keys": keys.reshape(-1, 8),
+            "flagged": np.array([c.flagged for c in cycles], dtype=bool),
+            "values": np.array([c.values for c in cycles], dtype=float).reshape(-1, PERCENT.size)}
+
+
+def cycles_from_arrays(arrays: Mapping[str, np.ndarray]) -> list[Cycle]:
+    """The cycles of :func:`cycle_arrays`' arrays."""
+    return [Cycle(tuple(k[:5]), int(k[5]), str(k[6]), str(k[7]), bool(f), v)
+            for k, f, v in zip(arrays["keys"], arrays["flagged"], arrays["values"],
+                               strict=True)]
+
+
+def write_cycles(folder: Path, cycles: Sequence[Cycle]) -> dict[str, np.ndarray]:
+    """``cycles.csv`` (tidy, :data:`TIDY`) and ``cycles.npz`` (the same numbers) in ``folder``.
+
+    Returns:
+        The arrays ``cycles.npz`` holds (:func:`cycle_arrays`).
+    """
+    (folder / "cycles.csv").write_text(",".join(TIDY) + "\n" + tidy_text(cycles))
+    arrays = cycle_arrays(cycles)
+    np.savez(folder / "cycles.npz", **arrays)
+    return arrays
+
+
+def read_cycle_arrays(folder: Path) -> dict[str, np.ndarray]:
+    """The arrays :func:`write_cycles` wrote in ``folder``."""
+    with np.load(folder / "cycles.npz") as data:
+        return {name: data[name] for name in ("keys", "flagged", "values")}
 
 
 def read_cycles(folder: Path) -> list[Cycle]:
     """The cycles :func:`write_cycles` wrote in ``folder``."""
-    with np.load(folder / "cycles.npz") as data:
-        keys, flagged, values = data["keys"], data["flagged"], data["values"]
-    return [Cycle(tuple(k[:5]), int(k[5]), str(k[6]), str(k[7]), bool(f), v)
-            for k, f, v in zip(keys, flagged, values, strict=True)]
+    return cycles_from_arrays(read_cycle_arrays(folder))
 
 
 def write_rows(path: Path, header: Sequence[str], rows: Iterable[Sequence]) -> None:

@@ -65,6 +65,7 @@ class PointResult:
 
     metrics: Mapping[str, float]
     checks: tuple[Check, ...] = ()
+    payload: object = None   # anything else the caller wants back (picklable)
 
 
 class PointStatus(enum.StrEnum):
@@ -87,6 +88,7 @@ class SweepOutcome:
     seconds: float = 0.0
     status: PointStatus | None = None   # None: OK or FAILED from ``ok``
     checks: tuple[Check, ...] = ()      # plausibility of the point's result
+    payload: object = None              # the task's PointResult.payload
 
     def __post_init__(self):
         if self.status is None:
@@ -125,10 +127,12 @@ def run_point(task: Callable[[SweepPoint], Mapping[str, float]], point: SweepPoi
     start = time.perf_counter()
     try:
         answer = task(point)
+        payload = None
         if isinstance(answer, PointResult):
             checks = tuple(c for c in answer.checks if c is not None)
             metrics = {**answer.metrics,
                        WARNINGS_METRIC: float(sum(not c.passed for c in checks))}
+            payload = answer.payload
         else:
             checks, metrics = (), dict(answer)
     except SimulationDiverged as exc:
@@ -142,7 +146,7 @@ def run_point(task: Callable[[SweepPoint], Mapping[str, float]], point: SweepPoi
         reason = f"{type(exc).__name__}: {exc} (at {place})"
         return SweepOutcome(point, False, reason=reason, seconds=time.perf_counter() - start)
     return SweepOutcome(point, True, metrics, seconds=time.perf_counter() - start,
-                        checks=checks)
+                        checks=checks, payload=payload)
 
 
 def labelled_checks(outcomes: Sequence[SweepOutcome]) -> list[Check]:

@@ -21,6 +21,7 @@ import json
 import os
 import shutil
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,8 +30,16 @@ import numpy as np
 
 from predgait import __version__
 from predgait.errors import InputError
-from predgait.report.dataset_tables import CURVES, TIDY, mean_curves, read_cycles, write_rows
+from predgait.report.dataset_tables import (
+    CURVES,
+    TIDY,
+    cycles_from_arrays,
+    mean_curves,
+    read_cycle_arrays,
+    write_rows,
+)
 from predgait.textfile import check_not_input
+from predgait.workflows import batch_server
 from predgait.workflows.batch_spec import Dataset
 from predgait.workflows.batch_trial import TrialPoint, finished_digest, run_trial
 
@@ -94,46 +103,35 @@ def _publish(out: Path, fill) -> None:
         shutil.rmtree(stage, ignore_errors=True)
 
 
-#: The modules a batch trial runs on, imported once in the process workers fork from.
-WORKER_MODULES = ("predgait.workflows.batch_trial", "predgait.dynamics.inverse3d_trial",
-                  "predgait.workflows.inverse3d", "predgait.dynamics.inverse_trial",
-                  "predgait.workflows.inverse_io")
-
-
-def _start_forkserver() -> bool:
-    """Start the forkserver the local workers will fork from; False where there is none.
-
-    It imports Dask's ``distributed`` and :data:`WORKER_MODULES` once (while this process
-    imports Dask), so each worker starts with them instead of importing them anew in a
-    spawned Python (about 2 s less per run on 2 cores).
-    """
-    import multiprocessing
-    from multiprocessing import forkserver
-
-    if "forkserver" not in multiprocessing.get_all_start_methods():
-        return False
-    forkserver.set_forkserver_preload(["distributed", *WORKER_MODULES])
-    forkserver.ensure_running()
-    return True
+#: Dask's monitors that sample the workers while trials run, which a batch does not read:
+#: the statistical profiler (every 10 ms) and the GIL-contention poll (every 1 ms).
+QUIET_WORKERS = {"distributed.worker.profile.enabled": False,
+                 "distributed.admin.system-monitor.gil.enabled": False}
 
 
 @contextlib.contextmanager
-def _local_cluster(workers: int):
+def _local_cluster(workers: int, dataset: Dataset, todo: list[TrialPoint]):
     """A local Dask cluster's client (``workers`` processes, one thread each), or None.
 
-    None: the runner's local processes (one worker, or dask is not installed).
+    None: the runner's local processes (one worker, or dask is not installed). The workers
+    fork from a forkserver (:mod:`predgait.workflows.batch_server`; started here unless
+    the command started it already, and then ended here).
     """
     if workers <= 1 or importlib.util.find_spec("distributed") is None:
         yield None   # without dask: concurrent.futures processes, warm across trials too
         return
-    method = "forkserver" if _start_forkserver() else "spawn"
+    first = todo[:workers]
+    started = batch_server.start(dataset.path, first=first[-1].index + 1,
+                                 trials=[p.job.id for p in first])
+    method = "forkserver" if batch_server.running() else "spawn"
     import dask
     from dask.distributed import Client, LocalCluster
 
     from predgait.scenarios.sweep import _quiet_dask
 
     # also a killed worker's replacement is forked from the forkserver
-    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+    settings = {"distributed.worker.multiprocessing-method": method, **QUIET_WORKERS}
+    with dask.config.set(settings):
         with _quiet_dask():
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=50)
@@ -144,6 +142,8 @@ def _local_cluster(workers: int):
             with _quiet_dask(), contextlib.suppress(Exception):
                 client.close(timeout=10)
                 cluster.close(timeout=10)
+            if started:
+                batch_server.stop()
 
 
 def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
@@ -179,10 +179,12 @@ def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
         else:
             todo.append(TrialPoint(index, {}, job))
     task = functools.partial(run_trial, str(out.resolve()))
+    threading.Thread(target=_load_pyarrow, daemon=True).start()   # the tail's, meanwhile
     started = time.perf_counter()
     given = contextlib.nullcontext(client) if client is not None else None
     try:
-        with given or _local_cluster(min(workers, len(todo))) as target:   # 0-1: here
+        with given or _local_cluster(min(workers, len(todo)), dataset,   # 0-1: here
+                                     todo) as target:
             outcomes = run_sweep(task, todo, workers=workers, scheduler=target,
                                  progress=progress, desc="batch", unit="trial")
     except SweepInterrupted as exc:
@@ -192,18 +194,30 @@ def run_batch(dataset: Dataset, out: str | Path, *, workers: int = 2,
             with contextlib.suppress(Exception):
                 client.close(timeout=5)
     run.seconds, run.ran = time.perf_counter() - started, len(outcomes)
+    arrays = {}   # trial id -> its cycles' arrays, as the worker returned them
     for outcome in outcomes:
         job = dataset.trials[outcome.point.index]
         if outcome.ok:
             status = "flagged" if outcome.metrics.get("flagged_frames") else "ok"
             run.rows[job.id] = _row(job, status, out=out)
+            if isinstance(outcome.payload, dict):
+                arrays[job.id] = outcome.payload
         else:
             run.rows[job.id] = _row(job, "failed", reason=outcome.reason)
     for job in dataset.trials:
         run.rows.setdefault(job.id, _row(job, "not run"))
     run.rows = {job.id: run.rows[job.id] for job in dataset.trials}
-    _write_dataset(run, dataset, bands)
+    _write_dataset(run, dataset, bands, arrays)
     return run
+
+
+def _load_pyarrow() -> None:
+    """Import pyarrow's Parquet writer and its kernels (the table's, once; nothing without)."""
+    with contextlib.suppress(ImportError):
+        import pyarrow as pa
+        import pyarrow.parquet  # noqa: F401
+
+        pa.array([0]).take(pa.array([0]))
 
 
 def _row(job, status: str, *, out: Path | None = None, reason: str = "") -> dict:
@@ -218,14 +232,20 @@ def _row(job, status: str, *, out: Path | None = None, reason: str = "") -> dict
     return row
 
 
-def _write_dataset(run: BatchRun, dataset: Dataset, bands) -> None:
-    """results.csv (+ .parquet), curves.csv, status.csv, summary.json, figures, report."""
+def _write_dataset(run: BatchRun, dataset: Dataset, bands, arrays: dict) -> None:
+    """results.csv (+ .parquet), curves.csv, status.csv, summary.json, figures, report.
+
+    ``arrays``: trial id -> its cycles' arrays as its worker returned them; the other
+    whole trials' (unchanged, kept by ``resume``) are read from their ``cycles.npz``.
+    """
     from predgait.report.dataset_report import write_report
     from predgait.report.tidy import write_summary
 
-    whole = [run.out / "trials" / trial for trial, info in run.rows.items()
+    whole = [trial for trial, info in run.rows.items()
              if info["status"] in ("ok", "flagged", "unchanged")]
-    cycles = [c for folder in whole for c in read_cycles(folder)]
+    parts = [arrays[trial] if trial in arrays else
+             read_cycle_arrays(run.out / "trials" / trial) for trial in whole]
+    cycles = [c for part in parts for c in cycles_from_arrays(part)]
     curves = mean_curves(cycles)
     failed = [r for r in run.rows.values() if r["status"] == "failed"]
     summary = {"dataset": dataset.name, "predgait": __version__,
@@ -240,42 +260,93 @@ def _write_dataset(run: BatchRun, dataset: Dataset, bands) -> None:
                "failures": {r["trial"]: r["reason"] for r in failed}}
 
     def fill(stage: Path) -> None:
-        with (stage / "results.csv").open("w") as handle:   # the trials' tidy rows, joined
-            handle.write(",".join(TIDY) + "\n")
-            for folder in whole:
-                text = (folder / "cycles.csv").read_text()
-                handle.write(text[text.index("\n") + 1:])
-        write_rows(stage / "curves.csv", CURVES, curves)
-        write_rows(stage / "status.csv", STATUS, ([r[k] for k in STATUS]
-                                                  for r in run.rows.values()))
-        write_summary(stage / "summary.json", summary)
-        with contextlib.suppress(ImportError):
-            _write_parquet(stage / "results.parquet", cycles)
-        write_report(stage, dataset.name, list(run.rows.values()), cycles, curves, bands)
+        import concurrent.futures
+
+        # the Parquet table is built and written (pyarrow, without the GIL) meanwhile
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            parquet = pool.submit(_write_parquet, stage / "results.parquet", parts)
+            _join_tables(stage / "results.csv",
+                         [run.out / "trials" / trial / "cycles.csv" for trial in whole])
+            write_rows(stage / "curves.csv", CURVES, curves)
+            write_rows(stage / "status.csv", STATUS, ([r[k] for k in STATUS]
+                                                      for r in run.rows.values()))
+            write_summary(stage / "summary.json", summary)
+            write_report(stage, dataset.name, list(run.rows.values()), cycles, curves, bands)
+            with contextlib.suppress(ImportError):
+                parquet.result()
 
     _publish(run.out, fill)
 
 
-def _write_parquet(path: Path, cycles) -> None:
+def _join_tables(path: Path, tables: list[Path]) -> None:
+    """The tidy table: its header line, then each trial's ``cycles.csv`` after its header.
+
+    Copied as bytes (by the kernel where it can), the same text as read and written.
+    """
+    with path.open("w") as handle:
+        handle.write(",".join(TIDY) + "\n")
+        handle.flush()
+        target = handle.buffer.raw if hasattr(handle.buffer, "raw") else handle.buffer
+        for table in tables:
+            with table.open("rb") as source:
+                source.readline()   # its header
+                start, size = source.tell(), os.fstat(source.fileno()).st_size
+                _copy(source, target, start, size - start)
+
+
+def _copy(source, target, start: int, count: int) -> None:
+    """``count`` bytes of ``source`` from ``start`` appended to ``target`` (files)."""
+    copy = getattr(os, "copy_file_range", None)
+    if copy is not None:
+        try:
+            while count > 0:
+                done = copy(source.fileno(), target.fileno(), count, start)
+                if done == 0:
+                    break
+                start, count = start + done, count - done
+            if count <= 0:
+                return
+        except OSError:
+            pass   # e.g. a file system without it: the rest by reading and writing
+    source.seek(start)
+    while count > 0:
+        chunk = source.read(min(count, 1 << 22))
+        if not chunk:
+            break
+        target.write(chunk)
+        count -= len(chunk)
+
+
+def _write_parquet(path: Path, parts: list[dict]) -> None:
     """The tidy table as Parquet (pyarrow; ImportError without it).
 
-    Built column by column from the cycles' arrays: 101 rows per cycle.
+    Built column by column from the trials' cycle arrays (:func:`cycle_arrays`): 101 rows
+    per cycle; the same table (types and values) as built from the rows.
     """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     n = 101
-    rows = pa.array(np.repeat(np.arange(len(cycles)), n))   # row -> its cycle
+    keys = np.concatenate([p["keys"] for p in parts]) if parts else np.empty((0, 8), str)
+    count = len(keys)
+    if not count:   # as from no rows: the text and number columns without a type
+        columns = {name: pa.array([]) for name in TIDY}
+        columns["percent"], columns["value"] = np.empty(0, np.int64), np.empty(0)
+        pq.write_table(pa.table({k: columns[k] for k in TIDY}), path)
+        return
+    rows = pa.array(np.repeat(np.arange(count), n))   # row -> its cycle
 
-    def each(values: list) -> pa.Array:   # one entry per cycle -> one per row
-        return pa.array(values).take(rows)
+    def text(column: int) -> pa.Array:   # one string per cycle -> one per row
+        unique, index = np.unique(keys[:, column], return_inverse=True)
+        return pa.array(unique.tolist(), type=pa.string()).take(
+            pa.array(np.repeat(index.reshape(-1), n)))
 
-    columns = {name: each([c.key[i] for c in cycles]) for i, name in enumerate(TIDY[:5])}
-    columns["cycle"] = each([c.cycle for c in cycles])
-    columns["percent"] = np.tile(np.arange(n, dtype=np.int64), len(cycles))
-    columns["variable"] = each([c.variable for c in cycles])
-    columns["value"] = (np.concatenate([np.asarray(c.values, dtype=float) for c in cycles])
-                        if cycles else np.empty(0))
-    columns["unit"] = each([c.unit for c in cycles])
-    columns["flagged"] = each([int(c.flagged) for c in cycles])
+    columns = {name: text(i) for i, name in enumerate(TIDY[:5])}
+    columns["cycle"] = pa.array(keys[:, 5].astype(np.int64)).take(rows)
+    columns["percent"] = np.tile(np.arange(n, dtype=np.int64), count)
+    columns["variable"] = text(6)
+    columns["value"] = np.concatenate([p["values"] for p in parts]).reshape(-1)
+    columns["unit"] = text(7)
+    columns["flagged"] = pa.array(
+        np.concatenate([p["flagged"] for p in parts]).astype(np.int64)).take(rows)
     pq.write_table(pa.table({k: columns[k] for k in TIDY}), path)

@@ -90,8 +90,6 @@ def _file(table: Table, key: str) -> Path | None:
 
 def _subject(table: Table, analyses: tuple[str, ...]) -> dict:
     """One ``[[subjects]]`` row: name, mass, height, static, legs, full-body settings."""
-    from predgait.workflows.inverse_io import options_from_problem
-
     table.check_keys(("name", "mass", "height", "static", "leg", "marker_map", "sex", "model"))
     row = {"name": table.get("name", str),
            "mass": table.number("mass", low=20, high=300, unit="kg"),
@@ -101,6 +99,8 @@ def _subject(table: Table, analyses: tuple[str, ...]) -> dict:
     if not re.fullmatch(r"[\w.+-]+", row["name"]):
         raise table.error("name", f"{row['name']!r}: use letters, digits, '.', '-', '_'.")
     if "leg" in analyses:
+        from predgait.workflows.inverse_io import options_from_problem
+
         if not table.has("leg"):
             raise table.error("leg", "the leg analysis needs the subject's inverse problem "
                                      "files (points and options), e.g. leg = "
@@ -192,8 +192,11 @@ def _job(subject: dict, condition: str, markers: Path, grf: Path | None) -> Tria
                     grf=grf, legs=legs, fullbody=body, digest=digest(files, settings))
 
 
-def read_dataset(path: str | Path) -> Dataset:
+def read_dataset(path: str | Path, *, first: int | None = None) -> Dataset:
     """Read and check a dataset file (see the module docstring).
+
+    ``first``: read only the file's first trials, as many (the same jobs the whole file
+    gives for them; the checks of the later trials are not made).
 
     Raises:
         InputError: no trial, a glob matching nothing, a trial whose subject has no row,
@@ -227,6 +230,8 @@ def read_dataset(path: str | Path) -> Dataset:
             raise row.error("subject", f"'{name}' has no [[subjects]] row (subjects: {known}).")
         condition = row.get("condition", str, "default")
         for markers in _marker_files(row):
+            if first is not None and len(jobs) >= first:
+                break
             jobs.append(_job(subjects[name], condition, markers, _grf(row, markers)))
     seen: dict[str, TrialJob] = {}
     for job in jobs:

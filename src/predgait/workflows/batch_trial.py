@@ -22,7 +22,7 @@ import numpy as np
 
 from predgait.report.dataset_tables import cycles_of, write_cycles
 from predgait.report.figures import plots_off
-from predgait.scenarios.sweep import SweepPoint
+from predgait.scenarios.sweep import PointResult, SweepPoint
 from predgait.textfile import source_name
 from predgait.workflows.batch_spec import TrialJob
 from predgait.workflows.batch_warm import fullbody_calibration, leg_calibration
@@ -107,11 +107,13 @@ class TrialPoint(SweepPoint):
     job: TrialJob | None = None
 
 
-def run_trial(out: str, point: TrialPoint) -> dict[str, float]:
+def run_trial(out: str, point: TrialPoint) -> PointResult:
     """Analyse ``point.job`` and write ``<out>/trials/<id>/`` whole (the batch task).
 
     Returns:
-        Metrics: ``cycles`` (all analyses), ``flagged_frames``, ``seconds``.
+        Metrics: ``cycles`` (all analyses), ``flagged_frames``, ``seconds``; payload: the
+        arrays of its ``cycles.npz`` (:func:`predgait.report.dataset_tables.cycle_arrays`),
+        so the batch need not read them back.
 
     Raises:
         PredgaitError (or anything else): recorded by the batch as the trial's reason.
@@ -131,7 +133,7 @@ def run_trial(out: str, point: TrialPoint) -> dict[str, float]:
         if job.fullbody is not None:
             part, notes["fullbody"] = _fullbody(job.fullbody, stage, key)
             rows += part
-        write_cycles(stage, rows)
+        arrays = write_cycles(stage, rows)
         flagged = sum(n["flagged_frames"] for n in notes.values())
         cycles = sum(n["cycles"] for n in notes.values())
         info = {"trial": job.id, "subject": job.subject, "condition": job.condition,
@@ -139,8 +141,8 @@ def run_trial(out: str, point: TrialPoint) -> dict[str, float]:
                 "digest": job.digest, "analyses": notes, "cycles": cycles,
                 "flagged_frames": flagged, "seconds": time.perf_counter() - start}
         (stage / TRIAL_JSON).write_text(json.dumps(info, indent=1) + "\n")
-    return {"cycles": float(cycles), "flagged_frames": float(flagged),
-            "seconds": info["seconds"]}
+    return PointResult({"cycles": float(cycles), "flagged_frames": float(flagged),
+                        "seconds": info["seconds"]}, payload=arrays)
 
 
 def finished_digest(folder: Path) -> str | None:

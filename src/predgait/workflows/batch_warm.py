@@ -72,3 +72,23 @@ def leg_calibration(options, turn: np.ndarray):
                                               "turn": np.asarray(turn).tolist()}
     key = "leg " + digest([options.static, options.model], settings)
     return _warm(key, lambda: leg_static.leg_static(options, turn))
+
+
+def warm(job) -> None:
+    """Compute and keep the calibrations a trial ``job`` uses (each failure left to it).
+
+    ``job``: a :class:`predgait.workflows.batch_spec.TrialJob`; its full-body calibration
+    and, per leg side, the leg calibration for its walk's rotation.
+    """
+    import contextlib
+
+    if job.fullbody is not None and job.fullbody["static"] is not None:
+        with contextlib.suppress(Exception):
+            fullbody_calibration(job.fullbody)
+    for options in job.legs:
+        if options.static is None or isinstance(options.mass, str):
+            continue
+        with contextlib.suppress(Exception):
+            from predgait.dynamics.leg_measurements import read_trial
+
+            leg_calibration(options, read_trial(options)[1])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,15 +22,16 @@ from predgait.dynamics.inverse_options import (
     InverseOptions,
     StaticCentre,
 )
-from predgait.dynamics.inverse_trial import InverseResult
 from predgait.errors import InputError
 from predgait.kinematics.osim2d_motion import write_osim2d_motion
 from predgait.problemfile import Table
 from predgait.report.figures import plots_wanted
 from predgait.report.gait_plots import cycle_axis, save_gait_plots
 from predgait.report.tidy import write_summary
-from predgait.report.viewer import write_motion
 from predgait.workflows.output import staged_output
+
+if TYPE_CHECKING:   # the result's module (pinocchio) is not needed to read problem files
+    from predgait.dynamics.inverse_trial import InverseResult
 
 TRIAL_KEYS = ("markers", "grf", "static", "mass", "height", "side", "model")
 OPTION_KEYS = ("cutoff", "grf_cutoff", "threshold", "release", "scale_to_markers",
@@ -244,6 +246,8 @@ def write_inverse_outputs(result: InverseResult, out: str | Path, *, force: bool
                                 "flagged_frames": "as fitted (summary.json flagged_times_s)"})
         write_summary(stage / "summary.json", summary(result))
         if plots_wanted():
+            from predgait.report.viewer import write_motion  # pinocchio: only for it
+
             save_gait_plots(result, stage)
             write_motion(stage, result.model, result.time, result.q, label="measured (IK)",
                          grf=(result.grf, result.cop))
