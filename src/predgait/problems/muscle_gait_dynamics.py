@@ -110,11 +110,11 @@ def link_point(model, link: str, location) -> cs.Function:
 
 @functools.lru_cache(maxsize=8)
 def node_function(plant: MusclePlant, metabolic: bool = False) -> cs.Function:
-    """``node(q, v, a, act, exc, u[, ft, dft]) -> (r, act_dot, grf, points, force, fibre,
-    tau_m, met, tendon)``.
+    """The dynamics of one node (residual, activation rate, contact and muscle forces).
 
-    Inputs: q, v, a (nq,) model coordinates, rates, accelerations; act, exc (m,)
-    activations and excitations; u (1,) lumbar control; with compliant tendons
+    ``node(q, v, a, act, exc, u[, ft, dft]) -> (r, act_dot, grf, points, force, fibre,
+    tau_m, met, tendon)``. Inputs: q, v, a (nq,) model coordinates, rates, accelerations;
+    act, exc (m,) activations and excitations; u (1,) lumbar control; with compliant tendons
     (``plant.compliant``, c muscles) ft (c,) their normalized tendon forces and dft (c,)
     its rates, 1/s. Outputs: r (nq,) the residual
     (N, N m); act_dot (m,) 1/s; grf (3 n_spheres,) contact forces on the spheres in the lab

@@ -167,9 +167,10 @@ def reference_guess(planar, storage, plant: MusclePlant, intervals: int,
 
     Columns are matched by coordinate name (``/jointset/hip_r/hip_flexion_r/value`` or
     ``hip_flexion_r``); pelvis_tx starts at 0. A coordinate without a column (a joint the
-    reference's model does not have, e.g. a toe joint) stays at its default value. A MocoTrajectory (e.g. Moco's own
-    solution) also gives the activations (``/<muscle>/activation``), excitations
-    (``/<muscle>``) and the lumbar control; it is not low-passed.
+    reference's model does not have, e.g. a toe joint) stays at its default value. A
+    MocoTrajectory (e.g. Moco's own solution) also gives the activations
+    (``/<muscle>/activation``), excitations (``/<muscle>``) and the lumbar control; it is not
+    low-passed.
     """
     from scipy.interpolate import CubicSpline
 
