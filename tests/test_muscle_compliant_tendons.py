@@ -167,3 +167,19 @@ def test_small_grid_solve_holds_the_tendon_equilibrium(plants, tmp_path):
         ft[:, names.index("soleus_r")],
         atol=1e-6,
     )
+
+
+def test_speed_row_is_the_average_speed_constraint(plants):
+    """``speed_constraint = false`` frees the row distance - speed * duration (no other)."""
+    _, plant, planar = plants
+    n = 4
+    problem = MuscleGaitProblem(plant, n, tx_row=0)
+    guess, _ = reference_guess(
+        planar, read_storage(bundled_file("referenceCoordinates.sto")), plant, n
+    )
+    w = problem.pack(guess)
+    p = np.zeros(problem.p.numel())
+    p[0] = 1.3
+    g = np.array(cs.Function("g", [problem.w, problem.p], [problem.nlp["g"]])(w, p)).ravel()
+    distance = guess.q[-1, 0] - guess.q[0, 0]
+    assert g[problem.speed_row] == pytest.approx(distance - 1.3 * guess.duration, abs=1e-12)

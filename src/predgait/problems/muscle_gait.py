@@ -286,7 +286,7 @@ class MuscleGaitProblem:
              defect(energy, metabolic_rate) / SCALES["W"],
              defect(running, cs.sum1(exc ** 3) + cs.fabs(u) ** 3) / SCALES["E"]]
         self.ng = sum(e.shape[0] for e in g)
-        self.speed_row = sum(e.shape[0] for e in g[:-2])    # distance - speed * duration
+        self.speed_row = sum(e.shape[0] for e in g[:-3])    # distance - speed * duration
         quad = np.full((n1, 1), 1.0)
         quad[[0, -1]] = 0.5
         # pelvis_tx(0) = 0 (a bound) and E(0) = 0: the distance and the effort integral are
