@@ -319,8 +319,8 @@ class MuscleGaitProblem:
             objective += goal[5] * terms["metabolic"]
         self.term_names = tuple(terms)
         self.outputs = cs.Function("outputs", [self.w, self.p],
-                                   [r, grf, points, force, fibre, muscle_tau,
-                                    *terms.values(), tendon])
+                                   [r, grf, points, force, fibre, muscle_tau, *terms.values()])
+        self.tendon_residual = cs.Function("tendon_residual", [self.w], [tendon])
         opts = {"ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
                           **IPOPT_OPTIONS, **(ipopt_options or {})}, "print_time": False}
         self.nlp = {"x": self.w, "p": self.p, "f": objective, "g": cs.vertcat(*g)}
@@ -454,7 +454,8 @@ class MuscleGaitProblem:
         path = Trajectory(float(x["h"].sum()), x["q"].T, x["v"].T, x["a"].T, x["act"].T,
                           x["exc"].T, x["u"].ravel(), x["ft"].T if c else None,
                           x["dft"].T if c else None)
-        r, grf, points, force, fibre, muscle_tau, *terms, tendon = self.outputs(w, p)
+        r, grf, points, force, fibre, muscle_tau, *terms = self.outputs(w, p)
+        tendon = self.tendon_residual(w)
         k = len(self.plant.spheres)
         return MuscleGait(
             path=path, grf=np.array(grf).T.reshape(n1, k, 3),
