@@ -78,7 +78,7 @@ from predgait.problems.muscle_gait_dynamics import MusclePlant, node_function
 
 #: Scale of each block of the decision vector (physical = scale * scaled).
 SCALES = {"h": 0.01, "q": 1.0, "v": 1.0, "a": 10.0, "act": 1.0, "exc": 1.0, "u": 10.0,
-          "W": 100.0, "E": 0.01}
+          "ft": 1.0, "dft": 10.0, "W": 100.0, "E": 0.01}
 NEVER_INLINE = False
 #: Entries of the goal parameter vector (speed, 6 weights).
 GOAL_SIZE = 7
@@ -122,13 +122,18 @@ class Bounds:
     activation: tuple[float, float]
     excitation: tuple[float, float]
     lumbar: tuple[float, float]
+    tendon_force: tuple[float, float] = (0.0, 5.0)        # normalized (OpenSim's [0, 5])
+    tendon_force_rate: tuple[float, float] = (-100.0, 100.0)   # 1/s
 
 
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """A point of the NLP at the nodes (guess or solution), physical units.
 
-    Attributes: duration (s); q, v, a (N+1, nq); act, exc (N+1, m); u (N+1,) lumbar.
+    Attributes: duration (s); q, v, a (N+1, nq); act, exc (N+1, m); u (N+1,) lumbar;
+    ft, dft (N+1, c) the compliant tendons' normalized forces and their rates (1/s), None
+    when the muscles are rigid or the values are not known (a guess: :meth:`pack` takes the
+    rigid-tendon forces).
     """
 
     duration: float
@@ -138,6 +143,8 @@ class Trajectory:
     act: np.ndarray
     exc: np.ndarray
     u: np.ndarray
+    ft: np.ndarray | None = None
+    dft: np.ndarray | None = None
 
     @property
     def t(self) -> np.ndarray:
@@ -157,6 +164,7 @@ class MuscleGait:
         residual: (N+1, nq) N, N m, the NLP's own dynamics residual.
         muscle_tau: (N+1, nq) N m, the muscles' generalised forces.
         terms: unweighted objective terms; solved: status, iterations, time, history.
+        tendon_residual: (N+1, c) the compliant tendons' equilibrium residuals (F_max units).
     """
 
     path: Trajectory
@@ -169,6 +177,7 @@ class MuscleGait:
     terms: dict
     objective: float
     solved: Solved
+    tendon_residual: np.ndarray | None = None
 
 
 def mirror_rows(names: tuple[str, ...]) -> np.ndarray:
@@ -222,12 +231,14 @@ class MuscleGaitProblem:
         self.mesh, self.transcription = mesh, transcription
         nq, m, n1 = plant.model.nq, plant.n_muscles, intervals + 1
         self.sizes = (("h", 1, intervals), ("q", nq, n1), ("v", nq, n1), ("a", nq, n1),
-                      ("act", m, n1), ("exc", m, n1), ("u", 1, n1), ("W", 1, n1),
-                      ("E", 1, n1))
+                      ("act", m, n1), ("exc", m, n1), ("u", 1, n1),
+                      ("ft", len(plant.compliant), n1), ("dft", len(plant.compliant), n1),
+                      ("W", 1, n1), ("E", 1, n1))
         self.w = symbol.sym("w", sum(r * c for _, r, c in self.sizes))
         x = self.unpack(self.w)
-        h, q, v, a, act, exc, u, energy, running = (
-            x[k] for k in ("h", "q", "v", "a", "act", "exc", "u", "W", "E"))
+        h, q, v, a, act, exc, u, ft, dft, energy, running = (
+            x[k] for k in ("h", "q", "v", "a", "act", "exc", "u", "ft", "dft", "W", "E"))
+        nc = len(plant.compliant)
         self.p_sizes = (("goal", GOAL_SIZE), ("q_ref", nq * n1))
         self.p = symbol.sym("p", GOAL_SIZE + nq * n1)
         goal, q_ref = self.p[:GOAL_SIZE], cs.reshape(self.p[GOAL_SIZE:], nq, n1)
@@ -235,10 +246,11 @@ class MuscleGaitProblem:
         self.node, self.metabolic = node, metabolic
         # one call per node (not a map): MX differentiates each call through the node's
         # own symbolic SX derivatives, as fast as an SX graph and built in ~1 s
-        calls = [node.call([q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k]],
-                           False, NEVER_INLINE) for k in range(n1)]
-        r, act_dot, grf, points, force, fibre, muscle_tau, metabolic_rate = (
-            cs.horzcat(*(c[i] for c in calls)) for i in range(8))
+        tendon_in = (lambda k: [ft[:, k], dft[:, k]]) if nc else (lambda k: [])
+        calls = [node.call([q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k],
+                            *tendon_in(k)], False, NEVER_INLINE) for k in range(n1)]
+        r, act_dot, grf, points, force, fibre, muscle_tau, metabolic_rate, tendon = (
+            cs.horzcat(*(c[i] for c in calls)) for i in range(9))
         scale = intervals / NOMINAL_DURATION       # 1 / h_0
 
         def defect(y, ydot):
@@ -258,9 +270,13 @@ class MuscleGaitProblem:
         mm = mirror_rows(plant.muscle_names)
         if not symmetric:
             mq, mm = np.arange(nq), np.arange(m)
+        # the compliant tendons' own left <-> right pairs (a symmetric set: see MusclePlant)
+        mc = np.array([plant.compliant.index(int(mm[i])) for i in plant.compliant], int)
         rows = list(range(nq)) if residual_rows is None else list(residual_rows)
         keep = [i for i in range(nq) if i != tx_row]
-        g = [cs.vec(r[rows, :]) / RESIDUAL_SCALE, defect(q, v) * scale,
+        g = [cs.vec(r[rows, :]) / RESIDUAL_SCALE, cs.vec(tendon),
+             defect(ft, dft) * scale / 10.0, (ft[:, -1] - ft[mc, 0]) if nc else cs.DM(0, 1),
+             defect(q, v) * scale,
              defect(v, a) * scale / 10.0, defect(act, act_dot) * scale / 10.0,
              q[keep, -1] - q[mq[keep], 0], v[:, -1] - v[mq, 0],
              (act[:, -1] - act[mm, 0]) if periodic_activations else cs.DM(0, 1),
@@ -270,7 +286,7 @@ class MuscleGaitProblem:
              defect(energy, metabolic_rate) / SCALES["W"],
              defect(running, cs.sum1(exc ** 3) + cs.fabs(u) ** 3) / SCALES["E"]]
         self.ng = sum(e.shape[0] for e in g)
-        self.speed_row = sum(e.shape[0] for e in g[:-2])    # distance - speed * duration
+        self.speed_row = sum(e.shape[0] for e in g[:-3])    # distance - speed * duration
         quad = np.full((n1, 1), 1.0)
         quad[[0, -1]] = 0.5
         # pelvis_tx(0) = 0 (a bound) and E(0) = 0: the distance and the effort integral are
@@ -304,6 +320,7 @@ class MuscleGaitProblem:
         self.term_names = tuple(terms)
         self.outputs = cs.Function("outputs", [self.w, self.p],
                                    [r, grf, points, force, fibre, muscle_tau, *terms.values()])
+        self.tendon_residual = cs.Function("tendon_residual", [self.w], [tendon])
         opts = {"ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
                           **IPOPT_OPTIONS, **(ipopt_options or {})}, "print_time": False}
         self.nlp = {"x": self.w, "p": self.p, "f": objective, "g": cs.vertcat(*g)}
@@ -332,29 +349,57 @@ class MuscleGaitProblem:
                 * path.duration / n
 
         effort = (path.exc ** 3).sum(axis=1) + np.abs(path.u) ** 3
+        ft, dft = self.tendon_guess(path)
+        extra = [ft.T, dft.T] if ft.shape[1] else []
         rates = self.node.map(n + 1)(path.q.T, path.v.T, path.a.T, path.act.T, path.exc.T,
-                                     np.reshape(path.u, (1, -1)))[7]
+                                     np.reshape(path.u, (1, -1)), *extra)[7]
         blocks = {"h": np.full((1, n), path.duration / n), "q": path.q.T, "v": path.v.T,
                   "a": path.a.T, "act": path.act.T, "exc": path.exc.T,
-                  "u": np.reshape(path.u, (1, -1)),
+                  "u": np.reshape(path.u, (1, -1)), "ft": ft.T, "dft": dft.T,
                   "W": integral(np.array(rates).ravel())[None, :],
                   "E": integral(effort)[None, :]}
         return np.concatenate([blocks[name].T.ravel() / SCALES[name]
                                for name, _, _ in self.sizes])
 
+    def tendon_guess(self, path: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+        """(ft, dft) (N+1, c) of a trajectory: its own, or the rigid-tendon forces / F_max.
+
+        Without its own values (a guess from coordinates, a rigid-tendon solution) the
+        compliant tendons start at the force a rigid tendon would carry (clipped to
+        [0, 5]) and its time derivative.
+        """
+        rows = list(self.plant.compliant)
+        n1 = self.n + 1
+        if not rows:
+            return np.zeros((n1, 0)), np.zeros((n1, 0))
+        if path.ft is not None and path.ft.shape == (n1, len(rows)):
+            dft = path.dft if path.dft is not None else np.gradient(path.ft, path.t, axis=0)
+            return path.ft, dft
+        from predgait.problems.muscle_gait_dynamics import rigid_tendon_forces
+
+        forces = np.array(rigid_tendon_forces(self.plant).map(n1)(
+            path.q.T, path.v.T, path.act.T)).T[:, rows]
+        fmax = np.array([self.plant.muscle_set.muscles[i].max_isometric_force for i in rows])
+        ft = np.clip(forces / fmax, 0.0, 5.0)
+        return ft, np.gradient(ft, path.t, axis=0)
+
     def box(self, bounds: Bounds) -> tuple[np.ndarray, np.ndarray]:
         """(lbx, ubx), scaled, with pelvis_tx fixed to 0 at the first node."""
-        n1, m = self.n + 1, self.plant.n_muscles
+        n1, m, c = self.n + 1, self.plant.n_muscles, len(self.plant.compliant)
         low = Trajectory(bounds.duration[0], *(np.tile(b[:, 0], (n1, 1))
                                                for b in (bounds.q, bounds.v, bounds.a)),
                          np.full((n1, m), bounds.activation[0]),
                          np.full((n1, m), bounds.excitation[0]),
-                         np.full(n1, bounds.lumbar[0]))
+                         np.full(n1, bounds.lumbar[0]),
+                         np.full((n1, c), bounds.tendon_force[0]),
+                         np.full((n1, c), bounds.tendon_force_rate[0]))
         high = Trajectory(bounds.duration[1], *(np.tile(b[:, 1], (n1, 1))
                                                 for b in (bounds.q, bounds.v, bounds.a)),
                           np.full((n1, m), bounds.activation[1]),
                           np.full((n1, m), bounds.excitation[1]),
-                          np.full(n1, bounds.lumbar[1]))
+                          np.full(n1, bounds.lumbar[1]),
+                          np.full((n1, c), bounds.tendon_force[1]),
+                          np.full((n1, c), bounds.tendon_force_rate[1]))
         low.q[0, self.tx_row] = high.q[0, self.tx_row] = 0.0
         lbx, ubx = self.pack(low), self.pack(high)
         e = slice(lbx.size - n1, lbx.size)       # the effort integral: 0 at the start
@@ -405,14 +450,18 @@ class MuscleGaitProblem:
         """The gait of a (scaled) decision vector."""
         x = self.unpack(w)
         n1 = self.n + 1
+        c = len(self.plant.compliant)
         path = Trajectory(float(x["h"].sum()), x["q"].T, x["v"].T, x["a"].T, x["act"].T,
-                          x["exc"].T, x["u"].ravel())
+                          x["exc"].T, x["u"].ravel(), x["ft"].T if c else None,
+                          x["dft"].T if c else None)
         r, grf, points, force, fibre, muscle_tau, *terms = self.outputs(w, p)
+        tendon = self.tendon_residual(w)
         k = len(self.plant.spheres)
         return MuscleGait(
             path=path, grf=np.array(grf).T.reshape(n1, k, 3),
             points=np.array(points).T.reshape(n1, k, 3), force=np.array(force).T,
             fibre=np.array(fibre).T, residual=np.array(r).T,
             muscle_tau=np.array(muscle_tau).T,
+            tendon_residual=np.array(tendon).T.reshape(n1, c),
             terms={name: float(t) for name, t in zip(self.term_names, terms, strict=True)},
             objective=solved.objective, solved=solved)

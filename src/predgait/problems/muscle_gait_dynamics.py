@@ -57,6 +57,9 @@ class MusclePlant:
         springs: the model's SpringGeneralizedForce elements
             (:class:`~predgait.dynamics.joint_springs.JointSpring`, e.g. a passive toe).
         coordinates, signs: each model row's OpenSim coordinate and model = sign * OpenSim.
+        compliant: rows of the muscles whose tendons are compliant in the NLP (De Groote
+            et al. 2016's implicit form: the normalized tendon force a state, its rate a
+            control, the fibre-tendon equilibrium a constraint); the others are rigid.
     """
 
     model: object
@@ -73,6 +76,16 @@ class MusclePlant:
     springs: tuple = ()
     coordinates: tuple[str, ...] = ()
     signs: tuple[float, ...] = ()
+    compliant: tuple[int, ...] = ()
+
+    @property
+    def rigid(self) -> tuple[int, ...]:
+        """Rows of the muscles with rigid tendons (the others: :attr:`compliant`)."""
+        return tuple(i for i in range(self.n_muscles) if i not in self.compliant)
+
+    def subset(self, rows) -> object:
+        """The :class:`~predgait.dynamics.muscles.MuscleSet` of some muscles' rows."""
+        return type(self.muscle_set)(tuple(self.muscle_set.muscles[i] for i in rows))
 
     def spring_forces(self, q, v):
         """(nq,) generalised forces of the model's springs (numpy or CasADi column)."""
@@ -97,16 +110,21 @@ def link_point(model, link: str, location) -> cs.Function:
 
 @functools.lru_cache(maxsize=8)
 def node_function(plant: MusclePlant, metabolic: bool = False) -> cs.Function:
-    """``node(q, v, a, act, exc, u) -> (r, act_dot, grf, points, force, fibre, tau_m, met)``.
+    """The dynamics of one node (residual, activation rate, contact and muscle forces).
 
-    Inputs: q, v, a (nq,) model coordinates, rates, accelerations; act, exc (m,)
-    activations and excitations; u (1,) lumbar control. Outputs: r (nq,) the residual
+    ``node(q, v, a, act, exc, u[, ft, dft]) -> (r, act_dot, grf, points, force, fibre,
+    tau_m, met, tendon)``. Inputs: q, v, a (nq,) model coordinates, rates, accelerations;
+    act, exc (m,) activations and excitations; u (1,) lumbar control; with compliant tendons
+    (``plant.compliant``, c muscles) ft (c,) their normalized tendon forces and dft (c,)
+    its rates, 1/s. Outputs: r (nq,) the residual
     (N, N m); act_dot (m,) 1/s; grf (3 n_spheres,) contact forces on the spheres in the lab
     frame (N); points (3 n_spheres,) where they act (m); force (m,) tendon forces (N);
     fibre (m,) normalised fibre velocities; tau_m (nq,) muscle generalised forces (N m);
     met (1,) the muscles' metabolic rate, W (Bhargava 2004 as OpenSim 4.6's smoothed probe,
     :mod:`predgait.dynamics.metabolics`; basal rate not included), or 0 unless
-    ``metabolic`` (its expression costs ~60 % more build and solve time).
+    ``metabolic`` (its expression costs ~60 % more build and solve time); tendon (c,) the
+    compliant muscles' equilibrium residuals f_T - F_fibre cos(alpha) / F_max
+    (:meth:`~predgait.dynamics.muscles.MuscleSet.compliant_tendon`; empty when rigid).
     """
     from predgait.dynamics.metabolics import metabolic_rates
 
@@ -114,15 +132,27 @@ def node_function(plant: MusclePlant, metabolic: bool = False) -> cs.Function:
     sym = symbolic_model(model)
     q, v, a = (cs.SX.sym(n, nq) for n in ("q", "v", "a"))
     act, exc, u = cs.SX.sym("act", m), cs.SX.sym("exc", m), cs.SX.sym("u", 1)
+    nc = len(plant.compliant)
+    ft, dft = cs.SX.sym("ft", nc), cs.SX.sym("dft", nc)
     length = plant.paths.lengths(q)
     arms = -cs.jacobian(length, q)                       # (m, nq), = moment arms
     speed = -(arms @ v)                                  # lengthening speed, m/s
-    state = plant.muscle_set.rigid_tendon(length, speed, act)
-    force, fibre = state.tendon_force, state.norm_fiber_velocity
+    force, fibre = cs.SX.zeros(m, 1), cs.SX.zeros(m, 1)
+    metabolic_rate, tendon = cs.SX.zeros(1, 1), cs.SX.zeros(nc, 1)
+    for rows, compliant in ((plant.rigid, False), (plant.compliant, True)):
+        if not rows:
+            continue
+        muscles, pick = plant.subset(rows), list(rows)
+        state = (muscles.compliant_tendon(length[pick], speed[pick], act[pick], ft, dft)
+                 if compliant else muscles.rigid_tendon(length[pick], speed[pick], act[pick]))
+        force[pick] = state.tendon_force
+        fibre[pick] = state.norm_fiber_velocity
+        if compliant:
+            tendon = state.residual
+        if metabolic:
+            metabolic_rate += cs.sum1(metabolic_rates(muscles, state, exc[pick], act[pick],
+                                                      body_mass=model.total_mass()).muscle)
     act_dot = plant.muscle_set.activation_rate(exc, act)
-    metabolic = cs.sum1(metabolic_rates(plant.muscle_set, state, exc, act,
-                                        body_mass=model.total_mass()).muscle) \
-        if metabolic else cs.SX(1, 1)
     muscle_tau = arms.T @ force
     applied = muscle_tau + (plant.spring_forces(q, v) if plant.springs else 0)
     applied[plant.lumbar_row] += plant.lumbar_optimal_force * u
@@ -143,8 +173,26 @@ def node_function(plant: MusclePlant, metabolic: bool = False) -> cs.Function:
         grf.append(f)
         points.append(point)
     r = sym.mass_matrix(q) @ a + sym.bias_force(q, v) - applied
-    return cs.Function("muscle_gait_node", [q, v, a, act, exc, u],
+    inputs, names = [q, v, a, act, exc, u], ["q", "v", "a", "act", "exc", "u"]
+    if nc:
+        inputs, names = inputs + [ft, dft], names + ["ft", "dft"]
+    return cs.Function("muscle_gait_node", inputs,
                        [r, act_dot, cs.vertcat(*grf), cs.vertcat(*points), force, fibre,
-                        muscle_tau, metabolic], ["q", "v", "a", "act", "exc", "u"],
+                        muscle_tau, metabolic_rate, tendon], names,
                        ["r", "act_dot", "grf", "points", "force", "fibre", "muscle_tau",
-                        "metabolic"])
+                        "metabolic", "tendon"])
+
+
+@functools.lru_cache(maxsize=8)
+def rigid_tendon_forces(plant: MusclePlant) -> cs.Function:
+    """``forces(q, v, act) -> (m,)`` N: every muscle's force with a rigid tendon.
+
+    The initial guess of the compliant tendons' forces (their strain at F_max is 4.9 %, so
+    the rigid-tendon force is near the equilibrium one).
+    """
+    nq, m = plant.model.nq, plant.n_muscles
+    q, v, act = cs.SX.sym("q", nq), cs.SX.sym("v", nq), cs.SX.sym("act", m)
+    length = plant.paths.lengths(q)
+    speed = cs.jacobian(length, q) @ v
+    state = plant.muscle_set.rigid_tendon(length, speed, act)
+    return cs.Function("rigid_tendon_forces", [q, v, act], [state.tendon_force])

@@ -97,6 +97,42 @@ def plant_2d_gait(osim):
     return plant, planar
 
 
+def compliant_rows(names: tuple[str, ...], chosen, where: str = "") -> tuple[int, ...]:
+    """Rows of the muscles whose tendons are compliant, from a problem file's choice.
+
+    Args:
+        names: the model's muscle names (``soleus_r``, ``soleus_l``, ...).
+        chosen: ``"all"``, or muscle names: a name without its side (``"soleus"``) means
+            both sides' muscles; a sided name (``"soleus_r"``) needs its other side too
+            (a half stride with left/right symmetry pairs them).
+        where: the file and key, for messages.
+
+    Raises:
+        InputError: an unknown muscle, or a sided name without its pair.
+    """
+    if isinstance(chosen, str):
+        if chosen != "all":
+            raise InputError(f"{where}: compliant_tendons = {chosen!r}: give \"all\" or a "
+                             "list of muscle names.")
+        return tuple(range(len(names)))
+    rows = set()
+    for name in chosen:
+        hits = [i for i, n in enumerate(names) if n == name or n in (f"{name}_r", f"{name}_l")]
+        if not hits:
+            raise InputError(f"{where}: no muscle named {name!r}; the model's muscles: "
+                             f"{', '.join(names)} (or a name without _r/_l for both sides).")
+        rows.update(hits)
+    from predgait.problems.muscle_gait import mirror_rows
+
+    mirror = mirror_rows(names)
+    alone = sorted(names[i] for i in rows if int(mirror[i]) not in rows)
+    if alone:
+        raise InputError(f"{where}: compliant tendons for {', '.join(alone)} but not the "
+                         "other side's: the symmetric half stride pairs left and right; name "
+                         "the muscle without its side for both.")
+    return tuple(sorted(rows))
+
+
 def coordinate_bounds(planar, ranges: dict[str, tuple[float, float]]) -> np.ndarray:
     """(nq, 2) model-coordinate bounds from OpenSim coordinate ranges (rad, m).
 
@@ -131,9 +167,10 @@ def reference_guess(planar, storage, plant: MusclePlant, intervals: int,
 
     Columns are matched by coordinate name (``/jointset/hip_r/hip_flexion_r/value`` or
     ``hip_flexion_r``); pelvis_tx starts at 0. A coordinate without a column (a joint the
-    reference's model does not have, e.g. a toe joint) stays at its default value. A MocoTrajectory (e.g. Moco's own
-    solution) also gives the activations (``/<muscle>/activation``), excitations
-    (``/<muscle>``) and the lumbar control; it is not low-passed.
+    reference's model does not have, e.g. a toe joint) stays at its default value. A
+    MocoTrajectory (e.g. Moco's own solution) also gives the activations
+    (``/<muscle>/activation``), excitations (``/<muscle>``) and the lumbar control; it is not
+    low-passed.
     """
     from scipy.interpolate import CubicSpline
 

@@ -47,6 +47,7 @@ class MusclePredictSpec:
 
     source: Path | None = None
     osim: Path | None = None               # None: the bundled 2D_gait.osim
+    compliant_tendons: str | tuple[str, ...] = ()   # [model]: "all" or muscle names
     reference: Path | None = None          # None: the bundled referenceCoordinates.sto
     nodes: int = 50
     transcription: Transcription = Transcription.TRAPEZOIDAL
@@ -83,7 +84,7 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     model, guess, grid = table.table("model"), table.table("guess"), table.table("grid")
     goal, bounds, solver = table.table("goal"), table.table("bounds"), table.table("solver")
     compare, check = table.table("compare"), table.table("check")
-    model.check_keys(("osim",))
+    model.check_keys(("osim", "compliant_tendons"))
     guess.check_keys(("reference", "tracking_stage", "tracking_weight", "metabolic_stage"))
     grid.check_keys(("nodes", "transcription"))
     goal.check_keys(("speed", "speed_constraint", "speed_weight", "effort_weight",
@@ -93,11 +94,23 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     compare.check_keys(("moco_solution",))
     check.check_keys(("human_likeness",))
     osim_name = model.get("osim", str, "bundled")
+    compliant = model.data.get("compliant_tendons", ())
+    if not (compliant == "all" or (isinstance(compliant, list | tuple)
+                                    and all(isinstance(n, str) for n in compliant))):
+        raise model.error("compliant_tendons", 'give "all" or a list of muscle names '
+                                               '(e.g. ["soleus", "gastroc", "vasti"]).')
     osim_path = (None if osim_name == "bundled" else bundled_file(BUNDLED_MODELS[osim_name])
                  if osim_name in BUNDLED_MODELS else model.path_value("osim", None))
     reference = guess.path_value("reference", None) \
         if guess.get("reference", str, "bundled") != "bundled" else None
     osim = read_osim(osim_path or bundled_file("2D_gait.osim"))
+    from predgait.errors import InputError
+    from predgait.problems.muscle_gait_setup import compliant_rows
+
+    try:       # the muscles named exist and pair left/right: checked before any solve
+        compliant_rows(tuple(m.name for m in osim.muscles), compliant, "")
+    except InputError as error:
+        raise model.error("compliant_tendons", str(error).removeprefix(": ")) from None
     names = [c.name for c in osim.coordinates]
     ranges = {}
     for key in bounds.data:
@@ -116,6 +129,7 @@ def parse_muscle_predict(table: Table) -> MusclePredictSpec:
     moco = compare.path_value("moco_solution", None)
     return MusclePredictSpec(
         source=table.path, osim=osim_path, reference=reference,
+        compliant_tendons=compliant if isinstance(compliant, str) else tuple(compliant),
         nodes=int(grid.number("nodes", 50, low=4, high=400)),
         transcription=grid.choice("transcription", Transcription,
                                   Transcription.TRAPEZOIDAL.value),
@@ -190,11 +204,19 @@ def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
     from predgait.models.osim import read_osim
     from predgait.problems.muscle_gait import MuscleGaitProblem
     from predgait.problems.muscle_gait_check import node_check
-    from predgait.problems.muscle_gait_setup import bounds_for, plant_2d_gait, reference_guess
+    from predgait.problems.muscle_gait_setup import (
+        bounds_for,
+        compliant_rows,
+        plant_2d_gait,
+        reference_guess,
+    )
     from predgait.problems.muscle_gait_stride import from_right_heel_strike, full_stride
 
     clock = time.perf_counter()
     plant, planar = plant_2d_gait(read_osim(spec.osim or bundled_file("2D_gait.osim")))
+    plant = replace(plant, compliant=compliant_rows(
+        plant.muscle_names, spec.compliant_tendons,
+        f"{source_name(spec.source) if spec.source else 'problem'}: [model]"))
     problem = MuscleGaitProblem(plant, spec.nodes, tx_row=0, max_iter=spec.max_iter,
                                 transcription=spec.transcription,
                                 metabolic=spec.goal.metabolic_weight > 0)

@@ -120,12 +120,10 @@ def scenario_node(plant, planar, scenario, metabolic: bool = False):
     from predgait.problems.muscle_gait_dynamics import node_function
 
     base = node_function(plant, metabolic)
-    nq, m = plant.model.nq, plant.n_muscles
-    q, v, a = (cs.SX.sym(n, nq) for n in ("q", "v", "a"))
-    act, exc, u = cs.SX.sym("act", m), cs.SX.sym("exc", m), cs.SX.sym("u", 1)
-    out = base(q, v, a, act, exc, u)
-    r = out[0] - scenario.passive_forces(planar, q, v)
-    return cs.Function("muscle_scenario_node", [q, v, a, act, exc, u], [r, *out[1:]],
+    inputs = base.sx_in()          # q, v, a, act, exc, u (and ft, dft: compliant tendons)
+    out = base(*inputs)
+    r = out[0] - scenario.passive_forces(planar, inputs[0], inputs[1])
+    return cs.Function("muscle_scenario_node", inputs, [r, *out[1:]],
                        base.name_in(), base.name_out())
 
 

@@ -2,7 +2,8 @@
 
 * ``solution.sto``: the half stride as solved, a MocoTrajectory table (header
   ``num_states``/``num_controls``/..., states then controls), like Moco's
-  ``gaitPrediction_solution.sto``;
+  ``gaitPrediction_solution.sto``; with compliant tendons (``[model] compliant_tendons``)
+  also their states ``/<muscle>/normalized_tendon_force``;
 * ``states.sto``: the full stride from right heel strike: ``/jointset/<joint>/<coord>/value``
   and ``/speed`` (OpenSim values: rad, m, rad/s, m/s) and ``/<muscle>/activation``; with
   ``controls.sto`` (``/<muscle>`` excitations, ``/lumbarAct``) a MocoTrajectory too;
@@ -82,6 +83,9 @@ def write_gait_files(stage: Path, planar, plant, gait, stride, *, status: str,
     """Write the STO files of a solution into ``stage``; returns the file names."""
     p = gait.path
     states = state_columns(planar, plant, p.q, p.v, p.act)
+    if p.ft is not None:           # compliant tendons: their state (Moco's column name)
+        states |= {f"/{plant.muscle_names[row]}/normalized_tendon_force": p.ft[:, i]
+                   for i, row in enumerate(plant.compliant)}
     controls = control_columns(plant, p.exc, p.u)
     header = moco_header(len(states), len(controls), {"status": status})
     names = [f"{prefix}solution.sto", f"{prefix}states.sto", f"{prefix}controls.sto",
