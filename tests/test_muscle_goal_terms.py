@@ -133,3 +133,20 @@ def test_metabolic_stage_solves_the_goal_without_its_metabolic_term_first():
 def test_metabolic_stage_must_be_true_or_false():
     with pytest.raises(InputError, match="metabolic_stage"):
         _spec("guess.metabolic_stage=3")
+
+
+def test_console_lists_only_the_weighted_terms_of_the_objective():
+    """Terms whose weight is 0 (and speed when it is the endpoint constraint) are not in
+    the objective: the console line shows weight x value of the others only."""
+    from predgait.workflows.predict_muscles import weighted_terms
+
+    goal = {"speed_constraint": True, "speed_weight": 5.0, "effort_weight": 10.0,
+            "tracking_weight": 0.0, "acceleration_weight": 0.0, "metabolic_weight": 0.5,
+            "loading_rate_weight": 0.003}
+    terms = {"speed": 0.0, "effort": 0.0125, "tracking": 3.0, "acceleration": 1295.0,
+             "loading_rate": 2.0, "metabolic": 3.1}
+    summary = {"goal": goal, "objective_terms": terms}
+    assert weighted_terms(summary) == [("effort", 10.0, 0.0125), ("loading_rate", 0.003, 2.0),
+                                       ("metabolic", 0.5, 3.1)]
+    goal["speed_constraint"] = False
+    assert weighted_terms(summary)[0] == ("speed", 5.0, 0.0)

@@ -214,6 +214,7 @@ def test_summary_headline_names_the_spread():
                "ipopt": {"status": "Solve_Succeeded", "iterations": 10, "solve_time_s": 1.0},
                "status": "completed", "build_s": 1.0, "total_s": 2.0, "nodes": 16,
                "stages_before": [], "objective": 0.12, "objective_terms": {"effort": 0.012},
+               "goal": {"effort_weight": 10.0},
                "pinocchio_check": {"max_residual": 0.0, "max_acceleration_error": 0.0},
                "moco": {"available": False}, "warnings": [], "multistart": spread}
     line = next(x for x in summary_lines(summary) if "multi-start" in x)

@@ -45,6 +45,26 @@ def run_muscle_predict(spec: MusclePredictSpec, out: Path, *, force: bool = Fals
     return summary
 
 
+#: The goal weight of each objective term (summary "goal"); speed is a cost only when
+#: it is not the endpoint constraint.
+TERM_WEIGHTS = {"speed": "speed_weight", "effort": "effort_weight",
+                "tracking": "tracking_weight", "acceleration": "acceleration_weight",
+                "metabolic": "metabolic_weight", "loading_rate": "loading_rate_weight"}
+
+
+def weighted_terms(summary: dict) -> list[tuple[str, float, float]]:
+    """(term, weight, unweighted value) of the terms in the objective (weight > 0)."""
+    goal = summary["goal"]
+    out = []
+    for name, value in summary["objective_terms"].items():
+        weight = goal.get(TERM_WEIGHTS[name], 0.0)
+        if name == "speed" and goal.get("speed_constraint"):
+            weight = 0.0
+        if weight > 0:
+            out.append((name, weight, value))
+    return out
+
+
 def summary_lines(summary: dict) -> list[str]:
     """Console lines (the headline) of a prediction summary."""
     from predgait.analysis.plausibility import warning_lines
@@ -65,8 +85,8 @@ def summary_lines(summary: dict) -> list[str]:
              f"{vg['loading_peak_bw']:.2f}, trough {vg['valley_bw']:.2f}, push-off "
              f"{vg['push_off_peak_bw']:.2f}; slip right {1000 * right['slip_m']:.1f} mm, "
              f"left {1000 * g['left']['slip_m']:.1f} mm per stride",
-             "  objective " + f"{summary['objective']:.5g}: " + ", ".join(
-                 f"{k} {v:.4g}" for k, v in summary["objective_terms"].items()),
+             "  objective " + f"{summary['objective']:.5g} = " + " + ".join(
+                 f"{k} {w:.4g} x {v:.4g}" for k, w, v in weighted_terms(summary)),
              f"  Pinocchio at every node: residual {summary['pinocchio_check']['max_residual']:.2g}"
              f" N (N m), ABA - a {summary['pinocchio_check']['max_acceleration_error']:.2g}"]
     moco = summary["moco"]
