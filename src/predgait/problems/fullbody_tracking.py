@@ -370,7 +370,9 @@ def solve_tracking(model: Model3D, data: TrackingData,
                          "tol": tol, "constr_viol_tol": 1e-9,
                          # monotone barrier from 0.1: the same optima, subject01's cycle
                          # in 89 iterations (adaptive: 247, a first step raising mu to
-                         # ~2000 then crawling), walking5 in 90 (adaptive: 85)
+                         # ~2000 then crawling), walking5 in 90 (adaptive: 85), but its
+                         # 17-node stance in 87 (adaptive: 53; adaptive with mu_max 1:
+                         # cycle 111, stance 55, walking5 not measured)
                          "mu_strategy": "monotone", "mu_init": 0.1,
                          # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
                          # 20 -> 11 s CPU
