@@ -145,3 +145,25 @@ def assert_leg_knee_starts_on_measured(tmp_path):
         assert np.ptp(knee) > 3.0
 
     return check
+
+
+@pytest.fixture
+def count_leg_calibrations():
+    """Patch the leg's static calibration to record the side of every call and empty the
+    batch workers' kept calibrations: returns a function of ``monkeypatch`` giving that list."""
+
+    def patch(monkeypatch) -> list[str]:
+        from predgait.dynamics import leg_static
+        from predgait.workflows import batch_warm
+
+        calls, real = [], leg_static.leg_static
+
+        def counted(options, turn):
+            calls.append(str(options.side))
+            return real(options, turn)
+
+        monkeypatch.setattr(leg_static, "leg_static", counted)
+        monkeypatch.setattr(batch_warm, "_kept", type(batch_warm._kept)())
+        return calls
+
+    return patch

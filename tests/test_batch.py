@@ -387,7 +387,8 @@ def test_fullbody_calibration_once_per_subject_per_worker(tmp_path, monkeypatch)
                          static=kept[1], calibration=kept[2])
 
 
-def test_leg_static_calibration_once_per_subject_side_per_worker(tmp_path, monkeypatch):
+def test_leg_static_calibration_once_per_subject_side_per_worker(tmp_path, monkeypatch,
+                                                                count_leg_calibrations):
     """Two walks of subject01, both legs, in one worker: one static calibration per side;
     the second walk's files equal 'predgait inverse' of it (each side), and the kept
     calibration is refused for other options."""
@@ -411,15 +412,7 @@ def test_leg_static_calibration_once_per_subject_side_per_worker(tmp_path, monke
         '"bundled:subject01_walk1/subject01_walk1.trc"', '["walks/a.trc", "walks/b.trc"]')
     dataset = tmp_path / "legs.toml"
     dataset.write_text(text)
-    calls = []
-    real = leg_static.leg_static
-
-    def counted(options, turn):
-        calls.append(str(options.side))
-        return real(options, turn)
-
-    monkeypatch.setattr(leg_static, "leg_static", counted)
-    monkeypatch.setattr(batch_warm, "_kept", type(batch_warm._kept)())
+    calls = count_leg_calibrations(monkeypatch)
     out = tmp_path / "out"
     assert main(["batch", str(dataset), "--out", str(out), "--workers", "1",
                  "--no-plots"]) == 0

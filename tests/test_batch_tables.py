@@ -133,10 +133,10 @@ def test_the_first_trials_alone_are_those_of_the_whole_file(tmp_path):
     assert read_dataset(path, first=9).trials == whole.trials
 
 
-def test_the_forkserver_preload_warms_the_first_trials_calibrations(tmp_path, monkeypatch):
+def test_the_forkserver_preload_warms_the_first_trials_calibrations(tmp_path, monkeypatch,
+                                                                   count_leg_calibrations):
     """The preload computes subject01's leg calibration for the first trial; the trial's
     own call then finds it kept (no second calibration) and it is the same."""
-    from predgait.dynamics import leg_static
     from predgait.dynamics.leg_measurements import read_trial
     from predgait.workflows import batch_preload, batch_warm
 
@@ -145,15 +145,7 @@ def test_the_forkserver_preload_warms_the_first_trials_calibrations(tmp_path, mo
         '"markers_fullbody', f'"{REPO}/problems/markers_fullbody')
     dataset = tmp_path / "d.toml"
     dataset.write_text(text)
-    calls = []
-    real = leg_static.leg_static
-
-    def counted(options, turn):
-        calls.append(str(options.side))
-        return real(options, turn)
-
-    monkeypatch.setattr(leg_static, "leg_static", counted)
-    monkeypatch.setattr(batch_warm, "_kept", type(batch_warm._kept)())
+    calls = count_leg_calibrations(monkeypatch)
     monkeypatch.setenv(batch_preload.ENV, json.dumps({"dataset": str(dataset), "first": 1,
                                                       "trials": None}))
     batch_preload._warm_from_environment()

@@ -179,10 +179,11 @@ def initial_pose(model: Model3D, frame_ids, targets: np.ndarray) -> np.ndarray:
     return q
 
 
-#: omega x p = K(p) omega with K(p) = -[p]x, row-major: which coordinate of p (and its sign)
-#: each of K's nine entries is.
-_CROSS = np.array([0, 2, 1, 2, 0, 0, 1, 0, 0])
-_CROSS_SIGN = np.array([0.0, 1.0, -1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0])
+def _minus_cross_matrices(points: np.ndarray) -> np.ndarray:
+    """(3m, 3) K(p_i) = -[p_i]x stacked for the (m, 3) points: omega x p = K(p) omega."""
+    x, y, z = points.T
+    zero = np.zeros_like(x)
+    return np.stack([zero, z, -y, -z, zero, x, y, -x, zero], axis=1).reshape(-1, 3)
 
 
 class _Fitter:
@@ -241,7 +242,7 @@ class _Fitter:
         Unweighted and on every column (:attr:`scale` keeps the supporting ones).
         """
         world = self.data.J
-        cross = (points[:, _CROSS] * _CROSS_SIGN).reshape(-1, 3)   # K(p_i) stacked (3m, 3)
+        cross = _minus_cross_matrices(points)
         jac = (cross @ world[3:]).reshape(points.shape[0], 3, -1)
         jac += world[:3]
         return jac.reshape(-1, self.pm.nv)
