@@ -372,7 +372,8 @@ def solve_tracking(model: Model3D, data: TrackingData,
                          # in 89 iterations (adaptive: 247, a first step raising mu to
                          # ~2000 then crawling), walking5 in 90 (adaptive: 85), but its
                          # 17-node stance in 87 (adaptive: 53; adaptive with mu_max 1:
-                         # cycle 111, stance 55, walking5 not measured)
+                         # cycle 111, stance 55, walking5 95 to another optimum,
+                         # objective 694.43 vs 702.32: not adopted)
                          "mu_strategy": "monotone", "mu_init": 0.1,
                          # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
                          # 20 -> 11 s CPU
