@@ -151,7 +151,8 @@ def test_toes_prediction_holds_the_springs(toes_prediction):
     assert "loading_rate" in pred.gait.terms and pred.gait.terms["loading_rate"] > 0
     bare = node_check(replace(pred.plant, springs=()), pred.gait)
     path = pred.gait.path
-    springs = np.array([pred.plant.spring_forces(q, v) for q, v in zip(path.q, path.v)])
+    springs = np.array([pred.plant.spring_forces(q, v)
+                        for q, v in zip(path.q, path.v, strict=True)])
     assert np.abs(springs).max() > 0.5                       # the toes bend under load
     np.testing.assert_allclose(bare["residual"] - pred.check["residual"], springs,
                                atol=1e-9)

@@ -73,7 +73,7 @@ def _spheres(text: str) -> str:
     for side, z in (("r", 1.0), ("l", -1.0)):
         text, n = re.subn(
             rf'(<ContactSphere name="front_{side}">.*?<location>)[^<]*(</location>)',
-            lambda m: f"{m.group(1)}{BALL_X!r} {FRONT_Y!r} {z * 0.0052179212636552993!r}"
+            lambda m, z=z: f"{m.group(1)}{BALL_X!r} {FRONT_Y!r} {z * 0.0052179212636552993!r}"
                       f"{m.group(2)}", text, flags=re.S)
         assert n == 1, side
         start = text.index(f'<ContactSphere name="front_{side}">')
