@@ -195,10 +195,13 @@ def stages_before(spec: MusclePredictSpec) -> list[tuple[str, object, str]]:
     return before
 
 
-def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
+def solve_prediction(spec: MusclePredictSpec, model_built=None) -> MusclePrediction:
     """Build, solve (tracking stage, then prediction), check; failures are returned too.
 
-    ``gait.solved.success`` says whether the final solve converged.
+    ``gait.solved.success`` says whether the final solve converged. ``model_built(plant,
+    planar)``, if given, is called once the model is built (path fits included), before
+    the NLP is: a muscle scenario starts building its edited problem there (its time in
+    this call counts in ``build_s``).
     """
     from predgait.data.storage import read_storage
     from predgait.models.osim import read_osim
@@ -217,6 +220,8 @@ def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
     plant = replace(plant, compliant=compliant_rows(
         plant.muscle_names, spec.compliant_tendons,
         f"{source_name(spec.source) if spec.source else 'problem'}: [model]"))
+    if model_built is not None:
+        model_built(plant, planar)
     problem = MuscleGaitProblem(plant, spec.nodes, tx_row=0, max_iter=spec.max_iter,
                                 transcription=spec.transcription,
                                 metabolic=spec.goal.metabolic_weight > 0)

@@ -21,10 +21,19 @@ cached per process), then the edited model's problem is built on the same grid a
 
 and solved from the baseline solution (mirrored into a whole stride when needed) with a
 warm-started Ipopt. Pinocchio re-evaluates the edited gait at every node, springs included.
+
+The edited problem does not depend on the baseline's solution, only on its model: it is
+built on a second thread (:func:`edited_problem`) while the baseline's problem is built
+and solved (CasADi 3.8's wheels are built with thread-safe symbolics and release the GIL).
+Building it (the exact Hessian of the Lagrangian, ~15 s of the ~20 s) is then off the
+critical path on a machine with a free core; the edited NLP and its numbers are those of a
+build on the main thread. The edited ``build_s`` is the wait for it after the baseline.
 """
 
 from __future__ import annotations
 
+import contextvars
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -63,6 +72,27 @@ class MuscleScenarioResult:
     scenario: object          # MuscleScenario
     baseline: object          # MusclePrediction of the unedited model
     edited: object            # MusclePrediction of the edited model (plant, planar edited)
+    edited_build_s: float = 0.0   # s, the edited problem's own build (second thread)
+
+
+@dataclass(frozen=True, eq=False)
+class EditedProblem:
+    """The edited model's NLP, ready to solve (:func:`edited_problem`).
+
+    Attributes:
+        scenario: The :class:`~predgait.scenarios.muscle_edits.MuscleScenario`.
+        plant: The edited MusclePlant; planar: its OsimPlanarModel.
+        problem: Its :class:`~predgait.problems.muscle_gait.MuscleGaitProblem`.
+        whole: Solved as a whole stride (a one-sided edit).
+        seconds: Wall time of the build, s.
+    """
+
+    scenario: object
+    plant: object
+    planar: object
+    problem: object
+    whole: bool
+    seconds: float
 
 
 def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
@@ -100,8 +130,13 @@ def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
     return MuscleScenarioRun(spec, base, theirs)
 
 
-def baseline_prediction(run: MuscleScenarioRun):
-    """The baseline MusclePrediction (solved once per process and problem)."""
+def baseline_prediction(run: MuscleScenarioRun, model_built=None):
+    """The baseline MusclePrediction (solved once per process and problem).
+
+    ``model_built(plant, planar)`` is called with the baseline's model before its NLP is
+    built (:func:`~predgait.problems.muscle_prediction.solve_prediction`), or at once when
+    the baseline is already solved.
+    """
     from predgait.problems.muscle_prediction import solve_prediction
 
     key = (str(run.baseline.source), run.overrides, repr(run.baseline))
@@ -109,7 +144,9 @@ def baseline_prediction(run: MuscleScenarioRun):
         from predgait.problems.ipopt_progress import stage
 
         stage("part 1/2: the unedited model's gait (baseline)")
-        _BASELINES[key] = solve_prediction(run.baseline)
+        _BASELINES[key] = solve_prediction(run.baseline, model_built)
+    elif model_built is not None:
+        model_built(_BASELINES[key].plant, _BASELINES[key].planar)
     return _BASELINES[key]
 
 
@@ -205,34 +242,26 @@ def edited_stride(plant, gait, check, *, whole: bool):
     return from_right_heel_strike(stride, plant)
 
 
-def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
-    """Baseline, then the edited prediction from it; SolveFailed if the baseline fails.
+def edited_model(run: MuscleScenarioRun, plant, planar):
+    """(MuscleScenario, edited plant) of the baseline's model; input errors raised here."""
+    from predgait.scenarios.muscle_edits import muscle_scenario
 
-    An edited solve that does not converge is returned (``edited.gait.solved.success``
-    false): the caller writes its best point as partial and exits 3.
-    """
+    scenario = muscle_scenario(run.spec.edits, planar, plant.muscle_set)
+    unknown = [n for n in scenario.coordinate_bounds
+               if n not in scenario.built.osim_coordinates]
+    if unknown:
+        raise InputError(f"{run.spec.source}: coordinates {unknown} are not in the model.")
+    return scenario, scenario.edited_plant(plant)
+
+
+def edited_problem(run: MuscleScenarioRun, scenario, plant) -> EditedProblem:
+    """The edited model's NLP on the baseline's grid and goal (module docstring)."""
     import time
 
     from predgait.problems.muscle_gait import MuscleGaitProblem
-    from predgait.problems.muscle_prediction import MusclePrediction
-    from predgait.scenarios.muscle_edits import muscle_scenario
 
-    base = baseline_prediction(run)
-    s = base.gait.solved
-    if not s.success:
-        raise SolveFailed(f"Ipopt (baseline {Path(str(run.baseline.source)).name}): "
-                          f"{s.status} after {s.iterations} iterations; no scenario is "
-                          "solved without a baseline gait", best=base.gait)
-    from predgait.problems.ipopt_progress import stage
-
-    stage("part 2/2: the edited model's gait")
     clock = time.perf_counter()
-    scenario = muscle_scenario(run.spec.edits, base.planar, base.plant.muscle_set)
-    plant = scenario.edited_plant(base.plant)
     planar = scenario.built
-    unknown = [n for n in scenario.coordinate_bounds if n not in planar.osim_coordinates]
-    if unknown:
-        raise InputError(f"{run.spec.source}: coordinates {unknown} are not in the model.")
     whole = not scenario.symmetric
     fused = {planar.osim_coordinates.index(n) for n in scenario.fused}
     spec = run.baseline
@@ -243,11 +272,51 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
         node=scenario_node(plant, planar, scenario, metabolic),
         residual_rows=[i for i in range(plant.model.nq) if i not in fused],
         symmetric=not whole, ipopt_options=WARM_START)
-    bounds = scenario_bounds(plant, planar, spec, scenario, whole=whole)
-    guess = whole_stride_guess(base.plant, base.gait.path) if whole else base.gait.path
+    return EditedProblem(scenario, plant, planar, problem, whole,
+                         time.perf_counter() - clock)
+
+
+def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
+    """Baseline, then the edited prediction from it; SolveFailed if the baseline fails.
+
+    The edited problem is built on a second thread while the baseline builds and solves
+    (module docstring). An edited solve that does not converge is returned
+    (``edited.gait.solved.success`` false): the caller writes its best point as partial
+    and exits 3.
+    """
+    import time
+
+    from predgait.models.symbolic import symbolic_model
+    from predgait.problems.ipopt_progress import stage
+    from predgait.problems.muscle_prediction import MusclePrediction
+
+    building = []
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        def model_built(plant, planar):
+            scenario, edited_plant = edited_model(run, plant, planar)
+            symbolic_model(plant.model)      # built once, before two threads use it
+            # the copied context carries the progress reporting (ipopt_progress)
+            building.append(pool.submit(contextvars.copy_context().run, edited_problem,
+                                        run, scenario, edited_plant))
+
+        base = baseline_prediction(run, model_built)
+        s = base.gait.solved
+        if not s.success:
+            raise SolveFailed(f"Ipopt (baseline {Path(str(run.baseline.source)).name}): "
+                              f"{s.status} after {s.iterations} iterations; no scenario is "
+                              "solved without a baseline gait", best=base.gait)
+        stage("part 2/2: the edited model's gait")
+        clock = time.perf_counter()
+        built = building[0].result()
+    stage(f"edited model: its problem was built in {built.seconds:.1f} s on a second thread "
+          f"(waited {time.perf_counter() - clock:.1f} s for it after the baseline)")
+    scenario, plant, planar, spec = built.scenario, built.plant, built.planar, run.baseline
+    bounds = scenario_bounds(plant, planar, spec, scenario, whole=built.whole)
+    guess = (whole_stride_guess(base.plant, base.gait.path) if built.whole
+             else base.gait.path)
     build_s = time.perf_counter() - clock
-    gait = problem.solve(guess, bounds, spec.goal, label="edited model")
+    gait = built.problem.solve(guess, bounds, spec.goal, label="edited model")
     check = scenario_check(plant, planar, scenario, gait)
-    stride = edited_stride(plant, gait, check, whole=whole)
+    stride = edited_stride(plant, gait, check, whole=built.whole)
     edited = MusclePrediction(plant, planar, gait, (), check, stride, build_s)
-    return MuscleScenarioResult(run, scenario, base, edited)
+    return MuscleScenarioResult(run, scenario, base, edited, built.seconds)
