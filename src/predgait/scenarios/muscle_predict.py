@@ -19,8 +19,11 @@ cached per process), then the edited model's problem is built on the same grid a
   (:attr:`MuscleScenario.symmetric` false), the half stride with left/right symmetry
   otherwise;
 
-and solved from the baseline solution (mirrored into a whole stride when needed) with a
-warm-started Ipopt. Pinocchio re-evaluates the edited gait at every node, springs included.
+and solved from the baseline solution (mirrored into a whole stride when needed), with the
+baseline's Ipopt options (``mu_init`` would not matter: with ``mu_strategy = "adaptive"``
+Ipopt does not use it; a weakness re-solve with and without ``mu_init = 1e-3`` gave the same
+iteration count and objective to the last bit). Pinocchio re-evaluates the edited gait at
+every node, springs included.
 
 The edited problem does not depend on the baseline's solution, only on its model: it is
 built on a second thread (:func:`edited_problem`) while the baseline's problem is built
@@ -42,9 +45,6 @@ import numpy as np
 from predgait.errors import InputError, SolveFailed
 from predgait.problemfile import load_problem
 
-#: Ipopt options of a solve started from the baseline optimum: a small initial barrier
-#: keeps Ipopt near the start (the default mu 0.1 pushes it back to the middle of the box).
-WARM_START = {"mu_init": 1e-3}
 #: Baseline predictions solved in this process, by (problem file, overrides, spec).
 _BASELINES: dict = {}
 
@@ -271,7 +271,7 @@ def edited_problem(run: MuscleScenarioRun, scenario, plant) -> EditedProblem:
         transcription=spec.transcription, metabolic=metabolic,
         node=scenario_node(plant, planar, scenario, metabolic),
         residual_rows=[i for i in range(plant.model.nq) if i not in fused],
-        symmetric=not whole, ipopt_options=WARM_START)
+        symmetric=not whole)
     return EditedProblem(scenario, plant, planar, problem, whole,
                          time.perf_counter() - clock)
 
