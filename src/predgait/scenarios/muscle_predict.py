@@ -84,7 +84,7 @@ class EditedProblem:
         plant: The edited MusclePlant; planar: its OsimPlanarModel.
         problem: Its :class:`~predgait.problems.muscle_gait.MuscleGaitProblem`.
         whole: Solved as a whole stride (a one-sided edit).
-        seconds: Wall time of the build, s.
+        seconds: Wall time of the build, s; cpu_seconds: its thread's CPU time, s.
     """
 
     scenario: object
@@ -93,6 +93,7 @@ class EditedProblem:
     problem: object
     whole: bool
     seconds: float
+    cpu_seconds: float
 
 
 def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
@@ -260,7 +261,7 @@ def edited_problem(run: MuscleScenarioRun, scenario, plant) -> EditedProblem:
 
     from predgait.problems.muscle_gait import MuscleGaitProblem
 
-    clock = time.perf_counter()
+    clock, cpu = time.perf_counter(), time.thread_time()
     planar = scenario.built
     whole = not scenario.symmetric
     fused = {planar.osim_coordinates.index(n) for n in scenario.fused}
@@ -273,7 +274,7 @@ def edited_problem(run: MuscleScenarioRun, scenario, plant) -> EditedProblem:
         residual_rows=[i for i in range(plant.model.nq) if i not in fused],
         symmetric=not whole)
     return EditedProblem(scenario, plant, planar, problem, whole,
-                         time.perf_counter() - clock)
+                         time.perf_counter() - clock, time.thread_time() - cpu)
 
 
 def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
@@ -308,8 +309,9 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
         stage("part 2/2: the edited model's gait")
         clock = time.perf_counter()
         built = building[0].result()
-    stage(f"edited model: its problem was built in {built.seconds:.1f} s on a second thread "
-          f"(waited {time.perf_counter() - clock:.1f} s for it after the baseline)")
+    stage(f"edited model: its problem was built in {built.seconds:.1f} s ({built.cpu_seconds:.1f}"
+          f" s CPU) on a second thread; waited {time.perf_counter() - clock:.1f} s for it "
+          "after the baseline")
     scenario, plant, planar, spec = built.scenario, built.plant, built.planar, run.baseline
     bounds = scenario_bounds(plant, planar, spec, scenario, whole=built.whole)
     guess = (whole_stride_guess(base.plant, base.gait.path) if built.whole
