@@ -195,13 +195,12 @@ def stages_before(spec: MusclePredictSpec) -> list[tuple[str, object, str]]:
     return before
 
 
-def solve_prediction(spec: MusclePredictSpec, model_built=None) -> MusclePrediction:
+def solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePrediction:
     """Build, solve (tracking stage, then prediction), check; failures are returned too.
 
-    ``gait.solved.success`` says whether the final solve converged. ``model_built(plant,
-    planar)``, if given, is called once the model is built (path fits included), before
-    the NLP is: a muscle scenario starts building its edited problem there (its time in
-    this call counts in ``build_s``).
+    ``gait.solved.success`` says whether the final solve converged. ``before_solving(plant,
+    planar)``, if given, is called once the problem is built, before its first solve (a
+    muscle scenario starts building its edited problem there, on a second thread).
     """
     from predgait.data.storage import read_storage
     from predgait.models.osim import read_osim
@@ -220,8 +219,6 @@ def solve_prediction(spec: MusclePredictSpec, model_built=None) -> MusclePredict
     plant = replace(plant, compliant=compliant_rows(
         plant.muscle_names, spec.compliant_tendons,
         f"{source_name(spec.source) if spec.source else 'problem'}: [model]"))
-    if model_built is not None:
-        model_built(plant, planar)
     problem = MuscleGaitProblem(plant, spec.nodes, tx_row=0, max_iter=spec.max_iter,
                                 transcription=spec.transcription,
                                 metabolic=spec.goal.metabolic_weight > 0)
@@ -229,6 +226,8 @@ def solve_prediction(spec: MusclePredictSpec, model_built=None) -> MusclePredict
     guess, reference = reference_guess(planar, storage, plant, problem.n)
     bounds = bounds_for(plant, planar, coordinate_ranges(spec), spec.duration)
     build_s = time.perf_counter() - clock
+    if before_solving is not None:
+        before_solving(plant, planar)
     stages = []
     start = guess
     before = stages_before(spec)

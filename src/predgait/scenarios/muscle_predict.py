@@ -26,11 +26,12 @@ iteration count and objective to the last bit). Pinocchio re-evaluates the edite
 every node, springs included.
 
 The edited problem does not depend on the baseline's solution, only on its model: it is
-built on a second thread (:func:`edited_problem`) while the baseline's problem is built
-and solved (CasADi 3.8's wheels are built with thread-safe symbolics and release the GIL).
-Building it (the exact Hessian of the Lagrangian, ~15 s of the ~20 s) is then off the
-critical path on a machine with a free core; the edited NLP and its numbers are those of a
-build on the main thread. The edited ``build_s`` is the wait for it after the baseline.
+built on a second thread (:func:`edited_problem`) while the baseline is solved (CasADi
+3.8's wheels are built with thread-safe symbolics and release the GIL while they compute).
+Building it (~21 s CPU: the exact Hessian of the Lagrangian ~14 s, the constraint Jacobian
+~4 s) then overlaps the baseline's solve (~17 s) on a machine with a free core; on a busy
+one it only competes with it. The edited NLP and its numbers are those of a build on the
+main thread. The edited ``build_s`` is the wait for it after the baseline.
 """
 
 from __future__ import annotations
@@ -131,12 +132,12 @@ def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
     return MuscleScenarioRun(spec, base, theirs)
 
 
-def baseline_prediction(run: MuscleScenarioRun, model_built=None):
+def baseline_prediction(run: MuscleScenarioRun, before_solving=None):
     """The baseline MusclePrediction (solved once per process and problem).
 
-    ``model_built(plant, planar)`` is called with the baseline's model before its NLP is
-    built (:func:`~predgait.problems.muscle_prediction.solve_prediction`), or at once when
-    the baseline is already solved.
+    ``before_solving(plant, planar)`` is called with the baseline's model before it is
+    solved (:func:`~predgait.problems.muscle_prediction.solve_prediction`), or at once
+    when it is already solved.
     """
     from predgait.problems.muscle_prediction import solve_prediction
 
@@ -145,9 +146,9 @@ def baseline_prediction(run: MuscleScenarioRun, model_built=None):
         from predgait.problems.ipopt_progress import stage
 
         stage("part 1/2: the unedited model's gait (baseline)")
-        _BASELINES[key] = solve_prediction(run.baseline, model_built)
-    elif model_built is not None:
-        model_built(_BASELINES[key].plant, _BASELINES[key].planar)
+        _BASELINES[key] = solve_prediction(run.baseline, before_solving)
+    elif before_solving is not None:
+        before_solving(_BASELINES[key].plant, _BASELINES[key].planar)
     return _BASELINES[key]
 
 
@@ -280,27 +281,26 @@ def edited_problem(run: MuscleScenarioRun, scenario, plant) -> EditedProblem:
 def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
     """Baseline, then the edited prediction from it; SolveFailed if the baseline fails.
 
-    The edited problem is built on a second thread while the baseline builds and solves
-    (module docstring). An edited solve that does not converge is returned
+    The edited model is checked once the baseline's problem is built (input errors before
+    any solve) and its problem built on a second thread while the baseline solves (module
+    docstring). An edited solve that does not converge is returned
     (``edited.gait.solved.success`` false): the caller writes its best point as partial
     and exits 3.
     """
     import time
 
-    from predgait.models.symbolic import symbolic_model
     from predgait.problems.ipopt_progress import stage
     from predgait.problems.muscle_prediction import MusclePrediction
 
     building = []
     with ThreadPoolExecutor(max_workers=1) as pool:
-        def model_built(plant, planar):
+        def before_solving(plant, planar):
             scenario, edited_plant = edited_model(run, plant, planar)
-            symbolic_model(plant.model)      # built once, before two threads use it
             # the copied context carries the progress reporting (ipopt_progress)
             building.append(pool.submit(contextvars.copy_context().run, edited_problem,
                                         run, scenario, edited_plant))
 
-        base = baseline_prediction(run, model_built)
+        base = baseline_prediction(run, before_solving)
         s = base.gait.solved
         if not s.success:
             raise SolveFailed(f"Ipopt (baseline {Path(str(run.baseline.source)).name}): "
