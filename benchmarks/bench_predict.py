@@ -258,8 +258,10 @@ def bench_muscles(repeat: int, peer_repeat: int, peer_minutes: float,
         print(f"  scenario {scenario}, cold `predgait scenario` {wall:.1f} s wall ({cpu:.1f} s "
               f"CPU): baseline {b['iterations']} iterations {b['solve_time_s']:.1f} s, edited "
               f"re-solve from the baseline {e['status']} {e['iterations']} iterations "
-              f"{e['solve_time_s']:.1f} s (build {summary['edited']['build_s']:.1f} s); "
-              f"{load_text()}")
+              f"{e['solve_time_s']:.1f} s; its problem built in "
+              f"{summary['edited_problem_build_s']:.1f} s on a second thread while the "
+              f"baseline built and solved, waited {summary['edited']['build_s']:.1f} s for "
+              f"after it; {load_text()}")
     _, _, phys = solve_muscles("predict_2d_muscles_physiological.toml")
     print(f"  physiological bounds: {phys['status']}, objective {phys['objective']:.5g}; "
           f"{len(phys['warnings'])} of {len(phys['human_likeness'])} checks fail: "

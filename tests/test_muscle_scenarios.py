@@ -13,6 +13,7 @@ import json
 import re
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -210,3 +211,44 @@ def test_fused_knee_stays_at_its_angle():
     assert e.check["max_residual"] < 0.05                     # every other row is dynamics
     assert e.check["fused_reaction_peak_n_m"]["knee_angle_r"] > 5.0   # N m, the weld's
     assert -p.q[:, left].min() > np.radians(30.0)             # the sound knee swings
+
+
+def test_edited_problem_built_on_the_second_thread_solves_as_on_the_main_one(weakness):
+    """The edited NLP built on the second thread while the baseline solved (the fixture's
+    run) gives, bit for bit, the optimum of one built on the main thread afterwards."""
+    from predgait.scenarios.muscle_predict import edited_model, edited_problem, scenario_bounds
+
+    assert weakness.edited_build_s > 0.0
+    base, run = weakness.baseline, weakness.run
+    scenario, plant = edited_model(run, base.plant, base.planar)
+    built = edited_problem(run, scenario, plant)
+    bounds = scenario_bounds(plant, built.planar, run.baseline, scenario, whole=False)
+    gait = built.problem.solve(base.gait.path, bounds, run.baseline.goal)
+    threaded = weakness.edited.gait.solved
+    assert gait.solved.iterations == threaded.iterations
+    assert gait.solved.objective == threaded.objective
+    np.testing.assert_array_equal(gait.solved.w, threaded.w)
+
+
+def test_edited_model_errors_come_before_any_solve(monkeypatch):
+    """A bad edited model (here a coordinate bound the model lacks) stops the run before
+    the baseline is solved: one InputError naming the scenario file."""
+    from predgait.errors import InputError
+    from predgait.problems.muscle_gait import MuscleGaitProblem
+    from predgait.scenarios import muscle_edits, muscle_predict
+
+    run = load_muscle_scenario(REPO / "problems" / "scenario_muscle_afo_2d.toml", SET)
+    real = muscle_edits.muscle_scenario
+
+    def with_unknown_bound(*args, **kw):
+        sc = real(*args, **kw)
+        return replace(sc, coordinate_bounds={"subtalar_angle_r": (0.0, 0.1)})
+
+    def no_solve(*args, **kw):
+        raise AssertionError("solved before the edited model was checked")
+
+    monkeypatch.setattr(muscle_edits, "muscle_scenario", with_unknown_bound)
+    monkeypatch.setattr(MuscleGaitProblem, "solve", no_solve)
+    monkeypatch.setattr(muscle_predict, "_BASELINES", {})
+    with pytest.raises(InputError, match="scenario_muscle_afo_2d.toml.*subtalar_angle_r"):
+        solve_muscle_scenario(run)

@@ -195,10 +195,12 @@ def stages_before(spec: MusclePredictSpec) -> list[tuple[str, object, str]]:
     return before
 
 
-def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
+def solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePrediction:
     """Build, solve (tracking stage, then prediction), check; failures are returned too.
 
-    ``gait.solved.success`` says whether the final solve converged.
+    ``gait.solved.success`` says whether the final solve converged. ``before_solving(plant,
+    planar)``, if given, is called once the problem is built, before its first solve (a
+    muscle scenario starts building its edited problem there, on a second thread).
     """
     from predgait.data.storage import read_storage
     from predgait.models.osim import read_osim
@@ -224,6 +226,8 @@ def solve_prediction(spec: MusclePredictSpec) -> MusclePrediction:
     guess, reference = reference_guess(planar, storage, plant, problem.n)
     bounds = bounds_for(plant, planar, coordinate_ranges(spec), spec.duration)
     build_s = time.perf_counter() - clock
+    if before_solving is not None:
+        before_solving(plant, planar)
     stages = []
     start = guess
     before = stages_before(spec)

@@ -19,12 +19,25 @@ cached per process), then the edited model's problem is built on the same grid a
   (:attr:`MuscleScenario.symmetric` false), the half stride with left/right symmetry
   otherwise;
 
-and solved from the baseline solution (mirrored into a whole stride when needed) with a
-warm-started Ipopt. Pinocchio re-evaluates the edited gait at every node, springs included.
+and solved from the baseline solution (mirrored into a whole stride when needed), with the
+baseline's Ipopt options (``mu_init`` would not matter: with ``mu_strategy = "adaptive"``
+Ipopt does not use it; a weakness re-solve with and without ``mu_init = 1e-3`` gave the same
+iteration count and objective to the last bit). Pinocchio re-evaluates the edited gait at
+every node, springs included.
+
+The edited problem does not depend on the baseline's solution, only on its model: it is
+built on a second thread (:func:`edited_problem`) while the baseline is solved (CasADi
+3.8's wheels are built with thread-safe symbolics and release the GIL while they compute).
+Building it (~21 s CPU: the exact Hessian of the Lagrangian ~14 s, the constraint Jacobian
+~4 s) then overlaps the baseline's solve (~17 s) on a machine with a free core; on a busy
+one it only competes with it. The edited NLP and its numbers are those of a build on the
+main thread. The edited ``build_s`` is the wait for it after the baseline.
 """
 
 from __future__ import annotations
 
+import contextvars
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -33,9 +46,6 @@ import numpy as np
 from predgait.errors import InputError, SolveFailed
 from predgait.problemfile import load_problem
 
-#: Ipopt options of a solve started from the baseline optimum: a small initial barrier
-#: keeps Ipopt near the start (the default mu 0.1 pushes it back to the middle of the box).
-WARM_START = {"mu_init": 1e-3}
 #: Baseline predictions solved in this process, by (problem file, overrides, spec).
 _BASELINES: dict = {}
 
@@ -63,6 +73,28 @@ class MuscleScenarioResult:
     scenario: object          # MuscleScenario
     baseline: object          # MusclePrediction of the unedited model
     edited: object            # MusclePrediction of the edited model (plant, planar edited)
+    edited_build_s: float = 0.0   # s, the edited problem's own build (second thread)
+
+
+@dataclass(frozen=True, eq=False)
+class EditedProblem:
+    """The edited model's NLP, ready to solve (:func:`edited_problem`).
+
+    Attributes:
+        scenario: The :class:`~predgait.scenarios.muscle_edits.MuscleScenario`.
+        plant: The edited MusclePlant; planar: its OsimPlanarModel.
+        problem: Its :class:`~predgait.problems.muscle_gait.MuscleGaitProblem`.
+        whole: Solved as a whole stride (a one-sided edit).
+        seconds: Wall time of the build, s; cpu_seconds: its thread's CPU time, s.
+    """
+
+    scenario: object
+    plant: object
+    planar: object
+    problem: object
+    whole: bool
+    seconds: float
+    cpu_seconds: float
 
 
 def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
@@ -100,8 +132,13 @@ def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
     return MuscleScenarioRun(spec, base, theirs)
 
 
-def baseline_prediction(run: MuscleScenarioRun):
-    """The baseline MusclePrediction (solved once per process and problem)."""
+def baseline_prediction(run: MuscleScenarioRun, before_solving=None):
+    """The baseline MusclePrediction (solved once per process and problem).
+
+    ``before_solving(plant, planar)`` is called with the baseline's model before it is
+    solved (:func:`~predgait.problems.muscle_prediction.solve_prediction`), or at once
+    when it is already solved.
+    """
     from predgait.problems.muscle_prediction import solve_prediction
 
     key = (str(run.baseline.source), run.overrides, repr(run.baseline))
@@ -109,7 +146,9 @@ def baseline_prediction(run: MuscleScenarioRun):
         from predgait.problems.ipopt_progress import stage
 
         stage("part 1/2: the unedited model's gait (baseline)")
-        _BASELINES[key] = solve_prediction(run.baseline)
+        _BASELINES[key] = solve_prediction(run.baseline, before_solving)
+    elif before_solving is not None:
+        before_solving(_BASELINES[key].plant, _BASELINES[key].planar)
     return _BASELINES[key]
 
 
@@ -205,34 +244,26 @@ def edited_stride(plant, gait, check, *, whole: bool):
     return from_right_heel_strike(stride, plant)
 
 
-def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
-    """Baseline, then the edited prediction from it; SolveFailed if the baseline fails.
+def edited_model(run: MuscleScenarioRun, plant, planar):
+    """(MuscleScenario, edited plant) of the baseline's model; input errors raised here."""
+    from predgait.scenarios.muscle_edits import muscle_scenario
 
-    An edited solve that does not converge is returned (``edited.gait.solved.success``
-    false): the caller writes its best point as partial and exits 3.
-    """
+    scenario = muscle_scenario(run.spec.edits, planar, plant.muscle_set)
+    unknown = [n for n in scenario.coordinate_bounds
+               if n not in scenario.built.osim_coordinates]
+    if unknown:
+        raise InputError(f"{run.spec.source}: coordinates {unknown} are not in the model.")
+    return scenario, scenario.edited_plant(plant)
+
+
+def edited_problem(run: MuscleScenarioRun, scenario, plant) -> EditedProblem:
+    """The edited model's NLP on the baseline's grid and goal (module docstring)."""
     import time
 
     from predgait.problems.muscle_gait import MuscleGaitProblem
-    from predgait.problems.muscle_prediction import MusclePrediction
-    from predgait.scenarios.muscle_edits import muscle_scenario
 
-    base = baseline_prediction(run)
-    s = base.gait.solved
-    if not s.success:
-        raise SolveFailed(f"Ipopt (baseline {Path(str(run.baseline.source)).name}): "
-                          f"{s.status} after {s.iterations} iterations; no scenario is "
-                          "solved without a baseline gait", best=base.gait)
-    from predgait.problems.ipopt_progress import stage
-
-    stage("part 2/2: the edited model's gait")
-    clock = time.perf_counter()
-    scenario = muscle_scenario(run.spec.edits, base.planar, base.plant.muscle_set)
-    plant = scenario.edited_plant(base.plant)
+    clock, cpu = time.perf_counter(), time.thread_time()
     planar = scenario.built
-    unknown = [n for n in scenario.coordinate_bounds if n not in planar.osim_coordinates]
-    if unknown:
-        raise InputError(f"{run.spec.source}: coordinates {unknown} are not in the model.")
     whole = not scenario.symmetric
     fused = {planar.osim_coordinates.index(n) for n in scenario.fused}
     spec = run.baseline
@@ -242,12 +273,52 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
         transcription=spec.transcription, metabolic=metabolic,
         node=scenario_node(plant, planar, scenario, metabolic),
         residual_rows=[i for i in range(plant.model.nq) if i not in fused],
-        symmetric=not whole, ipopt_options=WARM_START)
-    bounds = scenario_bounds(plant, planar, spec, scenario, whole=whole)
-    guess = whole_stride_guess(base.plant, base.gait.path) if whole else base.gait.path
+        symmetric=not whole)
+    return EditedProblem(scenario, plant, planar, problem, whole,
+                         time.perf_counter() - clock, time.thread_time() - cpu)
+
+
+def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
+    """Baseline, then the edited prediction from it; SolveFailed if the baseline fails.
+
+    The edited model is checked once the baseline's problem is built (input errors before
+    any solve) and its problem built on a second thread while the baseline solves (module
+    docstring). An edited solve that does not converge is returned
+    (``edited.gait.solved.success`` false): the caller writes its best point as partial
+    and exits 3.
+    """
+    import time
+
+    from predgait.problems.ipopt_progress import stage
+    from predgait.problems.muscle_prediction import MusclePrediction
+
+    building = []
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        def before_solving(plant, planar):
+            scenario, edited_plant = edited_model(run, plant, planar)
+            # the copied context carries the progress reporting (ipopt_progress)
+            building.append(pool.submit(contextvars.copy_context().run, edited_problem,
+                                        run, scenario, edited_plant))
+
+        base = baseline_prediction(run, before_solving)
+        s = base.gait.solved
+        if not s.success:
+            raise SolveFailed(f"Ipopt (baseline {Path(str(run.baseline.source)).name}): "
+                              f"{s.status} after {s.iterations} iterations; no scenario is "
+                              "solved without a baseline gait", best=base.gait)
+        stage("part 2/2: the edited model's gait")
+        clock = time.perf_counter()
+        built = building[0].result()
+    stage(f"edited model: its problem was built in {built.seconds:.1f} s ({built.cpu_seconds:.1f}"
+          f" s CPU) on a second thread; waited {time.perf_counter() - clock:.1f} s for it "
+          "after the baseline")
+    scenario, plant, planar, spec = built.scenario, built.plant, built.planar, run.baseline
+    bounds = scenario_bounds(plant, planar, spec, scenario, whole=built.whole)
+    guess = (whole_stride_guess(base.plant, base.gait.path) if built.whole
+             else base.gait.path)
     build_s = time.perf_counter() - clock
-    gait = problem.solve(guess, bounds, spec.goal, label="edited model")
+    gait = built.problem.solve(guess, bounds, spec.goal, label="edited model")
     check = scenario_check(plant, planar, scenario, gait)
-    stride = edited_stride(plant, gait, check, whole=whole)
+    stride = edited_stride(plant, gait, check, whole=built.whole)
     edited = MusclePrediction(plant, planar, gait, (), check, stride, build_s)
-    return MuscleScenarioResult(run, scenario, base, edited)
+    return MuscleScenarioResult(run, scenario, base, edited, built.seconds)

@@ -52,6 +52,9 @@ def scenario_summary(result) -> dict:
            else "whole stride (one-sided edit), periodic",
            "fused": list(sc.fused),
            "springs": [edit_record(s) for s in sc.passive_torques],
+           # the edited problem's own build, on a second thread while the baseline built
+           # and solved; edited.build_s is the wait for it after the baseline
+           "edited_problem_build_s": result.edited_build_s,
            "pinocchio_check": {k: v for k, v in result.edited.check.items()
                                if k not in ("residual", "contact_point_speed")}}
     if ok:
