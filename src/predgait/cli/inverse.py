@@ -7,7 +7,6 @@ import sys
 from pathlib import Path
 
 from predgait.cli import add_output_options
-from predgait.data import Side
 from predgait.errors import InputError
 
 DESCRIPTION = """\
@@ -117,6 +116,7 @@ OVERRIDES = {"grf": ("grf", "trial"), "static": ("static", "trial"), "mass": ("m
 
 def _flag_options(args: argparse.Namespace) -> dict:
     """InverseOptions fields given on the command line (parsed), by field name."""
+    from predgait.data import Side
     from predgait.data.cutoffs import CutoffRule, parse_cutoff
 
     given = {k: getattr(args, k) for k in OVERRIDES if getattr(args, k) is not None}
