@@ -6,7 +6,6 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
 #: Polylines drawn per model kind, by frame name.
 LINES = {"leg": (("heel", "toe", "ankle_center", "heel"), ("ankle_center", "knee_center"),
@@ -33,6 +32,8 @@ def stick_points(model, q: np.ndarray, *, plane: bool = True) -> list[np.ndarray
         q: (n, nq) configurations.
         plane: X, Z only (sagittal plane, (n, k, 2)); else X, Y, Z ((n, k, 3)).
     """
+    import pinocchio as pin  # here: a dataset report (html.py) draws no stick figure
+
     pm = model.pin_model
     data = pm.createData()
     q = np.atleast_2d(q)
