@@ -44,6 +44,7 @@ from predgait.data import (
     resample_plate,
 )
 from predgait.data.body_weight import PlateMass, plate_body_mass, resolve_mass
+from predgait.data.medians import median
 from predgait.data.trial import ForcePlate, Markers
 from predgait.dynamics.fullbody_calibration import FullbodyCalibration, calibrate_fullbody
 from predgait.dynamics.inverse3d import (
@@ -145,7 +146,7 @@ def read_trial(files: Sequence[str | Path]) -> tuple[Markers, tuple[ForcePlate, 
 def _filter_q(model: Model3D, time: np.ndarray, q: np.ndarray, cutoff: float | None):
     if not cutoff:
         return q
-    rate = 1.0 / float(np.median(np.diff(time)))
+    rate = 1.0 / median(np.diff(time))   # np.median's value, without importing numpy.ma
     out = q.copy()
     out[:, :3] = lowpass(q[:, :3], rate, cutoff)
     out[:, 7:] = lowpass(q[:, 7:], rate, cutoff)
