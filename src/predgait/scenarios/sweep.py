@@ -26,7 +26,6 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from tqdm import tqdm
 
 from predgait.analysis.plausibility import Check
 from predgait.errors import InputError, PredgaitError, SimulationDiverged
@@ -202,6 +201,8 @@ def run_sweep(task: Callable[[SweepPoint], Mapping[str, float]], points: Sequenc
         desc: The progress bar's label.
         unit: The progress bar's unit.
     """
+    from tqdm import tqdm  # here: a batch worker imports this module, not the bar
+
     if workers < 1:
         raise InputError(f"--workers = {workers}: give at least 1.")
     outcomes: dict[int, SweepOutcome] = {}
