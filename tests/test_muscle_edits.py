@@ -215,8 +215,9 @@ def test_shipped_scenarios_parse(built, muscles):
     assert len(SHIPPED) >= 5
     for path in SHIPPED:
         spec = me.parse_muscle_scenario(load_problem(path), muscles, _coordinates(built))
-        assert spec.edits and spec.baseline in (PROBLEMS / "predict_2d_muscles.toml",
-                                                PROBLEMS / "predict_2d_muscles_physiological.toml")
+        assert spec.edits and spec.baseline in (
+            PROBLEMS / "predict_2d_muscles_impact.toml",
+            PROBLEMS / "predict_2d_muscles_physiological.toml")
         text = path.read_text()
         assert text.startswith("#") and ("Compare with" in text or "Compare:" in text)
 

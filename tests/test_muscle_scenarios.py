@@ -1,6 +1,6 @@
 """Muscle-driven scenarios solved (issue 26 item 7) on a small grid.
 
-The baseline (problems/predict_2d_muscles.toml on NODES intervals) is solved once; each
+The baseline (problems/predict_2d_muscles_impact.toml, the scenarios' own, on NODES intervals) is solved once; each
 shipped scenario's edited model is solved from it, and each edit must change the solved
 gait where physics says it must: an ankle spring's torque is in the dynamics (Pinocchio's
 residual vanishes with it and equals the spring's torque without it); a weakened muscle
@@ -155,8 +155,8 @@ def test_unknown_muscle_exit_2(tmp_path):
     text = (REPO / "problems" / "scenario_muscle_plantarflexor_weakness.toml").read_text()
     bad = tmp_path / "bad.toml"
     bad.write_text(text.replace('"soleus", "gastroc"', '"soleus", "gastrocnemius"')
-                   .replace('"predict_2d_muscles.toml"',
-                            json.dumps(str(REPO / "problems" / "predict_2d_muscles.toml"))))
+                   .replace('"predict_2d_muscles_impact.toml"',
+                            json.dumps(str(REPO / "problems" / "predict_2d_muscles_impact.toml"))))
     result = run_cli("scenario", str(bad), "--out", str(tmp_path / "out"))
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
