@@ -196,11 +196,15 @@ def main(folder, write=None):
         for name in FILES:
             shutil.copy(os.path.join(folder, name), work)
         os.chdir(work)   # the example's relative paths (and referenceGRF.xml's) resolve here
-        (track, track_solver, _), track_wall, track_cpu = timed(tracking)
+        # Both studies stay bound until the end: each owns its solver, and a solver whose
+        # study was collected crashes describe() (a segfault in _moco.so when the tracking
+        # study's name was reused for the prediction's: two runs lost after their solves).
+        (track, track_solver, track_study), track_wall, track_cpu = timed(tracking)
         track.unseal()
         print(f"tracking: {track_wall:.1f} s wall, {track.getNumIterations()} iterations, "
               f"{track.getStatus()}; predictive solve started", file=sys.stderr, flush=True)
-        (pred, pred_solver, model, _), pred_wall, pred_cpu = timed(lambda: prediction(track))
+        (pred, pred_solver, model, pred_study), pred_wall, pred_cpu = timed(
+            lambda: prediction(track))
         pred.unseal()
         print(json.dumps({"version": osim.__version__, "coordinates": model.getNumCoordinates(),
                           "muscles": model.getMuscles().getSize(),
