@@ -1,11 +1,11 @@
 """Muscle-driven scenarios solved (issue 26 item 7) on a small grid.
 
 The baseline (problems/predict_2d_muscles_impact.toml, the scenarios' own, on NODES
-intervals) is solved once; each shipped scenario's edited model is solved from it, and each edit must change the solved
-gait where physics says it must: an ankle spring's torque is in the dynamics (Pinocchio's
-residual vanishes with it and equals the spring's torque without it); a weakened muscle
-delivers less force than before and never more than its new maximum; a fused knee stays
-at its angle with the weld's reaction holding it. The published-finding sentence follows
+intervals) is solved once; each shipped scenario's edited model is solved from it, and
+each edit must change the solved gait where physics says it must: an ankle spring's
+torque is in the dynamics (Pinocchio's residual vanishes with it and equals the spring's
+torque without it); a weakened muscle delivers less force than before and never more than
+its new maximum; a fused knee stays at its angle with the weld's reaction holding it. The published-finding sentence follows
 the numbers; bad input exits 2 with one message, a failed baseline exits 3.
 """
 
