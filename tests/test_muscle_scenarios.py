@@ -5,8 +5,9 @@ intervals) is solved once; each shipped scenario's edited model is solved from i
 each edit must change the solved gait where physics says it must: an ankle spring's
 torque is in the dynamics (Pinocchio's residual vanishes with it and equals the spring's
 torque without it); a weakened muscle delivers less force than before and never more than
-its new maximum; a fused knee stays at its angle with the weld's reaction holding it. The published-finding sentence follows
-the numbers; bad input exits 2 with one message, a failed baseline exits 3.
+its new maximum; a fused knee stays at its angle with the weld's reaction holding it. The
+published-finding sentence follows the numbers; bad input exits 2 with one message, a
+failed baseline exits 3.
 """
 
 import json
