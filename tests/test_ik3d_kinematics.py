@@ -2,8 +2,8 @@
 the per-marker formulas they replaced: the same fits to round-off on the bundled walk.
 
 The full-body IK computes every marker position as one product of the joint placements
-and the marker offsets, and every marker Jacobian as one product of the cross-product
-matrices and data.J; before, per marker (p = R_j c + t_j, v_O + omega x p entry by
+and the marker offsets, and every marker Jacobian as one product of the markers' rows
+[I | -[p]x] and data.J; before, per marker (p = R_j c + t_j, v_O + omega x p entry by
 entry). Summation order differs, so the numbers agree to round-off, not bit for bit; the
 Levenberg-Marquardt path (iterations, flags) must be the same.
 """

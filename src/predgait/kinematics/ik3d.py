@@ -179,11 +179,19 @@ def initial_pose(model: Model3D, frame_ids, targets: np.ndarray) -> np.ndarray:
     return q
 
 
-def _minus_cross_matrices(points: np.ndarray) -> np.ndarray:
-    """(3m, 3) K(p_i) = -[p_i]x stacked for the (m, 3) points: omega x p = K(p) omega."""
-    x, y, z = points.T
-    zero = np.zeros_like(x)
-    return np.stack([zero, z, -y, -z, zero, x, y, -x, zero], axis=1).reshape(-1, 3)
+def _lever_rows() -> tuple[np.ndarray, np.ndarray]:
+    """(E (3, 18), C (18,)): a point p's rows [I | -[p]x] (3, 6), flattened, = p @ E + C.
+
+    The linear velocity of a point p riding on a joint is v_O + omega x p = [I | -[p]x]
+    (v_O, omega); every entry of these rows is 0, 1 or +-one coordinate of p, exactly.
+    """
+    e, c = np.zeros((3, 3, 6)), np.zeros((3, 6))
+    c[:, :3] = np.eye(3)
+    x, y, z = 0, 1, 2
+    for row, col, coord, sign in ((0, 1, z, 1), (0, 2, y, -1), (1, 0, z, -1),
+                                  (1, 2, x, 1), (2, 0, y, 1), (2, 1, x, -1)):
+        e[coord, row, 3 + col] = sign
+    return e.reshape(3, 18), c.reshape(18)
 
 
 class _Fitter:
@@ -214,6 +222,7 @@ class _Fitter:
         self._homogeneous = np.vstack([self.offset.T, np.ones(m)])
         self._take = (3 * self.of_marker[:, None] + np.arange(3)) * m + np.arange(m)[:, None]
         self._rows = 3 * n_joints
+        self._lever, self._identity = _lever_rows()
         self.support = np.zeros((len(joint), pm.nv), dtype=bool)
         for i, j in enumerate(joint):
             for s in pm.supports[int(j)][1:]:
@@ -239,13 +248,12 @@ class _Fitter:
     def jacobian(self, points: np.ndarray) -> np.ndarray:
         """(3m, nv) linear Jacobians of the marker frames (after ``points(jacobians=True)``).
 
-        Unweighted and on every column (:attr:`scale` keeps the supporting ones).
+        Each marker's rows [I | -[p]x] (3, 6) times the world-frame joint Jacobian data.J
+        (6, nv), all markers as one product; unweighted and on every column (:attr:`scale`
+        keeps the supporting ones).
         """
-        world = self.data.J
-        cross = _minus_cross_matrices(points)
-        jac = (cross @ world[3:]).reshape(points.shape[0], 3, -1)
-        jac += world[:3]
-        return jac.reshape(-1, self.pm.nv)
+        lever = points @ self._lever + self._identity   # (m, 18)
+        return lever.reshape(-1, 6) @ self.data.J
 
     def residual(self, q, targets):
         return self.points(q) - targets
