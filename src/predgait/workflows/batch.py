@@ -103,10 +103,16 @@ def _publish(out: Path, fill) -> None:
         shutil.rmtree(stage, ignore_errors=True)
 
 
-#: Dask's monitors that sample the workers while trials run, which a batch does not read:
-#: the statistical profiler (every 10 ms) and the GIL-contention poll (every 1 ms).
+#: Dask's monitors that sample the cluster while trials run, which a batch does not read:
+#: off, the workers' statistical profiler (every 10 ms) and GIL-contention poll (every
+#: 1 ms); every 1 s instead of 20 ms, each server's event-loop health tick; every 5 s
+#: instead of 0.5 s, the host CPU, memory and I/O samples (the dashboard's); every 1 s
+#: instead of 0.1 s, the nannies' check of their worker's memory against its limits.
 QUIET_WORKERS = {"distributed.worker.profile.enabled": False,
-                 "distributed.admin.system-monitor.gil.enabled": False}
+                 "distributed.admin.system-monitor.gil.enabled": False,
+                 "distributed.admin.tick.interval": "1s",
+                 "distributed.admin.system-monitor.interval": "5s",
+                 "distributed.worker.memory.monitor-interval": "1s"}
 
 
 @contextlib.contextmanager
