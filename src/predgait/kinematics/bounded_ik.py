@@ -150,6 +150,7 @@ class BoundedSolver:
         self._q = self.index[self._v]                    # their position coordinates
         self._lo, self._hi = self.vlo[self._v], self.vhi[self._v]
         self._v, self._q = _as_slice(self._v), _as_slice(self._q)   # views where they can
+        self._identity = np.eye(model.nv)
 
     def project(self, q: np.ndarray) -> np.ndarray:
         """A start point inside the limits (only for a first guess, never after a step).
@@ -170,9 +171,7 @@ class BoundedSolver:
         """
         if damping > 0:
             hessian, gradient = normal if normal is not None else _normal(jac, r)
-            hessian = hessian.copy()
-            hessian.flat[::hessian.shape[0] + 1] += damping   # J^T J + damping I
-            step = _solve(hessian, gradient)
+            step = _solve(hessian + damping * self._identity, gradient)   # J^T J + damping I
         else:
             step = np.linalg.lstsq(jac, -r, rcond=None)[0]
         moved = q[self._q] + step[self._v]

@@ -217,11 +217,11 @@ class _Fitter:
         self.placements = [self.data.oMi[j] for j in self.joints]
         self.offset = np.array([pm.frames[f].placement.translation for f in frame_ids])
         m, n_joints = len(frame_ids), len(self.joints)
-        # p = [R_j t_j] [c; 1]: every joint's top 3 rows times every offset is one product
-        # (3 n_joints, m); marker i takes rows 3 j_i + (0, 1, 2) of column i
+        # p = [R_j t_j] [c; 1]: every joint's placement times every offset is one product
+        # (4 n_joints, m); marker i takes rows 4 j_i + (0, 1, 2) of column i
         self._homogeneous = np.vstack([self.offset.T, np.ones(m)])
-        self._take = (3 * self.of_marker[:, None] + np.arange(3)) * m + np.arange(m)[:, None]
-        self._rows = 3 * n_joints
+        self._take = (4 * self.of_marker[:, None] + np.arange(3)) * m + np.arange(m)[:, None]
+        self._rows = 4 * n_joints
         self._lever, self._identity = _lever_rows()
         self.support = np.zeros((len(joint), pm.nv), dtype=bool)
         for i, j in enumerate(joint):
@@ -242,7 +242,7 @@ class _Fitter:
             pin.computeJointJacobians(pm, data, q)
         else:
             pin.forwardKinematics(pm, data, q)
-        placed = np.array([m.homogeneous for m in self.placements])[:, :3]
+        placed = np.array([m.homogeneous for m in self.placements])
         return (placed.reshape(self._rows, 4) @ self._homogeneous).take(self._take)
 
     def jacobian(self, points: np.ndarray) -> np.ndarray:
