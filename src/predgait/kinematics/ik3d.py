@@ -183,15 +183,14 @@ def _lever_rows() -> tuple[np.ndarray, np.ndarray]:
     """(E (3, 18), C (18,)): a point p's rows [I | -[p]x] (3, 6), flattened, = p @ E + C.
 
     The linear velocity of a point p riding on a joint is v_O + omega x p = [I | -[p]x]
-    (v_O, omega); every entry of these rows is 0, 1 or +-one coordinate of p, exactly.
+    (v_O, omega); -[p]x is linear in p, its column k is e_k x p. Every entry of these rows
+    is 0, 1 or +-one coordinate of p, exactly.
     """
-    e, c = np.zeros((3, 3, 6)), np.zeros((3, 6))
-    c[:, :3] = np.eye(3)
-    x, y, z = 0, 1, 2
-    for row, col, coord, sign in ((0, 1, z, 1), (0, 2, y, -1), (1, 0, z, -1),
-                                  (1, 2, x, 1), (2, 0, y, 1), (2, 1, x, -1)):
-        e[coord, row, 3 + col] = sign
-    return e.reshape(3, 18), c.reshape(18)
+    eye = np.eye(3)
+    e = np.zeros((3, 3, 6))
+    for axis in range(3):   # the rows of the unit point e_axis
+        e[axis, :, 3:] = np.cross(eye, eye[axis]).T
+    return e.reshape(3, 18), np.hstack([eye, np.zeros((3, 3))]).reshape(18)
 
 
 class _Fitter:
