@@ -223,12 +223,43 @@ def test_edited_problem_built_on_the_second_thread_solves_as_on_the_main_one(wea
     base, run = weakness.baseline, weakness.run
     scenario, plant = edited_model(run, base.plant, base.planar)
     built = edited_problem(run, scenario, plant)
+    assert built.warm                       # half stride, no fused row: the baseline's NLP
     bounds = scenario_bounds(plant, built.planar, run.baseline, scenario, whole=False)
-    gait = built.problem.solve(base.gait.path, bounds, run.baseline.goal)
+    gait = built.problem.solve(base.gait.path, bounds, run.baseline.goal,
+                               multipliers=base.gait.solved.multipliers)
     threaded = weakness.edited.gait.solved
     assert gait.solved.iterations == threaded.iterations
     assert gait.solved.objective == threaded.objective
     np.testing.assert_array_equal(gait.solved.w, threaded.w)
+
+
+def test_warm_start_of_an_edit_that_changes_nothing_stays_at_the_baseline(weakness, tmp_path):
+    """Known answer of the warm start: forces scaled by 1.0 is the baseline's own NLP, so
+    from the baseline's primal-dual point Ipopt returns to the baseline's optimum in a few
+    iterations; from its motion alone (cold, without the multipliers) it takes longer."""
+    from predgait.scenarios.muscle_predict import edited_model, edited_problem, scenario_bounds
+
+    base = weakness.baseline
+    text = (REPO / "problems" / "scenario_muscle_plantarflexor_weakness.toml").read_text()
+    path = tmp_path / "null_edit.toml"
+    path.write_text(text.replace("scale = 0.2", "scale = 1.0").replace(
+        'baseline = "predict_2d_muscles_impact.toml"',
+        f'baseline = "{(REPO / "problems" / "predict_2d_muscles_impact.toml").as_posix()}"'))
+    run = load_muscle_scenario(path, SET)
+    scenario, plant = edited_model(run, base.plant, base.planar)
+    bounds = scenario_bounds(plant, base.planar, run.baseline, scenario, whole=False)
+    solved = {}
+    for warm in (True, False):
+        built = edited_problem(run, scenario, plant, warm=warm)
+        solved[warm] = built.problem.solve(
+            base.gait.path, bounds, run.baseline.goal,
+            multipliers=base.gait.solved.multipliers if warm else None).solved
+    assert solved[True].success
+    # Ipopt's tolerance is 1e-4 (scaled): a re-solve may polish the optimum a little
+    assert solved[True].objective == pytest.approx(base.gait.solved.objective, rel=1e-3)
+    iterations = {warm: s.iterations for warm, s in solved.items()}
+    assert iterations[True] < iterations[False], iterations
+    assert iterations[True] <= 15, iterations
 
 
 def test_edited_model_errors_come_before_any_solve(monkeypatch):

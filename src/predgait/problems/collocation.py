@@ -143,6 +143,8 @@ class Solved:
 
     ``history``: per Ipopt iteration (iteration 0 = the start) ``objective``,
     ``constraint_violation`` (inf_pr) and ``dual_infeasibility`` (inf_du).
+    ``multipliers``: Ipopt's (lam_x, lam_g) at the end, when the problem keeps them (a
+    warm start of a similar problem begins from them).
     """
 
     w: np.ndarray
@@ -153,6 +155,7 @@ class Solved:
     objective: float
     constraint_violation: float
     history: dict = field(default_factory=dict)
+    multipliers: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class LegCollocation:

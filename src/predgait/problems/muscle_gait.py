@@ -89,6 +89,12 @@ NOMINAL_DURATION = 0.5
 #: Ipopt's tolerances: Moco's example (convergence and constraint tolerance 1e-4).
 IPOPT_OPTIONS = {"tol": 1e-4, "constr_viol_tol": 1e-4, "mu_strategy": "adaptive",
                  "linear_solver": "mumps", "hessian_approximation": "exact"}
+#: Ipopt's warm start from a solved problem's primal-dual point (a muscle scenario's edited
+#: model from its baseline: :mod:`predgait.scenarios.muscle_predict`). The pushes keep the
+#: point 1e-3 inside its bounds (Ipopt's default 1e-3 for a cold start; 1e-9 kept the
+#: baseline's active bounds and took 169 iterations on the weakness edit, 1e-3 took 37).
+WARM_START = {"warm_start_init_point": "yes", "warm_start_bound_push": 1e-3,
+              "warm_start_mult_bound_push": 1e-3, "warm_start_slack_bound_push": 1e-3}
 
 
 @dataclass(frozen=True)
@@ -412,10 +418,13 @@ class MuscleGaitProblem:
 
     def solve(self, guess: Trajectory, bounds: Bounds, goal: Goal,
               reference: np.ndarray | None = None, *,
-              label: str = "muscle-driven gait") -> MuscleGait:
+              label: str = "muscle-driven gait",
+              multipliers: tuple[np.ndarray, np.ndarray] | None = None) -> MuscleGait:
         """Solve from ``guess``; ``reference`` (N+1, nq) for a tracking goal.
 
         ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
+        ``multipliers``: (lam_x, lam_g) of a problem of the same structure, for a problem
+        built with :data:`WARM_START` (Ipopt then starts from the primal-dual point).
         """
         if goal.metabolic_weight > 0 and not self.metabolic:
             raise InputError("goal metabolic_weight > 0 on a problem built without the "
@@ -434,7 +443,9 @@ class MuscleGaitProblem:
         # one BLAS thread: MUMPS' small dense blocks gain nothing from threads on a shared
         # 2-core machine, and the iterates then do not depend on the process' thread count
         with one_blas_thread(), ipopt_progress.solving(label, lbg, ubg):
-            out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+            start = ({} if multipliers is None else
+                     {"lam_x0": multipliers[0], "lam_g0": multipliers[1]})
+            out = self.solver(x0=w0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **start)
         seconds = time.perf_counter() - clock
         stats = self.solver.stats()
         g = np.clip(np.array(out["g"]).ravel(), lbg, ubg) - np.array(out["g"]).ravel()
@@ -443,7 +454,9 @@ class MuscleGaitProblem:
                         iterations=int(stats["iter_count"]), seconds=seconds,
                         objective=float(out["f"]),
                         constraint_violation=float(np.abs(g).max()),
-                        history=_history(stats))
+                        history=_history(stats),
+                        multipliers=(np.array(out["lam_x"]).ravel(),
+                                     np.array(out["lam_g"]).ravel()))
         return self.evaluate(w, p, solved)
 
     def evaluate(self, w: np.ndarray, p: np.ndarray, solved: Solved) -> MuscleGait:

@@ -19,11 +19,18 @@ cached per process), then the edited model's problem is built on the same grid a
   (:attr:`MuscleScenario.symmetric` false), the half stride with left/right symmetry
   otherwise;
 
-and solved from the baseline solution (mirrored into a whole stride when needed), with the
-baseline's Ipopt options (``mu_init`` would not matter: with ``mu_strategy = "adaptive"``
-Ipopt does not use it; a weakness re-solve with and without ``mu_init = 1e-3`` gave the same
-iteration count and objective to the last bit). Pinocchio re-evaluates the edited gait at
-every node, springs included.
+and solved from the baseline solution. A half-stride edit has the baseline's variables and
+constraints, and (without a fused coordinate, whose dynamics row is dropped) its constraints,
+so Ipopt starts from the baseline's primal-dual point (its multipliers too,
+:data:`~predgait.problems.muscle_gait.WARM_START`); a whole-stride edit starts from the
+baseline's motion (mirrored into a whole stride) alone: a cold start, its constraints are
+not the baseline's. Why the warm start (measured on the four shipped half-stride scenarios at 50
+intervals, ``benchmarks/scenario_starts.py``): from the baseline's motion alone the adaptive
+barrier first pushes every variable off the baseline's active bounds and the solve lands in
+another local optimum, one that moves with round-off (the rectus femoris transfer's swing
+knee read 64.6 deg one run and 60.2 the next); from the primal-dual point each edit
+reached a lower objective. Pinocchio re-evaluates the edited gait at every node, springs
+included.
 
 The edited problem does not depend on the baseline's solution, only on its model: it is
 built on a second thread (:func:`edited_problem`) while the baseline is solved (CasADi
@@ -85,6 +92,7 @@ class EditedProblem:
         plant: The edited MusclePlant; planar: its OsimPlanarModel.
         problem: Its :class:`~predgait.problems.muscle_gait.MuscleGaitProblem`.
         whole: Solved as a whole stride (a one-sided edit).
+        warm: Started from the baseline's primal-dual point (module docstring).
         seconds: Wall time of the build, s; cpu_seconds: its thread's CPU time, s.
     """
 
@@ -93,6 +101,7 @@ class EditedProblem:
     planar: object
     problem: object
     whole: bool
+    warm: bool
     seconds: float
     cpu_seconds: float
 
@@ -256,15 +265,24 @@ def edited_model(run: MuscleScenarioRun, plant, planar):
     return scenario, scenario.edited_plant(plant)
 
 
-def edited_problem(run: MuscleScenarioRun, scenario, plant) -> EditedProblem:
-    """The edited model's NLP on the baseline's grid and goal (module docstring)."""
+def edited_problem(run: MuscleScenarioRun, scenario, plant, *,
+                   warm: bool | None = None) -> EditedProblem:
+    """The edited model's NLP on the baseline's grid and goal (module docstring).
+
+    ``warm``: built to start from the baseline's primal-dual point; by default when the
+    edit keeps the baseline's structure, False for a cold start (benchmarks/scenario_starts.py).
+    """
     import time
 
-    from predgait.problems.muscle_gait import MuscleGaitProblem
+    from predgait.problems.muscle_gait import WARM_START, MuscleGaitProblem
 
     clock, cpu = time.perf_counter(), time.thread_time()
     planar = scenario.built
     whole = not scenario.symmetric
+    if warm is None:        # the baseline's variables and constraints
+        warm = not (whole or scenario.fused)
+    elif warm and (whole or scenario.fused):
+        raise ValueError("a warm start needs the baseline's variables and constraints")
     fused = {planar.osim_coordinates.index(n) for n in scenario.fused}
     spec = run.baseline
     metabolic = spec.goal.metabolic_weight > 0
@@ -273,8 +291,8 @@ def edited_problem(run: MuscleScenarioRun, scenario, plant) -> EditedProblem:
         transcription=spec.transcription, metabolic=metabolic,
         node=scenario_node(plant, planar, scenario, metabolic),
         residual_rows=[i for i in range(plant.model.nq) if i not in fused],
-        symmetric=not whole)
-    return EditedProblem(scenario, plant, planar, problem, whole,
+        symmetric=not whole, ipopt_options=WARM_START if warm else None)
+    return EditedProblem(scenario, plant, planar, problem, whole, warm,
                          time.perf_counter() - clock, time.thread_time() - cpu)
 
 
@@ -316,8 +334,10 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
     bounds = scenario_bounds(plant, planar, spec, scenario, whole=built.whole)
     guess = (whole_stride_guess(base.plant, base.gait.path) if built.whole
              else base.gait.path)
+    multipliers = base.gait.solved.multipliers if built.warm else None
     build_s = time.perf_counter() - clock
-    gait = built.problem.solve(guess, bounds, spec.goal, label="edited model")
+    gait = built.problem.solve(guess, bounds, spec.goal, label="edited model",
+                               multipliers=multipliers)
     check = scenario_check(plant, planar, scenario, gait)
     stride = edited_stride(plant, gait, check, whole=built.whole)
     edited = MusclePrediction(plant, planar, gait, (), check, stride, build_s)
