@@ -201,7 +201,18 @@ def solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePred
     ``gait.solved.success`` says whether the final solve converged. ``before_solving(plant,
     planar)``, if given, is called once the problem is built, before its first solve (a
     muscle scenario starts building its edited problem there, on a second thread).
+    All of it on one BLAS thread: NumPy's least squares (the path fits, the guess) round
+    differently with 1 and 2 OpenBLAS threads, and this NLP's optimum follows round-off
+    (20 intervals: the knee landed at 6.8 or 10 deg by the process' thread count).
     """
+    from predgait.blas_threads import one_blas_thread
+
+    with one_blas_thread():
+        return _solve_prediction(spec, before_solving)
+
+
+def _solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePrediction:
+    """:func:`solve_prediction` on the threads it was called with."""
     from predgait.data.storage import read_storage
     from predgait.models.osim import read_osim
     from predgait.problems.muscle_gait import MuscleGaitProblem

@@ -305,6 +305,14 @@ def solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
     (``edited.gait.solved.success`` false): the caller writes its best point as partial
     and exits 3.
     """
+    from predgait.blas_threads import one_blas_thread
+
+    with one_blas_thread():     # as solve_prediction: the answer must not follow the threads
+        return _solve_muscle_scenario(run)
+
+
+def _solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
+    """:func:`solve_muscle_scenario` on the BLAS threads it was called with."""
     import time
 
     from predgait.problems.ipopt_progress import stage
