@@ -89,7 +89,9 @@ def from_right_heel_strike(stride: Stride, plant, *, tx_row: int = 0) -> Stride:
         rows[name] = rolled.copy()
     rows["q"][n - k:, tx_row] += stride.distance
     rows["points"][n - k:, :, 0] += stride.distance
-    rows["q"][:, tx_row] -= rows["q"][0, tx_row]
+    start = rows["q"][0, tx_row]           # the stride starts at x = 0, its contacts too
+    rows["q"][:, tx_row] -= start
+    rows["points"][:, :, 0] -= start
     t = stride.t[:n + 1]
     return replace(stride, t=t, **rows)
 
