@@ -150,6 +150,8 @@ def test_finding_follows_the_numbers():
     assert "(reproduces Ploeger" in afo and "(contradicts the rise" in afo
     assert "contradicts the aim" in finding("rectus_transfer", _comparison(swing=(50, 45)))
     assert "reproduces the aim" in finding("rectus_transfer", _comparison(swing=(50, 58)))
+    assert "premise" not in finding("rectus_transfer", _comparison(swing=(50, 58)))
+    assert "premise is not tested" in finding("rectus_transfer", _comparison(swing=(63, 58)))
 
 
 def test_unknown_muscle_exit_2(tmp_path):

@@ -34,6 +34,10 @@ JOINTS = tuple(LEG_ANGLES)
 HANADA_COST_PERCENT = 23.0
 #: Ploeger et al. 2019: ankle motion lost with stiff AFOs, deg.
 PLOEGER_RANGE_DEG = (6.0, 8.0)
+#: A baseline whose peak swing knee flexion reaches this, deg, has no stiff-knee gait for a
+#: rectus femoris transfer to relieve (normal 60-65 deg, Perry & Burnfield 2010, Gait
+#: Analysis 2nd ed.; a stiff-knee gait is defined by a reduced, delayed peak; 55: our margin).
+STIFF_KNEE_PEAK_DEG = 55.0
 
 
 def _onset(fz: np.ndarray) -> int:
@@ -219,8 +223,12 @@ def finding(kind: str | None, c: dict) -> str:
         bound = ("" if limit is None or swing["edited"] < limit - 0.5 else
                  f", both on the problem's {limit:.0f} deg knee bound (with "
                  "baseline.bounds.preset=physiological the knee may flex further)")
+        premise = ("" if swing["baseline"] < STIFF_KNEE_PEAK_DEG else
+                   f"; the baseline already flexes {swing['baseline']:.0f} deg in swing, no "
+                   "stiff-knee gait for the transfer to relieve, so the operation's premise "
+                   "is not tested")
         return (f"Peak swing knee flexion {swing['baseline']:.1f} -> {swing['edited']:.1f} "
                 f"deg ({up:+.1f}{bound}): {verdict} the aim of the distal rectus femoris "
                 "transfer (more swing knee flexion; Delp 1994's flexor moment arm, Asakawa "
-                "2002/2004).")
+                f"2002/2004){premise}.")
     return "No published finding is attached to these edits."
