@@ -90,6 +90,7 @@ def test_scenario_writes_both_gaits_and_a_finding(weakness, tmp_path, monkeypatc
     summary = ws.run_muscle_scenario(weakness.run, out)
     written = json.loads((out / "summary.json").read_text())
     assert "Ong et al. 2019" in written["finding"]
+    assert written["edited_start"].startswith("warm: the baseline's primal-dual point")
     # no human-likeness check was run on this baseline (SET): nothing to warn about
     assert written["baseline"]["human_likeness"] == [] and written["plausibility"] == []
     assert written["status"] == "completed" and written["warnings"] == []
@@ -207,6 +208,7 @@ def test_fused_knee_stays_at_its_angle():
     assert e.gait.solved.success, e.gait.solved.status
     p = e.gait.path
     assert p.q.shape[0] == 2 * NODES + 1                       # a whole stride, not mirrored
+    assert r.edited_start == "cold: the baseline's motion mirrored into a whole stride"
     row = e.planar.osim_coordinates.index("knee_angle_r")
     left = e.planar.osim_coordinates.index("knee_angle_l")
     np.testing.assert_allclose(p.q[:, row], 0.0, atol=1e-9)

@@ -81,6 +81,7 @@ class MuscleScenarioResult:
     baseline: object          # MusclePrediction of the unedited model
     edited: object            # MusclePrediction of the edited model (plant, planar edited)
     edited_build_s: float = 0.0   # s, the edited problem's own build (second thread)
+    edited_start: str = ""        # where Ipopt started the edited solve (module docstring)
 
 
 @dataclass(frozen=True, eq=False)
@@ -349,4 +350,7 @@ def _solve_muscle_scenario(run: MuscleScenarioRun) -> MuscleScenarioResult:
     check = scenario_check(plant, planar, scenario, gait)
     stride = edited_stride(plant, gait, check, whole=built.whole)
     edited = MusclePrediction(plant, planar, gait, (), check, stride, build_s)
-    return MuscleScenarioResult(run, scenario, base, edited, built.seconds)
+    start = ("warm: the baseline's primal-dual point (its multipliers too)" if built.warm
+             else "cold: the baseline's motion" + (" mirrored into a whole stride"
+                                                   if built.whole else ""))
+    return MuscleScenarioResult(run, scenario, base, edited, built.seconds, start)

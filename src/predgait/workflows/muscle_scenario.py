@@ -55,6 +55,7 @@ def scenario_summary(result) -> dict:
            # the edited problem's own build, on a second thread while the baseline built
            # and solved; edited.build_s is the wait for it after the baseline
            "edited_problem_build_s": result.edited_build_s,
+           "edited_start": result.edited_start,
            "pinocchio_check": {k: v for k, v in result.edited.check.items()
                                if k not in ("residual", "contact_point_speed")}}
     if ok:
