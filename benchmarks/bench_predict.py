@@ -25,9 +25,10 @@ model file, the same predictive problem (half stride, symmetry, 1.2 m/s, effort 
 distance, duration in [0.4, 0.6] s, the example's bounds, 50 mesh intervals), solved by the
 example's recipe: its tracking stage, then the prediction from that solution
 (Hermite-Simpson, Ipopt tolerance 1e-4). Ours solves the prediction from the reference
-coordinates (trapezoidal, Ipopt tolerances 1e-4 on the scaled NLP, as Moco's) without a tracking stage:
-the two recipes deliver the same thing, a predicted gait of this problem, and the ratio is
-of those whole processes (cold vs cold), with Moco's predictive stage alone beside it.
+coordinates (trapezoidal, Ipopt tolerances 1e-4 on the scaled NLP, as Moco's) without a
+tracking stage: the two recipes deliver the same thing, a predicted gait of this problem,
+and the ratio is of those whole processes (cold vs cold), with Moco's predictive stage alone
+beside it.
 MOCO_2D_GAIT_DIR may name another folder with the example's files (2D_gait.osim,
 referenceCoordinates.sto, referenceGRF.sto, referenceGRF.xml); by default the copies
 bundled with predgait are used. Without OPENSIM_PYTHON, or if Moco does not finish in
