@@ -247,6 +247,16 @@ def test_moco_solution_drops_its_activation_periodicity():
     assert gaps["activation"] == pytest.approx(0.99, abs=0.01)
 
 
+def test_paired_moco_solution_holds_its_periodicity():
+    """A second Moco run of the example (moco_prediction_paired/README.md) holds every
+    pair, activations included: the earlier run's dropped periodicity was that run's."""
+    from predgait.problems.muscle_prediction import symmetry_gaps
+
+    paired = MOCO.parent / "moco_prediction_paired" / "gaitPrediction_solution.sto"
+    gaps = symmetry_gaps(read_storage(paired))
+    assert max(gaps.values()) < 1e-6, gaps
+
+
 def test_symmetry_gaps_known_answer():
     """A trajectory that holds the pairing has no gap; one activation off by 0.3 shows it."""
     from types import SimpleNamespace
