@@ -357,7 +357,7 @@ def prune(folder: Path, *, max_bytes: int = MAX_BYTES,
         with contextlib.suppress(OSError):
             if time.time() - path.lstat().st_mtime > QUARANTINE_DAYS * 86400.0:
                 path.unlink()
-    files = [p for p in folder.glob("*") if p.is_file() and p.suffix in (".so", ".casadi")
+    files = [p for p in folder.glob("*") if p.is_file() and p.suffix in (".so", ".casadi", ".npz")
              and not p.name.startswith(".")]
     now = time.time()
     files.sort(key=lambda p: p.stat().st_mtime)

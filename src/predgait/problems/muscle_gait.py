@@ -64,6 +64,7 @@ residuals / 100, defects / h_0, periodicity, the average speed; box bounds on ev
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass
 
@@ -332,7 +333,29 @@ class MuscleGaitProblem:
         self.nlp = {"x": self.w, "p": self.p, "f": objective, "g": cs.vertcat(*g)}
         opts |= ipopt_progress.callback_options("muscle_gait", self.nlp["x"].numel(),
                                                 self.nlp["g"].numel(), self.nlp["p"].numel())
-        self.solver = cs.nlpsol("muscle_gait", "ipopt", self.nlp, opts)
+        self._solver_options = opts
+
+    @functools.cached_property
+    def solver(self) -> cs.Function:
+        """Ipopt on the NLP, built on first use.
+
+        ~20 s CPU at 50 intervals (the exact Hessian of the Lagrangian and the constraint
+        Jacobian); a stored solution (:mod:`predgait.problems.muscle_baseline_store`) is
+        evaluated without it.
+        """
+        return cs.nlpsol("muscle_gait", "ipopt", self.nlp, self._solver_options)
+
+    def build_solver(self) -> None:
+        """Build :attr:`solver` now (on this thread) rather than at the first solve."""
+        _ = self.solver
+
+    def parameters(self, goal: Goal, reference: np.ndarray | None = None) -> np.ndarray:
+        """The NLP's parameter vector: the goal (speed, 6 weights), then the reference."""
+        n1, nq = self.n + 1, self.plant.model.nq
+        ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
+        return np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,
+                                goal.tracking_weight, goal.acceleration_weight,
+                                goal.metabolic_weight, goal.loading_rate_weight], ref.ravel()])
 
     def unpack(self, w) -> dict:
         """Block name -> (rows, N+1) physical values (symbolic or numeric)."""
@@ -429,11 +452,7 @@ class MuscleGaitProblem:
         if goal.metabolic_weight > 0 and not self.metabolic:
             raise InputError("goal metabolic_weight > 0 on a problem built without the "
                              "metabolic rate: build it with metabolic=True.")
-        n1, nq = self.n + 1, self.plant.model.nq
-        ref = np.zeros((n1, nq)) if reference is None else np.asarray(reference, float)
-        p = np.concatenate([[goal.speed, goal.speed_weight, goal.effort_weight,
-                             goal.tracking_weight, goal.acceleration_weight,
-                             goal.metabolic_weight, goal.loading_rate_weight], ref.ravel()])
+        p = self.parameters(goal, reference)
         lbx, ubx = self.box(bounds)
         w0 = np.clip(self.pack(guess), lbx, ubx)
         clock = time.perf_counter()

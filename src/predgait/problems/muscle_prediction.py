@@ -166,6 +166,7 @@ class MusclePrediction:
     stride: object            # Stride from right heel strike
     build_s: float
     multistart: dict | None = None   # the spread of a [multistart] (muscle_multistart)
+    reused_from: str | None = None   # the stored solves evaluated instead of solving
 
 
 def coordinate_ranges(spec: MusclePredictSpec) -> dict:
@@ -195,12 +196,16 @@ def stages_before(spec: MusclePredictSpec) -> list[tuple[str, object, str]]:
     return before
 
 
-def solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePrediction:
+def solve_prediction(spec: MusclePredictSpec, before_solving=None, *,
+                     reuse: bool = False) -> MusclePrediction:
     """Build, solve (tracking stage, then prediction), check; failures are returned too.
 
     ``gait.solved.success`` says whether the final solve converged. ``before_solving(plant,
     planar)``, if given, is called once the problem is built, before its first solve (a
     muscle scenario starts building its edited problem there, on a second thread).
+    ``reuse``: evaluate the solves stored by an earlier run of the same problem instead of
+    solving it, and store a converged one (:mod:`predgait.problems.muscle_baseline_store`:
+    a muscle scenario's baseline).
     All of it on one BLAS thread: NumPy's least squares (the path fits, the guess) round
     differently with 1 and 2 OpenBLAS threads, and this NLP's optimum follows round-off
     (20 intervals: the knee landed at 6.8 or 10 deg by the process' thread count).
@@ -208,13 +213,16 @@ def solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePred
     from predgait.blas_threads import one_blas_thread
 
     with one_blas_thread():
-        return _solve_prediction(spec, before_solving)
+        return _solve_prediction(spec, before_solving, reuse)
 
 
-def _solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePrediction:
+def _solve_prediction(spec: MusclePredictSpec, before_solving=None,
+                      reuse: bool = False) -> MusclePrediction:
     """:func:`solve_prediction` on the threads it was called with."""
     from predgait.data.storage import read_storage
     from predgait.models.osim import read_osim
+    from predgait.problems import ipopt_progress
+    from predgait.problems import muscle_baseline_store as baseline_store
     from predgait.problems.muscle_gait import MuscleGaitProblem
     from predgait.problems.muscle_gait_check import node_check
     from predgait.problems.muscle_gait_setup import (
@@ -226,31 +234,44 @@ def _solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePre
     from predgait.problems.muscle_gait_stride import from_right_heel_strike, full_stride
 
     clock = time.perf_counter()
-    plant, planar = plant_2d_gait(read_osim(spec.osim or bundled_file("2D_gait.osim")))
+    osim_path = spec.osim or bundled_file("2D_gait.osim")
+    reference_path = spec.reference or bundled_file("referenceCoordinates.sto")
+    plant, planar = plant_2d_gait(read_osim(osim_path))
     plant = replace(plant, compliant=compliant_rows(
         plant.muscle_names, spec.compliant_tendons,
         f"{source_name(spec.source) if spec.source else 'problem'}: [model]"))
     problem = MuscleGaitProblem(plant, spec.nodes, tx_row=0, max_iter=spec.max_iter,
                                 transcription=spec.transcription,
                                 metabolic=spec.goal.metabolic_weight > 0)
-    storage = read_storage(spec.reference or bundled_file("referenceCoordinates.sto"))
+    storage = read_storage(reference_path)
     guess, reference = reference_guess(planar, storage, plant, problem.n)
     bounds = bounds_for(plant, planar, coordinate_ranges(spec), spec.duration)
+    key = (baseline_store.baseline_key(spec, [osim_path, reference_path])
+           if reuse and spec.multistart.starts == 1 and baseline_store.enabled() else None)
+    stored = baseline_store.load(key) if key else None
+    if stored is None:
+        problem.build_solver()   # Ipopt's derivatives: most of the build
     build_s = time.perf_counter() - clock
     if before_solving is not None:
         before_solving(plant, planar)
-    stages = []
-    start = guess
-    before = stages_before(spec)
-    total = len(before) + 1
-    for i, (what, goal, name) in enumerate(before):
-        solved = problem.solve(start, bounds, goal, reference,
-                               label=f"stage {i + 1}/{total} {what}")
-        stages.append((name, solved))
-        if solved.solved.success:
-            start = solved.path
-    gait = problem.solve(start, bounds, spec.goal, label=f"stage {total}/{total} predictive"
-                         if before else "predictive")
+    if stored is not None:
+        solves, reused = stored
+        ipopt_progress.stage(f"reused the baseline solved by an earlier run ({reused}; "
+                             "PREDGAIT_SOLVER_CACHE=off solves it again)")
+        gaits = [problem.evaluate(s.solved.w, s.p, s.solved) for s in solves]
+        stages = [(s.name, g) for s, g in zip(solves[:-1], gaits[:-1], strict=True)]
+        gait, start = gaits[-1], guess
+    else:
+        stages, gait, start = _solve_stages(spec, problem, guess, reference, bounds)
+        reused = None
+        if key and gait.solved.success:
+            goals = [goal for _, goal, _ in stages_before(spec)]
+            baseline_store.store(key, [
+                *(baseline_store.StoredSolve(name, problem.parameters(goal, reference),
+                                             g.solved)
+                  for (name, g), goal in zip(stages, goals, strict=True)),
+                baseline_store.StoredSolve("prediction", problem.parameters(spec.goal),
+                                           gait.solved)])
     spread = None
     if spec.multistart.starts > 1:
         from predgait.problems.muscle_multistart import StartRun, multistart
@@ -263,7 +284,27 @@ def _solve_prediction(spec: MusclePredictSpec, before_solving=None) -> MusclePre
     stride = from_right_heel_strike(full_stride(plant, gait, check["contact_point_speed"]),
                                     plant)
     return MusclePrediction(plant, planar, gait, tuple(stages), check, stride, build_s,
-                            spread)
+                            spread, None if reused is None else str(reused))
+
+
+def _solve_stages(spec: MusclePredictSpec, problem, guess, reference, bounds):
+    """(stages, gait, start): the solves before the prediction, then it, and its start.
+
+    The stages are :func:`stages_before`'s; each starts from the previous one's solution
+    when it converged.
+    """
+    stages, start = [], guess
+    before = stages_before(spec)
+    total = len(before) + 1
+    for i, (what, goal, name) in enumerate(before):
+        solved = problem.solve(start, bounds, goal, reference,
+                               label=f"stage {i + 1}/{total} {what}")
+        stages.append((name, solved))
+        if solved.solved.success:
+            start = solved.path
+    gait = problem.solve(start, bounds, spec.goal, label=f"stage {total}/{total} predictive"
+                         if before else "predictive")
+    return stages, gait, start
 
 
 def grf_balance(grf, body_weight: float) -> dict:

@@ -143,7 +143,10 @@ def load_muscle_scenario(path: str | Path, overrides=()) -> MuscleScenarioRun:
 
 
 def baseline_prediction(run: MuscleScenarioRun, before_solving=None):
-    """The baseline MusclePrediction (solved once per process and problem).
+    """The baseline MusclePrediction, solved once per process and problem.
+
+    A converged baseline is also stored on disk for later runs
+    (:mod:`predgait.problems.muscle_baseline_store`).
 
     ``before_solving(plant, planar)`` is called with the baseline's model before it is
     solved (:func:`~predgait.problems.muscle_prediction.solve_prediction`), or at once
@@ -156,7 +159,7 @@ def baseline_prediction(run: MuscleScenarioRun, before_solving=None):
         from predgait.problems.ipopt_progress import stage
 
         stage("part 1/2: the unedited model's gait (baseline)")
-        _BASELINES[key] = solve_prediction(run.baseline, before_solving)
+        _BASELINES[key] = solve_prediction(run.baseline, before_solving, reuse=True)
     elif before_solving is not None:
         before_solving(_BASELINES[key].plant, _BASELINES[key].planar)
     return _BASELINES[key]
@@ -293,6 +296,7 @@ def edited_problem(run: MuscleScenarioRun, scenario, plant, *,
         node=scenario_node(plant, planar, scenario, metabolic),
         residual_rows=[i for i in range(plant.model.nq) if i not in fused],
         symmetric=not whole, ipopt_options=WARM_START if warm else None)
+    problem.build_solver()    # Ipopt's derivatives: most of the build, on this thread
     return EditedProblem(scenario, plant, planar, problem, whole, warm,
                          time.perf_counter() - clock, time.thread_time() - cpu)
 

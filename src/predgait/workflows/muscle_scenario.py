@@ -56,6 +56,8 @@ def scenario_summary(result) -> dict:
            # and solved; edited.build_s is the wait for it after the baseline
            "edited_problem_build_s": result.edited_build_s,
            "edited_start": result.edited_start,
+           # the baseline's stored solves (an earlier run's), evaluated, not solved again
+           "baseline_reused_from": result.baseline.reused_from,
            "pinocchio_check": {k: v for k, v in result.edited.check.items()
                                if k not in ("residual", "contact_point_speed")}}
     if ok:
@@ -115,9 +117,10 @@ def summary_lines(summary: dict) -> list[str]:
     b, e = summary["baseline"]["ipopt"], summary["edited"]["ipopt"]
     right = c["legs"]["r"]
     cot = (c["baseline"]["cost_of_transport_j_kg_m"], c["edited"]["cost_of_transport_j_kg_m"])
+    reused = " (stored by an earlier run)" if summary.get("baseline_reused_from") else ""
     lines = [
         f"scenario '{summary['scenario']}' ({summary['solved']}): {summary['status']}; "
-        f"baseline Ipopt {b['iterations']} iterations {b['solve_time_s']:.1f} s, edited "
+        f"baseline Ipopt {b['iterations']} iterations {b['solve_time_s']:.1f} s{reused}, edited "
         f"{e['status']} {e['iterations']} iterations {e['solve_time_s']:.1f} s",
         f"  cost of transport {cot[0]:.3f} -> {cot[1]:.3f} J/kg/m "
         f"({c['cost_of_transport_change_percent']:+.1f} %), effort "
