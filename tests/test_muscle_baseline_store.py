@@ -60,6 +60,8 @@ def test_a_stored_baseline_is_evaluated_not_solved_and_gives_the_same_gait(
     np.testing.assert_array_equal(first.check["residual"], second.check["residual"])
     summary = mp.prediction_summary(spec, second)
     assert summary["ipopt"]["iterations"] == a.solved.iterations
+    assert summary["reused_from"] == second.reused_from
+    assert mp.prediction_summary(spec, first)["reused_from"] is None
 
 
 def test_another_problem_does_not_reuse_it(spec, tmp_path):

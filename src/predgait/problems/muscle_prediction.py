@@ -436,6 +436,8 @@ def prediction_summary(spec: MusclePredictSpec, pred: MusclePrediction) -> dict:
         "ipopt": _solved(s),
         "stages_before": [{"what": what, **_solved(g.solved)} for what, g in pred.stages],
         "build_s": pred.build_s, "total_s": total,
+        # the stored solves of an earlier run, evaluated (their Ipopt figures are that run's)
+        "reused_from": pred.reused_from,
         "objective": s.objective, "objective_terms": gait.terms,
         "goal": vars(spec.goal), "nodes": spec.nodes, "bounds": spec.preset.value,
         "transcription": spec.transcription.value, "dynamics": "implicit (M a + h = tau residual)",
