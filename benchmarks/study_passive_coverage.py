@@ -1,7 +1,7 @@
 """Accuracy and interval coverage of the passive fits through the whole pipeline.
 
 Run: python benchmarks/study_passive_coverage.py [--method moments|angles|both] [--cycles 6]
-     [--seeds 20] [--phases START END] [--cutoff residual|HZ]
+     [--seeds 20] [--first-seed 0] [--phases START END] [--cutoff residual|default|HZ]
 
 The known-answer walk of tests/passive_walk.py (forward simulation of the leg with a
 known nonlinear passive knee and ankle and an active torque that is zero in 70-97 % of
@@ -11,7 +11,8 @@ inverse dynamics (marker and force cut-off by residual analysis or as given), th
 fit over the quiet phases and a 60-replicate bootstrap: ``moments``, the decomposition of
 the inverse-dynamics moments (defaults: 73-88 %, residual-analysis cut-off), or
 ``angles``, the simulation of the quiet phases fitted to the measured angles (kind
-passive_swing; defaults 73-95 %, 20 Hz; started from the decomposition), or ``both``, the
+passive_swing; defaults 73-95 %, the swing fits' default cut-off: a third of the marker
+rate, at most 30 Hz, i.e. 30 Hz here; started from the decomposition), or ``both``, the
 angles and the quiet moments together (kind passive_knee_ankle; Fisher intervals, no
 bootstrap). Printed per fitted parameter: the largest and RMS relative error over the
 repetitions and how many 95 % intervals cover the truth ("not identifiable" counts as not
@@ -41,14 +42,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=6)
     parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--first-seed", type=int, default=0, help="noise seeds start here")
     parser.add_argument("--method", choices=("moments", "angles", "both"), default="moments")
     parser.add_argument("--phases", type=float, nargs=2, default=None,
                         metavar=("START", "END"), help="quiet phase, % gait cycle")
-    parser.add_argument("--cutoff", default=None, help="Hz, or residual")
+    parser.add_argument("--cutoff", default=None,
+                        help="Hz, residual, or default (the swing fits' default)")
     args = parser.parse_args()
     angles = args.method in ("angles", "both")
     args.phases = args.phases or ((73.0, 95.0) if angles else (73.0, 88.0))
-    args.cutoff = args.cutoff or ("20" if angles else "residual")
+    args.cutoff = args.cutoff or ("default" if angles else "residual")
 
     import passive_walk
     from predgait.dynamics.inverse_trial import run_inverse
@@ -64,7 +67,7 @@ def main() -> None:
         fit_swing,
     )
     from predgait.workflows.decomposition import residual_cutoff
-    from predgait.workflows.passive_swing import windows_mask
+    from predgait.workflows.passive_swing import default_cutoff, windows_mask
 
     start = time.perf_counter()
     trial = passive_walk.NoiseFreeTrial(args.cycles, seed=0)
@@ -77,8 +80,8 @@ def main() -> None:
         """One pass through the pipeline: cut-off, reports, curve errors, (sizes, errors
         over the moment without its stops)."""
         options = trial.write(folder, noise_seed=1000 + seed, **noise)
-        cutoff = residual_cutoff(options) if args.cutoff == "residual" \
-            else float(args.cutoff)
+        cutoff = {"residual": residual_cutoff, "default": default_cutoff}.get(
+            args.cutoff, lambda _: float(args.cutoff))(options)
         inverse = run_inverse(replace(options, cutoff=cutoff, grf_cutoff=cutoff))
         samples = GaitSamples.from_inverse(inverse)
         fit = fit_decomposition(samples, model, settings)
@@ -105,7 +108,7 @@ def main() -> None:
     curve, size, unstopped = ({"knee": [], "ankle": []}, {"knee": [], "ankle": []},
                               {"knee": [], "ankle": []})
     with tempfile.TemporaryDirectory() as root:
-        for seed in range(args.seeds):
+        for seed in range(args.first_seed, args.first_seed + args.seeds):
             folder = Path(root) / f"seed{seed}"
             folder.mkdir()
             cutoff, reports, curves, (sizes, free) = repetition(folder, seed)
@@ -146,7 +149,7 @@ def main() -> None:
         e = 100 * np.array(values)
         print(f"  {joint} passive moment along the quiet samples: RMS error {np.mean(e):5.1f} % "
               f"of the truth's RMS ({np.mean(size[joint]):.2f} N m; largest "
-              f"{e.max():5.1f} % in seed {int(np.argmax(e))}; noise-free "
+              f"{e.max():5.1f} % in seed {args.first_seed + int(np.argmax(e))}; noise-free "
               f"{100 * clean_curve[joint]:.1f} %); over the RMS of the moment without its "
               f"stops (the fitted elements' share): {100 * np.mean(unstopped[joint]):5.1f} %, "
               f"largest {100 * np.max(unstopped[joint]):5.1f} %")
