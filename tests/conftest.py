@@ -167,3 +167,17 @@ def count_leg_calibrations():
         return calls
 
     return patch
+
+
+@pytest.fixture(scope="module")
+def compiled(tmp_path_factory):
+    """The compiled-function cache on, in a fresh folder for the module (compiled once;
+    the passive swing fits then run ~40x faster than in CasADi's virtual machine)."""
+    from predgait import function_cache
+
+    with pytest.MonkeyPatch.context() as patch:
+        if function_cache.compiler() is not None:
+            patch.setenv(function_cache.SWITCH, "on")
+            patch.setenv(function_cache.FOLDER, str(tmp_path_factory.mktemp("cache")))
+            patch.setenv(function_cache.WHEN, "now")
+        yield

@@ -233,6 +233,37 @@ class NoiseFreeTrial:
                               points={n: n for n in ("hip", "knee", "ankle", "heel", "toe")})
 
 
+def quiet_curve_errors(truth, model, values, inverse, quiet):
+    """Passive moment error of fitted ``values`` along the TRUE motion of the quiet samples.
+
+    Per joint: RMS(fitted - true moment) / RMS(true moment), RMS(true moment) (N m), and
+    the same error over the RMS of the true moment without its range-of-motion stops
+    (the share of the elements the fit estimates; the stops are known settings). Both
+    moments from ``model`` (the truth at :data:`TRUTH`; equal to :func:`passive_clinical`
+    to 1e-15 N m), at the simulated angles and rates (central differences) at the times
+    of the ``quiet`` (n,) samples. The inverse dynamics counts time from the first heel
+    strike it detects (provenance ``time_zero_s``), the simulation from its start: the
+    two clocks are joined here (issue 28 item 4's measure).
+    """
+    t = np.asarray(inverse.time)[quiet] + inverse.provenance["time_zero_s"]
+    errors, sizes, unstopped = {}, {}, {}
+    for joint, column, sign in (("knee", 4, -1.0), ("ankle", 3, 1.0)):
+        angle = sign * np.interp(t, truth["t"], truth["q"][:, column])
+        rate = sign * np.interp(t, truth["t"], np.gradient(truth["q"][:, column], truth["t"]))
+
+        def moment(params, angle=angle, rate=rate, joint=joint):
+            return np.asarray(model.passive_joint(joint, params).moment(angle, rate))
+
+        true = moment({**values, **TRUTH})
+        error = moment(values) - true
+        free = moment({**values, **TRUTH, **{f"{joint}.{n}": 0.0 for n in ("k_lower", "k_upper")
+                                             if f"{joint}.{n}" in values}})
+        errors[joint] = float(np.sqrt(np.mean(error ** 2) / np.mean(true ** 2)))
+        sizes[joint] = float(np.sqrt(np.mean(true ** 2)))
+        unstopped[joint] = float(np.sqrt(np.mean(error ** 2) / np.mean(free ** 2)))
+    return errors, sizes, unstopped
+
+
 def write_trial(folder, *, cycles=12, seed=0, marker_noise=1e-3, force_noise=0.01):
     """Simulate and write markers.csv, grf.mot, leg.urdf; return options and the truth.
 

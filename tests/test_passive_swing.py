@@ -46,18 +46,6 @@ def walk():
     return passive_walk.simulate(cycles=6, seed=0)
 
 
-@pytest.fixture(scope="module")
-def compiled(tmp_path_factory):
-    """The compiled-function cache on, in a fresh folder for the module (compiled once;
-    the fits then run ~40x faster than in CasADi's virtual machine)."""
-    with pytest.MonkeyPatch.context() as patch:
-        if function_cache.compiler() is not None:
-            patch.setenv(function_cache.SWITCH, "on")
-            patch.setenv(function_cache.FOLDER, str(tmp_path_factory.mktemp("cache")))
-            patch.setenv(function_cache.WHEN, "now")
-        yield
-
-
 def test_thigh_driven_dynamics_is_the_free_leg_under_its_thigh(walk):
     """In swing (no ground force) the projected ADAM equations give the accelerations of
     the hand-built Pinocchio leg free in the plane, whatever hip load held its thigh."""
@@ -314,13 +302,19 @@ def test_fit_that_does_not_converge_exits_3_and_writes_nothing(tmp_path):
     assert "Gauss-Newton did not converge" in run.stderr and not out.exists()
 
 
-def test_marker_cutoff_defaults_to_20_hz_as_documented(tmp_path):
-    """Without [filter] marker_cutoff the problem is read, at 20 Hz (issue 28: refused)."""
+def test_marker_cutoff_defaults_to_a_third_of_the_marker_rate(tmp_path):
+    """Without [filter] marker_cutoff the problem is read (issue 28: it was refused) and the
+    cut-off is a third of the marker rate, at most 30 Hz: 20 Hz on subject01's 60 Hz."""
     from predgait.problemfile import load_problem
-    from predgait.workflows.passive_swing import DEFAULT_CUTOFF_HZ, parse_swing
+    from predgait.workflows.passive_swing import chosen_cutoff, default_cutoff_hz, parse_swing
 
-    text = (REPO / "problems" / "passive_swing.toml").read_text()
+    assert [default_cutoff_hz(rate) for rate in (60.0, 90.0, 100.0, 250.0)] == \
+        pytest.approx([20.0, 30.0, 30.0, 30.0])
+    spec = parse_swing(load_problem(REPO / "problems" / "passive_swing.toml"))
+    assert spec.cutoff is None and spec.default_cutoff
+    assert chosen_cutoff(spec, spec.trial.options())[0] == pytest.approx(20.0)
     problem = tmp_path / "swing.toml"
-    problem.write_text(text.replace("marker_cutoff = 20.0", "# marker_cutoff: default"))
+    problem.write_text((REPO / "problems" / "passive_swing.toml").read_text().replace(
+        "# marker_cutoff = 20.0", 'marker_cutoff = "residual"'))
     spec = parse_swing(load_problem(problem))
-    assert spec.cutoff == DEFAULT_CUTOFF_HZ == 20.0
+    assert spec.cutoff is None and not spec.default_cutoff

@@ -28,6 +28,17 @@ INPUT_ROWS = 9
 _CACHE: dict = {}
 
 
+def _compiled_from():
+    """False with the function cache off, else its folder.
+
+    A compiled step is kept per folder (a process that moves the cache gets that folder's
+    library, not one loaded from another).
+    """
+    from predgait import function_cache
+
+    return function_cache.enabled() and str(function_cache.cache_folder())
+
+
 def _cached(key, build):
     if len(_CACHE) > 64:
         _CACHE.clear()
@@ -115,7 +126,7 @@ def step_function(leg, model: PassiveModel, substeps: int, h: float):
             or step
 
     return _cached(("step", leg.urdf, leg.gravity, model, substeps, h,
-                    function_cache.enabled()), build)
+                    _compiled_from()), build)
 
 
 def _build_step(leg, model, substeps, h):
@@ -159,7 +170,5 @@ def windows_function(leg, model: PassiveModel, windows: int, steps: int, substep
                               cs.repmat(offset, 1, steps * windows))
         return cs.Function("swing_windows", [x0, u, z, offset], [states, sens])
 
-    from predgait import function_cache
-
     return _cached(("windows", leg.urdf, leg.gravity, model, windows, steps, substeps, h,
-                    function_cache.enabled()), build)
+                    _compiled_from()), build)

@@ -4,10 +4,14 @@ The quiet phases of every gait cycle are simulated under the measured thigh with
 passive model as the only joint moment, and its parameters fitted to the measured ankle
 and knee angles (:mod:`predgait.problems.passive_swing`); no inverse-dynamics moment
 enters the fit. The moment decomposition on the same trial gives the first guess. The
-markers are filtered at ``[filter] marker_cutoff`` (default 20 Hz: the angles are fitted,
-not differentiated, and filtering the swing at the residual-analysis cut-off of ~10 Hz
-biases the knee; see docs/DEVELOPING.md), and the fit is repeated at the
-``sensitivity_hz`` cut-offs to show how much the values depend on it.
+markers are filtered at ``[filter] marker_cutoff``, by default a third of the marker rate
+and at most 30 Hz (:func:`default_cutoff`; 20 Hz at 60 Hz, 30 Hz at 100 Hz and above): the
+angles are fitted, not differentiated, and a lower cut-off flattens the fastest swing
+motion, the knee's terminal extension into its stop, which biases the knee (known-answer
+walk at 100 Hz, 3 cycles, 73-95 %, 60 noise seeds: at 20 Hz knee k, c, theta0 off by
++0.5 to +0.8, -0.5 to -0.7 and +0.6 to +0.8 standard errors on average; at 30 Hz within
+0.2; docs/DEVELOPING.md). The fit is repeated at the ``sensitivity_hz`` cut-offs to show
+how much the values depend on it.
 Writes solution.json, passive_moments.sto and swing_angles.sto.
 """
 
@@ -72,8 +76,12 @@ MOMENTS = ("; kind passive_knee_ankle: the quiet samples' inverse-dynamics momen
            "both residuals")
 #: Fewest quiet swings (gait cycles with a quiet window) a fit accepts.
 MIN_SWINGS = 2
-#: Default marker cut-off of this fit, Hz (module docstring).
-DEFAULT_CUTOFF_HZ = 20.0
+#: Highest default marker cut-off of this fit, Hz (module docstring).
+MAX_DEFAULT_CUTOFF_HZ = 30.0
+#: The default cut-off's share of the marker rate (a third: 20 Hz at 60 Hz).
+DEFAULT_CUTOFF_SHARE = 1.0 / 3.0
+DEFAULT_CHOICE = ("default: a third of the marker rate, at most "
+                  f"{MAX_DEFAULT_CUTOFF_HZ:g} Hz (forces at the same cut-off)")
 
 
 @dataclass(frozen=True)
@@ -84,11 +92,12 @@ class SwingSpec:
     trial: LegTrial
     model: PassiveModel
     settings: SwingSettings
-    cutoff: float | None            # Hz; None: residual analysis
+    cutoff: float | None            # Hz; None: residual analysis or the default
     sensitivity_hz: tuple[float, ...]
     resampling: Resampling
     windows: tuple[tuple[float, float], ...] = DEFENSIBLE_WINDOWS
     moments: bool = False           # kind passive_knee_ankle: the moments fitted too
+    default_cutoff: bool = True     # no marker_cutoff given: :func:`default_cutoff`
 
 
 def parse_knee_ankle(table: Table) -> SwingSpec:
@@ -105,8 +114,8 @@ def parse_swing(table: Table) -> SwingSpec:
                       "uncertainty", "passive", "window_sensitivity"))
     joints = parse_joints(table)
     trial = leg_trial(table.table("trial"))
-    cutoff, sensitivity = parse_filter(table.table("filter"), default_cutoff=DEFAULT_CUTOFF_HZ,
-                                       sensitivity=(10.0, 15.0, 25.0))
+    filt = table.table("filter")
+    cutoff, sensitivity = parse_filter(filt, sensitivity=(10.0, 15.0, 25.0))
     sim = table.table("simulation")
     sim.check_keys(("step_s", "max_iter", "initial_angle_span_deg", "initial_rate_span_deg_s"))
     return SwingSpec(
@@ -123,7 +132,33 @@ def parse_swing(table: Table) -> SwingSpec:
                                                     low=1.0, high=2000.0, unit="deg/s"))),
         cutoff=cutoff, sensitivity_hz=sensitivity,
         resampling=parse_uncertainty(table.table("uncertainty"), blocks=False),
-        windows=parse_windows(table))
+        windows=parse_windows(table), default_cutoff=not filt.has("marker_cutoff"))
+
+
+def default_cutoff_hz(rate: float) -> float:
+    """The swing fits' default marker cut-off at a marker ``rate`` (Hz), Hz.
+
+    A third of the rate, at most :data:`MAX_DEFAULT_CUTOFF_HZ` (module docstring); below
+    the Nyquist frequency.
+    """
+    return min(MAX_DEFAULT_CUTOFF_HZ, DEFAULT_CUTOFF_SHARE * float(rate))
+
+
+def default_cutoff(options) -> float:
+    """:func:`default_cutoff_hz` at the marker rate of a trial's inverse options, Hz."""
+    from predgait.dynamics.leg_measurements import read_trial
+
+    return default_cutoff_hz(read_trial(options)[0].markers.rate)
+
+
+def chosen_cutoff(spec: SwingSpec, options) -> tuple[float, str]:
+    """(marker cut-off, Hz; how it was chosen): given, the default, or residual analysis."""
+    if spec.cutoff is not None:
+        return spec.cutoff, "given"
+    if spec.default_cutoff:
+        return default_cutoff(options), DEFAULT_CHOICE
+    return residual_cutoff(options), ("Winter's residual analysis of the trial's markers "
+                                      "(forces at the same cut-off)")
 
 
 def _fit_at(spec: SwingSpec, options, cutoff: float, *, profile: bool = True):
@@ -194,7 +229,7 @@ def solve_swing(spec: SwingSpec) -> dict:
         SolveFailed: The fit did not converge (nothing written).
     """
     options = spec.trial.options()
-    chosen = spec.cutoff if spec.cutoff is not None else residual_cutoff(options)
+    chosen, choice = chosen_cutoff(spec, options)
     check_cutoff(spec.source, options, chosen)
     samples, inverse, windows, fit, start = _fit_at(spec, options, chosen)
     res = spec.resampling
@@ -234,8 +269,7 @@ def solve_swing(spec: SwingSpec) -> dict:
             p.key: start[p.key] for p in spec.model.fitted},
         "bootstrap": bootstrap_summary(boot, spec.resampling.seed),
         "marker_cutoff_hz": chosen,
-        "marker_cutoff_choice": "given" if spec.cutoff is not None else
-        "Winter's residual analysis of the trial's markers (forces at the same cut-off)",
+        "marker_cutoff_choice": choice,
         "cutoff_sensitivity": sensitivity(spec, options),
         "window_sensitivity": over,
         "provenance": {"problem": str(spec.source), "model": inverse.model.source,
