@@ -37,7 +37,8 @@ With ``--moco-solution`` (Moco's gaitPrediction_solution.sto, e.g. from
 benchmarks/opensim_moco_2d_walking.py --write) its objective and kinematics beside ours
 (no time: a time from a file is not a measurement of this run); with ``--coretypes`` one
 run per OPENBLAS_CORETYPE and the spread of the objective and kinematics between them; two
-muscle scenarios (cold process; the edited re-solve from the baseline and its build); the
+muscle scenarios (cold process; the edited re-solve from the baseline and its build; then
+again with the baseline that run stored, as a user's second scenario of a baseline); the
 human-likeness run (problems/predict_2d_muscles_physiological.toml) with its failed checks.
 
 Run:  [OPENSIM_PYTHON=... MOCO_2D_GAIT_DIR=...] .venv/bin/python benchmarks/bench_predict.py
@@ -52,6 +53,7 @@ import argparse
 import json
 import os
 import subprocess
+import tempfile
 from dataclasses import replace
 
 from timing import HERE, NOT_AVAILABLE, Timing, load_text, opensim_python, ratio, time_call
@@ -162,10 +164,12 @@ def bench(nodes: int, repeat: int) -> tuple[Timing, Timing]:
 def solve_muscles(problem: str, extra: tuple[str, ...] = (), env: dict | None = None,
                   command: str = "solve") -> tuple[float, float, dict]:
     """One cold ``predgait COMMAND`` of a muscle problem file in a fresh process: (wall s,
-    CPU s, summary)."""
+    CPU s, summary).
+
+    Cold: its own empty cache folder (no stored baseline), unless ``env`` gives one.
+    """
     import resource
     import sys
-    import tempfile
     import time
     from pathlib import Path
 
@@ -176,7 +180,8 @@ def solve_muscles(problem: str, extra: tuple[str, ...] = (), env: dict | None = 
         done = subprocess.run([sys.executable, "-m", "predgait", command,
                                str(HERE.parent / "problems" / problem), "--out", str(out),
                                "--no-plots", *extra], capture_output=True, text=True,
-                              env={**os.environ, **(env or {})})
+                              env={**os.environ, "PREDGAIT_CACHE_DIR": str(Path(tmp) / "cache"),
+                                   **(env or {})})
         wall = time.perf_counter() - start
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
@@ -254,15 +259,24 @@ def bench_muscles(repeat: int, peer_repeat: int, peer_minutes: float,
         print(f"  OPENBLAS_CORETYPE: objectives {objectives}; right-leg angles differ by "
               f"up to {spread:.2f} deg between kernels")
     for scenario in SCENARIOS:
-        wall, cpu, summary = solve_muscles(scenario, command="scenario")
-        b, e = summary["baseline"]["ipopt"], summary["edited"]["ipopt"]
-        print(f"  scenario {scenario}, cold `predgait scenario` {wall:.1f} s wall ({cpu:.1f} s "
-              f"CPU): baseline {b['iterations']} iterations {b['solve_time_s']:.1f} s, edited "
-              f"re-solve from the baseline {e['status']} {e['iterations']} iterations "
-              f"{e['solve_time_s']:.1f} s; its problem built in "
-              f"{summary['edited_problem_build_s']:.1f} s on a second thread while the "
-              f"baseline built and solved, waited {summary['edited']['build_s']:.1f} s for "
-              f"after it; {load_text()}")
+        with tempfile.TemporaryDirectory() as cache:
+            env = {"PREDGAIT_CACHE_DIR": cache}
+            wall, cpu, summary = solve_muscles(scenario, env=env, command="scenario")
+            b, e = summary["baseline"]["ipopt"], summary["edited"]["ipopt"]
+            print(f"  scenario {scenario}, cold `predgait scenario` {wall:.1f} s wall ({cpu:.1f}"
+                  f" s CPU): baseline {b['iterations']} iterations {b['solve_time_s']:.1f} s, "
+                  f"edited re-solve from the baseline {e['status']} {e['iterations']} "
+                  f"iterations {e['solve_time_s']:.1f} s; its problem built in "
+                  f"{summary['edited_problem_build_s']:.1f} s on a second thread while the "
+                  f"baseline built and solved, waited {summary['edited']['build_s']:.1f} s for "
+                  f"after it; {load_text()}")
+            wall, cpu, again = solve_muscles(scenario, env=env, command="scenario")
+            e = again["edited"]["ipopt"]
+            print(f"    again, with the baseline that run stored (evaluated, not solved): "
+                  f"{wall:.1f} s wall ({cpu:.1f} s CPU); edited build "
+                  f"{again['edited_problem_build_s']:.1f} s, Ipopt {e['iterations']} iterations "
+                  f"{e['solve_time_s']:.1f} s; same finding: "
+                  f"{again['finding'] == summary['finding']}; {load_text()}")
     _, _, phys = solve_muscles("predict_2d_muscles_physiological.toml")
     print(f"  physiological bounds: {phys['status']}, objective {phys['objective']:.5g}; "
           f"{len(phys['warnings'])} of {len(phys['human_likeness'])} checks fail: "
