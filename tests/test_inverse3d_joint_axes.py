@@ -138,7 +138,8 @@ def test_jcs_inversion_agrees_in_opensims_geometry(subject01, side):
     "issue 27 item 2: the ISB floating axis is perpendicular to the transmalleolar axis, "
     "which this subject's feet point 2.6 / 8.6 deg medially of in stance, and the ankle "
     "centre lies 13-14 mm lateral of Gait2354's ankle joint: measured r -0.03 (right), "
-    "-0.71 (left); see the module docstring"))
+    "-0.71 (left); see the module docstring. The like-with-like comparison, Gait2354's "
+    "subtalar axis in our foot frame: tests/test_subtalar_axis.py"))
 @pytest.mark.parametrize("side", ["r", "l"])
 def test_clinical_inversion_moment_correlates_with_opensims_subtalar(subject01, side):
     ours = subject01["at"](subject01["clinical"][f"ankle_inversion_{side}_moment"])

@@ -24,12 +24,18 @@ Marker map (TOML, read with :func:`predgait.problemfile.load_problem`)::
                          # predgait.kinematics.static_feet) or, without one, the soles are
                          # levelled at loaded mid-stance (predgait.kinematics.foot_flat);
                          # "off": neither (the static fit's pose)
+    [ik]          # optional
+    foot_inversion = "fitted"  # or "held": the walking IK holds each ankle's Cardan X
+                         # (the foot's roll about the shank's forward axis) at the model's
+                         # neutral 0, so the foot's frontal plane follows the shank's, as
+                         # Gait2354's IK holds its subtalar joint at 0 (FootInversion)
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 
 import numpy as np
@@ -76,6 +82,27 @@ BODIES = ("pelvis", "torso", "thigh_r", "thigh_l", "shank_r", "shank_l", "foot_r
           "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l")
 
 
+class FootInversion(Enum):
+    """How the walking IK treats the foot's inversion (``[ik] foot_inversion``).
+
+    ``fitted``: the ankle's three Cardan coordinates are fitted to the markers. ``held``:
+    each ankle's X (inversion, the first rotation, fixed in the shank) is held at the
+    model's neutral 0 through the walk, so the foot rolls with the shank, as OpenSim's
+    Gait2354 IK holds its subtalar joint at 0 (its shipped subject01 results,
+    tests/data/opensim_gait2354_reference). On subject01 the foot markers barely tell the
+    roll (their RMS moves by 0-2 mm) while it decides how the ankle moment projects on a
+    foot-fixed axis (the subtalar moment, :mod:`predgait.kinematics.subtalar_axis`;
+    docs/DEVELOPING.md).
+    """
+
+    FITTED = "fitted"
+    HELD = "held"
+
+    def held_coordinates(self) -> tuple[str, ...]:
+        """The coordinates the walking IK holds at 0."""
+        return ("ankle_r_x", "ankle_l_x") if self is FootInversion.HELD else ()
+
+
 @dataclass(frozen=True)
 class MarkerMap:
     """Model frame <-> trial marker pairs, extra segment markers and weights."""
@@ -86,6 +113,7 @@ class MarkerMap:
     source: str = ""
     scaling: ScalingSpec | None = None     # [scaling]: segment lengths from a static trial
     foot_flat: FootFlatMode = FootFlatMode.AUTO  # [calibration] foot_flat
+    foot_inversion: FootInversion = FootInversion.FITTED  # [ik] foot_inversion
 
     def fitted(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
         """(model frames, trial markers) fitted after calibration.
@@ -106,7 +134,7 @@ class MarkerMap:
 def read_marker_map(path: str | Path) -> MarkerMap:
     """Read a marker map TOML (see module docstring)."""
     table = load_problem(path)
-    table.check_keys(["markers", "segments", "weights", "scaling", "calibration"])
+    table.check_keys(["markers", "segments", "weights", "scaling", "calibration", "ik"])
     markers, segments, weights = (table.table(k) for k in ("markers", "segments", "weights"))
     frames = {k: markers.get(k, str) for k in markers.data}
     unknown = [k for k in frames if k not in MARKERS + JOINT_CENTRES]
@@ -125,7 +153,11 @@ def read_marker_map(path: str | Path) -> MarkerMap:
     calibration = table.table("calibration")
     calibration.check_keys(["foot_flat"])
     foot_flat = calibration.choice("foot_flat", FootFlatMode, FootFlatMode.AUTO)
-    return MarkerMap(frames, segs, w, source=str(path), scaling=scaling, foot_flat=foot_flat)
+    ik = table.table("ik")
+    ik.check_keys(["foot_inversion"])
+    foot_inversion = ik.choice("foot_inversion", FootInversion, FootInversion.FITTED)
+    return MarkerMap(frames, segs, w, source=str(path), scaling=scaling, foot_flat=foot_flat,
+                     foot_inversion=foot_inversion)
 
 
 def read_trial(files: Sequence[str | Path]) -> tuple[Markers, tuple[ForcePlate, ...]]:
@@ -254,9 +286,11 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
     weights = {f: marker_map.weights.get(f, marker_map.weights.get(m, 1.0))
                for f, m in zip(frames, names, strict=True)}
 
+    held = unobserved + marker_map.foot_inversion.held_coordinates()
+
     def fit_walk(body):
         ik = solve_ik(body, markers.time, markers.select(list(names)).xyz, frames,
-                      marker_names=names, weights=weights, locked=unobserved, options=options)
+                      marker_names=names, weights=weights, locked=held, options=options)
         return ik, _filter_q(body, ik.time, ik.q, cutoff)
 
     ik, q = fit_walk(model)
@@ -288,6 +322,7 @@ def inverse_fullbody(markers: Markers, plates: Sequence[ForcePlate], marker_map:
             f: round(1000 * float(np.sqrt(np.nanmean(first.residuals[:, i] ** 2))), 2)
             for i, f in enumerate(first.marker_frames) if f in centres and f in JOINT_CENTRES},
         "static_feet": calibration.static_feet,
+        "foot_inversion": marker_map.foot_inversion.value,
         "foot_flat_calibration": None if feet is None else {
             side: f if isinstance(f, str) else f.summary() for side, f in feet.items()},
         "coordinate_cutoff_hz": cutoff, "grf_cutoff_hz": grf_cutoff,

@@ -52,6 +52,16 @@ def _rz(c_):
                      np.stack([zero, zero, one], -1)], -2)
 
 
+def cardan_xyz_rotation(q_xyz: np.ndarray) -> np.ndarray:
+    """(n, 3, 3): the foot frame in the shank frame, R = Rx(a) Ry(b) Rz(c).
+
+    Args:
+        q_xyz: (n, 3) rad, the model's ankle coordinates (x, y, z).
+    """
+    q_xyz = np.asarray(q_xyz, dtype=float)
+    return _rx(q_xyz[:, 0]) @ _ry(q_xyz[:, 1]) @ _rz(q_xyz[:, 2])
+
+
 def cardan_xyz_axes(q_xyz: np.ndarray) -> np.ndarray:
     """(n, 3, 3): columns = the X-Y-Z chain's rotation axes in the shank frame.
 
@@ -83,8 +93,7 @@ def jcs_angles(q_xyz: np.ndarray) -> np.ndarray:
 
     In the model's x, y, z slots: Rx(a) Ry(b) Rz(c) = Ry(beta) Rx(alpha) Rz(gamma).
     """
-    q_xyz = np.asarray(q_xyz, dtype=float)
-    rot = _rx(q_xyz[:, 0]) @ _ry(q_xyz[:, 1]) @ _rz(q_xyz[:, 2])
+    rot = cardan_xyz_rotation(q_xyz)
     alpha = np.arcsin(np.clip(-rot[:, 1, 2], -1.0, 1.0))
     beta = np.arctan2(rot[:, 0, 2], rot[:, 2, 2])
     gamma = np.arctan2(rot[:, 1, 0], rot[:, 1, 1])

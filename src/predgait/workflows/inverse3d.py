@@ -10,8 +10,9 @@ low-pass the coordinates, differentiate, assign the plates to the feet and run R
 axis, pelvis residual force N and moment N m in the lab), ``ik_residuals.csv`` (m per
 marker, RMS, flag), ``clinical_angles.sto`` (deg) and ``clinical_moments.sto`` (N m) with
 clinical names and signs, the ankles' in the ISB joint coordinate system (header ``axes``;
-both also in ``clinical.csv``), ``model.osim`` and ``motion.mot``
-(the body and its motion for OpenSim) and ``summary.json``.
+both also in ``clinical.csv``), ``subtalar_moments.sto`` (N m, the ankle moment about
+Gait2354's subtalar axis, :mod:`predgait.kinematics.subtalar_axis`), ``model.osim`` and
+``motion.mot`` (the body and its motion for OpenSim) and ``summary.json``.
 
 The marker map is described in :mod:`predgait.dynamics.inverse3d_trial`.
 """
@@ -42,6 +43,7 @@ from predgait.kinematics.ik3d import (
     IKOptions,
     coordinate_columns,
 )
+from predgait.kinematics.subtalar_axis import subtalar_moments
 from predgait.report.figures import plots_wanted
 from predgait.report.tidy import write_summary
 
@@ -195,6 +197,13 @@ AXES = ("ankles: ISB joint coordinate system (predgait.kinematics.ankle_jcs; Wu 
         "on these axes. Other joints: their Cardan X-Y-Z coordinates and generalised forces")
 
 
+#: The axis of ``subtalar_moments.sto`` (header ``axes``).
+SUBTALAR_AXES = ("Gait2354's subtalar axis (Delp et al. 1990, after Inman 1976) fixed in the "
+                 "foot frame, through the ankle centre (predgait.kinematics.subtalar_axis): "
+                 "the moment OpenSim reports as subtalar_angle_<side>_moment; a model axis, "
+                 "the clinical inversion moment is in clinical_moments.sto")
+
+
 def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     """Write the output files into an existing (staging) folder; returns the summary."""
     time, model, dyn = result.ik.time, result.model, result.dynamics
@@ -233,6 +242,11 @@ def write_outputs(result: Inverse3DResult, folder: Path) -> dict:
     write_csv(folder / "clinical.csv", time, angles | moments,
               units=dict.fromkeys(angles, "deg") | dict.fromkeys(moments, "N m"),
               provenance=prov)
+    subtalar = subtalar_moments(model.joint_names, result.q[:, 7:], dyn.tau[:, 6:])
+    write_storage(folder / "subtalar_moments.sto", time,
+                  {k: masked(v) for k, v in subtalar.items()},
+                  header={"units": "N m", "conventions": "internal moment, inversion +",
+                          "axes": SUBTALAR_AXES, "provenance": prov})
     res = {f"{m}": result.ik.residuals[:, i] for i, m in enumerate(result.ik.marker_names)}
     res |= {"rms": result.ik.rms, "flagged": (~result.ik.converged).astype(float)}
     write_csv(folder / "ik_residuals.csv", time, res, units=dict.fromkeys(res, "m") |
