@@ -1,9 +1,9 @@
 """Whole-body tracking with contacts (issue 18): one stance and one gait cycle of subject01.
 
-Times, in process, the tracking solve (CasADi + Ipopt on ADAM; exact Hessian, constraint
-Jacobian and cost gradient assembled from one node's and one interval's symbolic
-derivatives) cold (symbolic functions built: caches cleared) and warm (built once per
-model, reused), with nodes and iterations; then, for the cycle, the LQR gains
+Times, in process, the tracking solve (CasADi + Ipopt, the pelvis rows from one RNEA pass
+in SX; exact Hessian, constraint Jacobian and cost gradient assembled from one node's and
+one interval's symbolic derivatives) cold (symbolic functions built: caches cleared) and
+warm (built once per model, reused), with nodes and iterations; then, for the cycle, the LQR gains
 (linearisation at every node + Riccati) and the two forward re-simulations on the
 contact springs (RK4). Goal of the issue: a whole cycle in under 60 s on 2 cores. CPU
 is the figure to compare on a shared machine (the wall time there follows the load).

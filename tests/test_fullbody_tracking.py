@@ -1,6 +1,6 @@
 """Whole-body tracking with contacts and its feedback (issue 18).
 
-Known answers: the symbolic node (ADAM) equals Pinocchio's floating-base rows of
+Known answers: the symbolic node (one RNEA pass) equals Pinocchio's floating-base rows of
 RNEA - J^T f and its contact points; a standing sway simulated by the forward engine
 with a known torque history on the engine's contact springs is recovered (torques within
 2 % RMS, motion within 0.5 deg); on subject01 the solution satisfies the equations of

@@ -1,4 +1,4 @@
-"""Whole-body tracking with contacts: a dynamically consistent walk (CasADi + Ipopt, ADAM).
+"""Whole-body tracking with contacts: a dynamically consistent walk (CasADi + Ipopt).
 
 The 35-DOF body (:mod:`predgait.models.fullbody`) with its pelvis a free flyer and no
 residual actuators. Unknowns at every node k of the measured frames: the corrected
@@ -13,8 +13,9 @@ only the 6 floating-base rows of the equations of motion are constraints,
     M(q)_{0:6,:} a + h(q, v)_{0:6} - sum_c J_c(q)_{:, 0:6}^T f_c = 0,
 
 (Featherstone 2008, Rigid Body Dynamics Algorithms, ch. 9: a floating base is driven only
-by the external forces); the joint torques are outputs, the remaining rows of
-RNEA(q, v, a) - sum J_c^T f_c, evaluated by Pinocchio after the solve. This is the
+by the external forces), written as the pelvis rows of one RNEA pass
+(:mod:`~predgait.problems.fullbody_tracking_rnea`); the joint torques are outputs, the
+remaining rows of RNEA(q, v, a) - sum J_c^T f_c, evaluated by Pinocchio after the solve. This is the
 residual-reduction problem of OpenSim's RRA and AddBiomechanics (Werling et al. 2023,
 PLoS ONE 18:e0295152) solved by optimal control with the residuals held at zero.
 
