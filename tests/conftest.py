@@ -24,6 +24,36 @@ def pytest_xdist_auto_num_workers(config) -> int:
     return max(1, min(MAX_WORKERS, len(os.sched_getaffinity(0))))
 
 
+#: The longest test files, s (sum of their tests' setup and call, full suite on the 2-core
+#: machine at load ~4, issue 30 item 9). They run first: xdist's own order (files with the
+#: most tests first) started the one-test files last, so that one of these (notebook 10,
+#: a whole-body tracking fixture) ran alone at the end while the other worker idled.
+LONG_FILES = {
+    "tests/test_muscle_scenarios.py": 295, "tests/test_muscle_multistart.py": 283,
+    "tests/test_fullbody_tracking_walking5.py": 227,
+    "tests/test_fullbody_tracking_cycle.py": 225,
+    "notebooks/10_muscle_prediction.ipynb": 225, "tests/test_passive_swing.py": 204,
+    "tests/test_toes_model.py": 202, "tests/test_predict_scenarios.py": 181,
+    "tests/test_fullbody_tracking.py": 113, "tests/test_demo_report.py": 104,
+    "notebooks/08_predictive_gait.ipynb": 95, "tests/test_predict.py": 82,
+    "notebooks/07_whole_body.ipynb": 71,
+}
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """Files in the order a worker should take them (``--dist loadfile`` with
+    ``--no-loadscope-reorder``): :data:`LONG_FILES` longest first, then the other files
+    with the most tests first (xdist's own order); a file's tests keep their order."""
+    files = [item.nodeid.split("::")[0] for item in items]
+    count, first = {}, {}
+    for index, name in enumerate(files):
+        count[name] = count.get(name, 0) + 1
+        first.setdefault(name, index)
+    order = {name: (-LONG_FILES.get(name, 0), -count[name], first[name]) for name in count}
+    items[:] = [item for _, item in sorted(zip(files, items, strict=True),
+                                           key=lambda pair: order[pair[0]])]
+
+
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
     """The third-party trials in ../shared/data (CI clones the repo beside shared/)."""
