@@ -81,6 +81,9 @@ from predgait.problems.muscle_gait_dynamics import MusclePlant, node_function
 SCALES = {"h": 0.01, "q": 1.0, "v": 1.0, "a": 10.0, "act": 1.0, "exc": 1.0, "u": 10.0,
           "ft": 1.0, "dft": 10.0, "W": 100.0, "E": 0.01}
 NEVER_INLINE = False
+#: The node outputs the objective and constraints use: residual, activation rate, contact
+#: forces, metabolic rate, tendon equilibrium (:func:`node_function`'s outputs 0, 1, 2, 7, 8).
+NODE_OUTPUTS_USED = (0, 1, 2, 7, 8)
 #: Entries of the goal parameter vector (speed, 6 weights).
 GOAL_SIZE = 7
 #: Residual scale (N, N m per unit of the scaled constraint).
@@ -227,7 +230,7 @@ class MuscleGaitProblem:
 
     def __init__(self, plant: MusclePlant, mesh: int, *, tx_row: int,
                  transcription: Transcription = Transcription.TRAPEZOIDAL,
-                 max_iter: int = 2000, print_level: int = 0, symbol=cs.SX,
+                 max_iter: int = 2000, print_level: int = 0,
                  node: cs.Function | None = None, residual_rows=None,
                  symmetric: bool = True, ipopt_options: dict | None = None,
                  periodic_activations: bool = True, metabolic: bool = False):
@@ -241,23 +244,29 @@ class MuscleGaitProblem:
                       ("act", m, n1), ("exc", m, n1), ("u", 1, n1),
                       ("ft", len(plant.compliant), n1), ("dft", len(plant.compliant), n1),
                       ("W", 1, n1), ("E", 1, n1))
-        self.w = symbol.sym("w", sum(r * c for _, r, c in self.sizes))
+        self.w = cs.SX.sym("w", sum(r * c for _, r, c in self.sizes))
         x = self.unpack(self.w)
         h, q, v, a, act, exc, u, ft, dft, energy, running = (
             x[k] for k in ("h", "q", "v", "a", "act", "exc", "u", "ft", "dft", "W", "E"))
         nc = len(plant.compliant)
         self.p_sizes = (("goal", GOAL_SIZE), ("q_ref", nq * n1))
-        self.p = symbol.sym("p", GOAL_SIZE + nq * n1)
+        self.p = cs.SX.sym("p", GOAL_SIZE + nq * n1)
         goal, q_ref = self.p[:GOAL_SIZE], cs.reshape(self.p[GOAL_SIZE:], nq, n1)
         node = node_function(plant, metabolic) if node is None else node
         self.node, self.metabolic = node, metabolic
         # one call per node (not a map): MX differentiates each call through the node's
         # own symbolic SX derivatives, as fast as an SX graph and built in ~1 s
         tendon_in = (lambda k: [ft[:, k], dft[:, k]]) if nc else (lambda k: [])
-        calls = [node.call([q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k],
-                            *tendon_in(k)], False, NEVER_INLINE) for k in range(n1)]
-        r, act_dot, grf, points, force, fibre, muscle_tau, metabolic_rate, tendon = (
-            cs.horzcat(*(c[i] for c in calls)) for i in range(9))
+        inputs = [[q[:, k], v[:, k], a[:, k], act[:, k], exc[:, k], u[:, k], *tendon_in(k)]
+                  for k in range(n1)]
+        calls = [node.call(args, False, NEVER_INLINE) for args in inputs]
+        outputs = [cs.horzcat(*(c[i] for c in calls)) for i in range(9)]
+        _, _, _, points, force, fibre, muscle_tau, _, _ = outputs
+        # the outputs f and g use, as symbols (their derivatives: muscle_gait_derivatives)
+        inlined = cs.vertcat(*(outputs[i] for i in NODE_OUTPUTS_USED))
+        y = cs.SX.sym("y", inlined.shape[0], n1)
+        r, act_dot, grf, metabolic_rate, tendon = cs.vertsplit(y, list(np.cumsum(
+            [0, *(outputs[i].shape[0] for i in NODE_OUTPUTS_USED)])))
         scale = intervals / NOMINAL_DURATION       # 1 / h_0
 
         def defect(y, ydot):
@@ -325,12 +334,18 @@ class MuscleGaitProblem:
             terms["metabolic"] = energy[0, -1] / distance / plant.model.total_mass()
             objective += goal[5] * terms["metabolic"]
         self.term_names = tuple(terms)
+        g = cs.vertcat(*g)
+        outer = cs.Function("outer", [self.w, self.p, y], [objective, g, r, grf, tendon,
+                                                          *terms.values()])
+        objective_w, g_w, r_w, grf_w, tendon_w, *terms_w = outer(self.w, self.p, inlined)
         self.outputs = cs.Function("outputs", [self.w, self.p],
-                                   [r, grf, points, force, fibre, muscle_tau, *terms.values()])
-        self.tendon_residual = cs.Function("tendon_residual", [self.w], [tendon])
+                                   [r_w, grf_w, points, force, fibre, muscle_tau, *terms_w])
+        self.tendon_residual = cs.Function("tendon_residual", [self.w], [tendon_w])
+        self._derivatives = (self.w, self.p, cs.horzcat(*(cs.vertcat(*k) for k in inputs)),
+                             y, objective, g)
         opts = {"ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
                           **IPOPT_OPTIONS, **(ipopt_options or {})}, "print_time": False}
-        self.nlp = {"x": self.w, "p": self.p, "f": objective, "g": cs.vertcat(*g)}
+        self.nlp = {"x": self.w, "p": self.p, "f": objective_w, "g": g_w}
         opts |= ipopt_progress.callback_options("muscle_gait", self.nlp["x"].numel(),
                                                 self.nlp["g"].numel(), self.nlp["p"].numel())
         self._solver_options = opts
@@ -339,11 +354,15 @@ class MuscleGaitProblem:
     def solver(self) -> cs.Function:
         """Ipopt on the NLP, built on first use.
 
-        ~20 s CPU at 50 intervals (the exact Hessian of the Lagrangian and the constraint
-        Jacobian); a stored solution (:mod:`predgait.problems.muscle_baseline_store`) is
-        evaluated without it.
+        The exact derivatives come from :mod:`.muscle_gait_derivatives` (the node's
+        derivatives derived once and mapped over the grid: ~1 s to build at 50 intervals,
+        where CasADi's own of the inlined graph took ~20 s CPU); a stored solution
+        (:mod:`predgait.problems.muscle_baseline_store`) is evaluated without it.
         """
-        return cs.nlpsol("muscle_gait", "ipopt", self.nlp, self._solver_options)
+        from predgait.problems.muscle_gait_derivatives import nlp_derivatives
+
+        derivatives = nlp_derivatives(*self._derivatives, self.node, NODE_OUTPUTS_USED)
+        return cs.nlpsol("muscle_gait", "ipopt", self.nlp, self._solver_options | derivatives)
 
     def build_solver(self) -> None:
         """Build :attr:`solver` now (on this thread) rather than at the first solve."""
