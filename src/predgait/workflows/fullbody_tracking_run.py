@@ -102,7 +102,8 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
         "deviation": deviations(model, data, solution),
         "feedback": feedback,
         "provenance": {"problem": spec.source, "trial": drive.source,
-                       "predgait": __version__, **drive.calibration},
+                       "predgait": __version__, "mass_kg": round(model.total_mass(), 3),
+                       **drive.calibration},
     }, tracking_checks(model, solution))
 
 
