@@ -199,6 +199,11 @@ def test_cli_writes_the_result(tmp_path, capsys, assert_tidy_result):
         assert (out / name).is_file(), name
     summary = assert_tidy_result(out / "summary.json")
     assert summary["pelvis_residual_max_n"] < 1e-6
+    # The given mass, and the plates' check of it (subject01: 72.6 kg given, 72.7 weighed).
+    provenance = summary["provenance"]
+    assert (provenance["mass_kg"], provenance["mass_from"]) == (pytest.approx(72.6), "given")
+    [mass] = [c for c in summary["plausibility"] if c["name"] == "body mass"]
+    assert mass["passed"] and provenance["plates_weigh_kg"] == pytest.approx(72.7, abs=0.05)
     assert set(summary["feedback"]) >= {"with_feedback", "without_feedback"}
     floor = summary["floor"]
     assert floor["source"] == "median lowest sole point of the measured motion"

@@ -146,7 +146,8 @@ class FullbodyDrive:
         source: Provenance text.
         calibration: How the marker frames were calibrated and the mass found (the
             inverse result's provenance: ``marker_calibration``,
-            ``foot_flat_calibration``, ``mass_from``: "given" or "plates").
+            ``foot_flat_calibration``, ``mass_from``: "given" or "plates"; and
+            ``plates_weigh_kg``, :func:`~predgait.data.body_weight.plate_body_mass`).
     """
 
     model: Model3D
@@ -171,7 +172,9 @@ class FullbodyDrive:
                    tuple(starts), str(result.provenance.get("trial", "")),
                    {k: result.provenance.get(k) for k in ("marker_calibration",
                                                           "foot_flat_calibration",
-                                                          "mass_from")})
+                                                          "mass_from")}
+                   | {"plates_weigh_kg": None if result.plate_mass is None
+                      else round(result.plate_mass.mass, 1)})
 
 
 def foot_wrenches(plates, sides: np.ndarray) -> dict[str, np.ndarray]:

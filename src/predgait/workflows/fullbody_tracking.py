@@ -30,7 +30,7 @@ import numpy as np
 from predgait.dynamics.floating_lqr import FLOATING_WEIGHTS
 from predgait.dynamics.lqr import BrysonWeights
 from predgait.errors import InputError
-from predgait.models.fullbody import CONTACTS, SOLE_EDGES
+from predgait.models.fullbody import BALLS, CONTACTS, SOLE_EDGES
 from predgait.problemfile import Table
 from predgait.problems.fullbody_tracking import (
     TrackingData,
@@ -89,11 +89,11 @@ def parse_tracking(table: Table) -> TrackingSpec:
     fb = {k: v for k, v in vars(FLOATING_WEIGHTS).items() if v is not None}
     feedback.check_keys((*fb, "step"))
     contact = parse_contact(table)
-    unknown = [f for f in contact.frames if f not in CONTACTS + SOLE_EDGES]
+    unknown = [f for f in contact.frames if f not in CONTACTS + SOLE_EDGES + BALLS]
     if unknown:
         raise table.table("contact").error(
             "frames", f"{', '.join(map(repr, unknown))}: not a sole point of the body; "
-            f"use some of {', '.join(CONTACTS + SOLE_EDGES)}.")
+            f"use some of {', '.join(CONTACTS + SOLE_EDGES + BALLS)}.")
     return TrackingSpec(
         trial=parse_trial(table), contact=contact,
         window=None if start is None else (start, end),

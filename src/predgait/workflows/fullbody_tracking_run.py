@@ -14,6 +14,7 @@ from predgait import __version__
 from predgait.analysis.plausibility import (
     grf_check,
     joint_moment_checks,
+    mass_check,
     record,
     residual_check,
     warning_lines,
@@ -104,7 +105,8 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
         "provenance": {"problem": spec.source, "trial": drive.source,
                        "predgait": __version__, "mass_kg": round(model.total_mass(), 3),
                        **drive.calibration},
-    }, tracking_checks(model, solution))
+    }, [*tracking_checks(model, solution),
+        mass_check(model.total_mass(), drive.calibration.get("plates_weigh_kg"))])
 
 
 def floor_summary(data: TrackingData) -> dict:
