@@ -249,6 +249,30 @@ def torque_deviation(model, data: TrackingData, solution: TrackingSolution) -> d
     return out
 
 
+#: The joints that hold the pelvis in the sagittal plane.
+PELVIS_SAGITTAL = ("hip_r_y", "hip_l_y", "lumbar_y")
+
+
+def pelvis_moment_share(drive, data: TrackingData, solution: TrackingSolution) -> dict:
+    """How much of the hips' and lumbar's correction the measured data force, N m RMS.
+
+    The measured moments leave a pelvis residual (inverse dynamics: RNEA with the plates,
+    rows 0-5, pelvis frame); the solution has none, so the corrections of the joints on
+    the pelvis, summed over :data:`PELVIS_SAGITTAL`, must cancel its sagittal moment My.
+    ``residual_my``: RMS of My; ``correction_sum``: of the summed corrections;
+    ``left``: of their sum + My (what the corrected motion and forces took up).
+    """
+    my = drive.tau[np.isin(drive.time, data.time), 4]
+    names = drive.model.joint_names
+    total = sum(solution.tau[:, 6 + names.index(n)] - data.tau[:, names.index(n)]
+                for n in PELVIS_SAGITTAL)
+
+    def rms(x):
+        return float(np.sqrt(np.mean(x**2)))
+
+    return {"residual_my": rms(my), "correction_sum": rms(total), "left": rms(total + my)}
+
+
 def deviations(model, data: TrackingData, solution: TrackingSolution) -> dict:
     """How far the solution moved from the measured data (angles, GRF, COP)."""
     from predgait.kinematics.ik3d import pelvis_cardan
