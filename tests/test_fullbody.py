@@ -10,6 +10,8 @@ import pytest
 
 from predgait.errors import InputError
 from predgait.models.fullbody import (
+    BALL_FRACTION,
+    BALLS,
     CONTACTS,
     JOINT_CENTRES,
     MARKERS,
@@ -103,7 +105,8 @@ def test_frames_and_geometry():
 def test_sole_edges_lie_half_a_foot_breadth_beside_the_centre_line():
     """Winter (2009) Fig. 4.1: foot breadth 0.055 H for a foot 0.152 H long, so the
     medial and lateral points lie 0.055 / 0.152 / 2 of the foot length either side of
-    the heel and toe points, on the sole, lateral outward (right: -Y)."""
+    the heel and toe points, on the sole, lateral outward (right: -Y); the ball point
+    lies between heel and toe under the metatarsal heads."""
     model = fullbody_for_subject(70.0, 1.7, "female", lengths={"foot_r": 0.25,
                                                                "foot_l": 0.22})
     pm, data = model.pin_model, model.pin_model.createData()
@@ -123,6 +126,11 @@ def test_sole_edges_lie_half_a_foot_breadth_beside_the_centre_line():
                 np.testing.assert_allclose(
                     offset, [0.0, sign * outward * 0.5 * 0.055 / 0.152 * length, 0.0],
                     atol=1e-12)
+        # The ball point: on the sole's centre line under the toe marker (metatarsal head).
+        ball = at(f"ball_contact_{side}") - at(f"heel_contact_{side}")
+        np.testing.assert_allclose(ball, [BALL_FRACTION * length, 0.0, 0.0], atol=1e-12)
+        assert at(f"toe_{side}")[0] == pytest.approx(at(f"ball_contact_{side}")[0], abs=1e-12)
+    assert BALLS == ("ball_contact_r", "ball_contact_l")
 
 
 def random_state(model, rng):

@@ -199,6 +199,11 @@ def test_cli_writes_the_result(tmp_path, capsys, assert_tidy_result):
         assert (out / name).is_file(), name
     summary = assert_tidy_result(out / "summary.json")
     assert summary["pelvis_residual_max_n"] < 1e-6
+    # The given mass, and the plates' check of it (subject01: 72.6 kg given, 72.7 weighed).
+    provenance = summary["provenance"]
+    assert (provenance["mass_kg"], provenance["mass_from"]) == (pytest.approx(72.6), "given")
+    [mass] = [c for c in summary["plausibility"] if c["name"] == "body mass"]
+    assert mass["passed"] and provenance["plates_weigh_kg"] == pytest.approx(72.7, abs=0.05)
     assert set(summary["feedback"]) >= {"with_feedback", "without_feedback"}
     floor = summary["floor"]
     assert floor["source"] == "median lowest sole point of the measured motion"
@@ -257,3 +262,21 @@ def test_fade_nodes_is_read_and_checked():
     assert parse_tracking(load_problem(PROBLEM, ["window.fade_nodes=4"])).fade_nodes == 4
     with pytest.raises(InputError, match=r"window\.fade_nodes"):
         parse_tracking(load_problem(PROBLEM, ["window.fade_nodes=-1"]))
+
+
+def test_trial_mass_is_kg_or_plates(tmp_path, capsys):
+    """``[trial] mass``: kg or "plates" (the inverse's parser); anything else is one line."""
+    from predgait.cli import main
+    from predgait.problemfile import load_problem
+    from predgait.workflows.fullbody_tracking import parse_tracking
+
+    walking5 = REPO / "problems" / "fullbody_tracking_walking5.toml"
+    for value, mass in (("60.5", 60.5), ('"plates"', "plates")):
+        assert parse_tracking(load_problem(walking5, [f"trial.mass={value}"])).trial.mass == mass
+    for value in ('"heavy"', "5"):
+        code = main(["solve", str(walking5), "--out", str(tmp_path / "x"), "--set",
+                     f"trial.mass={value}"])
+        err = capsys.readouterr().err
+        assert code == 2 and "trial.mass" in err and "Traceback" not in err, err
+        assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x").exists()

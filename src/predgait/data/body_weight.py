@@ -15,12 +15,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from predgait.data.events import runs_of
 from predgait.data.trial import ForcePlate
 from predgait.errors import InputError
+
+if TYPE_CHECKING:
+    from predgait.problemfile import Table
 
 #: Vertical force (N) above which a plate is in contact for this estimate.
 CONTACT_N = 50.0
@@ -100,3 +104,17 @@ def resolve_mass(mass: float | str, plates: Sequence[ForcePlate], *, source: str
                          "different plates (one foot on each); these plates cannot weigh the "
                          "subject: give the body mass in kg.")
     return round(weighed.mass, 1)
+
+
+def parse_mass(table: Table, key: str = "mass") -> float | str:
+    """A problem file's body mass: kg (20-300), or "plates" (weighed on the plates).
+
+    Raises:
+        InputError: Not a number of kg in range nor "plates" (names the file and key).
+    """
+    if table.get(key, (int, float, str)) == PLATES:
+        return PLATES
+    if isinstance(table.data[key], str):
+        raise table.error(key, "give the body mass in kg, or \"plates\" to weigh the "
+                               "subject on the force plates.")
+    return table.number(key, low=20, high=300, unit="kg")

@@ -24,8 +24,8 @@ Marker frames (skin markers, first estimates; calibrate them on a static trial) 
 joint-centre frames are massless links on fixed joints (names in :data:`MARKERS`,
 :data:`JOINT_CENTRES`); ``heel_contact_*`` and ``toe_contact_*`` lie on the sole's centre
 line, the :data:`SOLE_EDGES` half a foot breadth medial and lateral of them
-(:func:`predgait.models.anthropometry_3d.foot_breadth`): a problem's ``[contact] frames``
-picks either set.
+(:func:`predgait.models.anthropometry_3d.foot_breadth`), ``ball_contact_*`` (:data:`BALLS`)
+between them under the metatarsal heads: a problem's ``[contact] frames`` picks a set.
 """
 
 from __future__ import annotations
@@ -70,6 +70,11 @@ CONTACTS = ("heel_contact_r", "heel_contact_l", "toe_contact_r", "toe_contact_l"
 #: then supports the foot about its heel-toe line too.
 SOLE_EDGES = tuple(f"{end}_{edge}_contact_{side}" for side in SIDES
                    for end in ("heel", "toe") for edge in ("medial", "lateral"))
+#: Sole points under the metatarsal heads (the ball of the foot), on the centre line:
+#: after heel-off the plates' COP lies there, not at the toe tip (issue 27).
+BALLS = ("ball_contact_r", "ball_contact_l")
+#: Metatarsal heads (and the toe marker) from the heel, fraction of the foot length.
+BALL_FRACTION = 0.72
 
 
 def _num(value: float) -> str:
@@ -226,6 +231,7 @@ def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry,
         foot = a3.foot(size[f"foot_{side}"], height, sex)
         foot_len = foot.toe_x - foot.heel_x
         half_breadth = 0.5 * a3.foot_breadth(foot_len)
+        ball_x = foot.heel_x + BALL_FRACTION * foot_len
         out |= {
             f"asis_{side}": ("pelvis", (asis[0], sign * 0.5 * pw, asis[1])),
             f"psis_{side}": ("pelvis", (asis[0] - a3.PELVIS_DEPTH_FRACTION * pw,
@@ -238,8 +244,9 @@ def _marker_positions(height: float, sex: Sex, geo: a3.BodyGeometry,
             f"ankle_lat_{side}": (f"shank_{side}", (0, sign * 0.02 * h, -ls)),
             f"ankle_center_{side}": (f"shank_{side}", (0, 0, -ls)),
             f"heel_{side}": (f"foot_{side}", (foot.heel_x - 0.005 * h, 0, -ha + 0.015 * h)),
-            f"toe_{side}": (f"foot_{side}", (foot.heel_x + 0.72 * foot_len, 0, -0.35 * ha)),
+            f"toe_{side}": (f"foot_{side}", (ball_x, 0, -0.35 * ha)),
             f"heel_contact_{side}": (f"foot_{side}", (foot.heel_x, 0, -ha)),
+            f"ball_contact_{side}": (f"foot_{side}", (ball_x, 0, -ha)),
             f"toe_contact_{side}": (f"foot_{side}", (foot.toe_x, 0, -ha)),
             **{f"{end}_{edge}_contact_{side}": (f"foot_{side}", (x, lateral * half_breadth, -ha))
                for end, x in (("heel", foot.heel_x), ("toe", foot.toe_x))
@@ -311,7 +318,7 @@ def build_fullbody_urdf(mass: float, height: float, sex: Sex | str = Sex.MALE, *
             _fixed(f"hand_{side}", f"forearm_{side}", (0, 0, -size[f"forearm_{side}"]),
                    massive=segs[f"hand_{side}"]),
         ]
-    for name in MARKERS + JOINT_CENTRES + CONTACTS + SOLE_EDGES:
+    for name in MARKERS + JOINT_CENTRES + CONTACTS + SOLE_EDGES + BALLS:
         parent, xyz = frames[name]
         parts.append(_fixed(name, parent, xyz))
     parts.append("</robot>\n")

@@ -144,8 +144,10 @@ class FullbodyDrive:
             force (N) then moment about the lab origin (N m).
         heel_strikes: Times at which a foot starts a stance, s.
         source: Provenance text.
-        calibration: How the marker frames were calibrated (the inverse result's
-            provenance: ``marker_calibration``, ``foot_flat_calibration``).
+        calibration: How the marker frames were calibrated and the mass found (the
+            inverse result's provenance: ``marker_calibration``,
+            ``foot_flat_calibration``, ``mass_from``: "given" or "plates"; and
+            ``plates_weigh_kg``, :func:`~predgait.data.body_weight.plate_body_mass`).
     """
 
     model: Model3D
@@ -169,7 +171,10 @@ class FullbodyDrive:
                    result.dynamics.tau, foot_wrenches(result.plates, result.sides),
                    tuple(starts), str(result.provenance.get("trial", "")),
                    {k: result.provenance.get(k) for k in ("marker_calibration",
-                                                          "foot_flat_calibration")})
+                                                          "foot_flat_calibration",
+                                                          "mass_from")}
+                   | {"plates_weigh_kg": None if result.plate_mass is None
+                      else round(result.plate_mass.mass, 1)})
 
 
 def foot_wrenches(plates, sides: np.ndarray) -> dict[str, np.ndarray]:

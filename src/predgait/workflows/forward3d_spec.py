@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from predgait.data.body_weight import parse_mass
 from predgait.dynamics.contact import ImpactContact
 from predgait.dynamics.falls import FallLimit
 from predgait.dynamics.integrators import IntegratorOptions
@@ -38,7 +39,7 @@ class TrialSpec:
     files: tuple[Path, ...] | None
     static: Path | None
     marker_map: Path
-    mass: float | None
+    mass: float | str | None   # kg, "plates" (weighed on them) or None (the bundled walk's)
     height: float | None
     sex: str
     cutoff: float
@@ -90,7 +91,7 @@ def parse_trial(table: Table) -> TrialSpec:
                                    "file).")
     return TrialSpec(files=files, static=t.path_value("static", None),
                      marker_map=t.path_value("marker_map"),
-                     mass=t.number("mass", None, low=10, high=300, unit="kg"),
+                     mass=parse_mass(t) if t.has("mass") else None,
                      height=t.number("height", None, low=0.5, high=2.5, unit="m"), sex=sex,
                      cutoff=t.number("cutoff", 6.0, low=0.5, high=50, unit="Hz"))
 

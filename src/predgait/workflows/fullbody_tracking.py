@@ -30,7 +30,7 @@ import numpy as np
 from predgait.dynamics.floating_lqr import FLOATING_WEIGHTS
 from predgait.dynamics.lqr import BrysonWeights
 from predgait.errors import InputError
-from predgait.models.fullbody import CONTACTS, SOLE_EDGES
+from predgait.models.fullbody import BALLS, CONTACTS, SOLE_EDGES
 from predgait.problemfile import Table
 from predgait.problems.fullbody_tracking import (
     TrackingData,
@@ -89,11 +89,11 @@ def parse_tracking(table: Table) -> TrackingSpec:
     fb = {k: v for k, v in vars(FLOATING_WEIGHTS).items() if v is not None}
     feedback.check_keys((*fb, "step"))
     contact = parse_contact(table)
-    unknown = [f for f in contact.frames if f not in CONTACTS + SOLE_EDGES]
+    unknown = [f for f in contact.frames if f not in CONTACTS + SOLE_EDGES + BALLS]
     if unknown:
         raise table.table("contact").error(
             "frames", f"{', '.join(map(repr, unknown))}: not a sole point of the body; "
-            f"use some of {', '.join(CONTACTS + SOLE_EDGES)}.")
+            f"use some of {', '.join(CONTACTS + SOLE_EDGES + BALLS)}.")
     return TrackingSpec(
         trial=parse_trial(table), contact=contact,
         window=None if start is None else (start, end),
@@ -247,6 +247,30 @@ def torque_deviation(model, data: TrackingData, solution: TrackingSolution) -> d
                     for key in ("rms_n_m", "peak_n_m", "node_change_n_m", "spike_n_m",
                                 "sagittal_rms_n_m_per_kg")}
     return out
+
+
+#: The joints that hold the pelvis in the sagittal plane.
+PELVIS_SAGITTAL = ("hip_r_y", "hip_l_y", "lumbar_y")
+
+
+def pelvis_moment_share(drive, data: TrackingData, solution: TrackingSolution) -> dict:
+    """How much of the hips' and lumbar's correction the measured data force, N m RMS.
+
+    The measured moments leave a pelvis residual (inverse dynamics: RNEA with the plates,
+    rows 0-5, pelvis frame); the solution has none, so the corrections of the joints on
+    the pelvis, summed over :data:`PELVIS_SAGITTAL`, must cancel its sagittal moment My.
+    ``residual_my``: RMS of My; ``correction_sum``: of the summed corrections;
+    ``left``: of their sum + My (what the corrected motion and forces took up).
+    """
+    my = drive.tau[np.isin(drive.time, data.time), 4]
+    names = drive.model.joint_names
+    total = sum(solution.tau[:, 6 + names.index(n)] - data.tau[:, names.index(n)]
+                for n in PELVIS_SAGITTAL)
+
+    def rms(x):
+        return float(np.sqrt(np.mean(x**2)))
+
+    return {"residual_my": rms(my), "correction_sum": rms(total), "left": rms(total + my)}
 
 
 def deviations(model, data: TrackingData, solution: TrackingSolution) -> dict:

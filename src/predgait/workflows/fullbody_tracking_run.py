@@ -14,6 +14,7 @@ from predgait import __version__
 from predgait.analysis.plausibility import (
     grf_check,
     joint_moment_checks,
+    mass_check,
     record,
     residual_check,
     warning_lines,
@@ -102,8 +103,10 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
         "deviation": deviations(model, data, solution),
         "feedback": feedback,
         "provenance": {"problem": spec.source, "trial": drive.source,
-                       "predgait": __version__, **drive.calibration},
-    }, tracking_checks(model, solution))
+                       "predgait": __version__, "mass_kg": round(model.total_mass(), 3),
+                       **drive.calibration},
+    }, [*tracking_checks(model, solution),
+        mass_check(model.total_mass(), drive.calibration.get("plates_weigh_kg"))])
 
 
 def floor_summary(data: TrackingData) -> dict:

@@ -10,7 +10,7 @@ import numpy as np
 from predgait import __version__
 from predgait.analysis.plausibility import record
 from predgait.data import Side, write_csv, write_storage
-from predgait.data.body_weight import PLATES
+from predgait.data.body_weight import parse_mass
 from predgait.data.bundled import bundled_path
 from predgait.data.cutoffs import CutoffRule, parse_cutoff
 from predgait.data.events import runs_of
@@ -98,7 +98,7 @@ def _options(trial: Table, points: Table, opts: Table) -> InverseOptions:
     return InverseOptions(
         markers=_path(trial, "markers") or trial.get("markers", str),
         grf=_path(trial, "grf"), static=_path(trial, "static"),
-        mass=_mass(trial),
+        mass=parse_mass(trial),
         height=trial.number("height", None, low=0.5, high=2.5, unit="m"),
         model=_path(trial, "model"), side=Side(side),
         points={name: _point(points, name) for name in points.data},
@@ -199,16 +199,6 @@ def inverse_checks(result: InverseResult, mask: np.ndarray) -> list:
     plates = result.plate_mass
     checks.append(mass_check(result.body_mass, plates.mass if plates else None))
     return checks
-
-
-def _mass(trial: Table) -> float | str:
-    """``[trial] mass``: kg (20-300), or "plates" (weighed on the plates)."""
-    if trial.get("mass", (int, float, str)) == PLATES:
-        return PLATES
-    if isinstance(trial.data["mass"], str):
-        raise trial.error("mass", "give the body mass in kg, or \"plates\" to weigh the "
-                                  "subject on the force plates.")
-    return trial.number("mass", low=20, high=300, unit="kg")
 
 
 def _finite(reduce, values: np.ndarray) -> float | None:
