@@ -38,7 +38,8 @@ built on a second thread (:func:`edited_problem`) while the baseline is solved (
 Building it (~3.5 s CPU at 50 intervals since the derivatives are assembled node by node,
 :mod:`predgait.problems.muscle_gait_derivatives`; ~21 s before) then overlaps the
 baseline's solve on a machine with a free core; on a busy one it only competes with it.
-The edited NLP and its numbers are those of a build on the main thread. The edited ``build_s`` is the wait for it after the baseline.
+The edited NLP and its numbers are those of a build on the main thread. The edited
+``build_s`` is the wait for it after the baseline.
 """
 
 from __future__ import annotations
