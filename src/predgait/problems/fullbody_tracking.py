@@ -173,6 +173,7 @@ class TrackingSolution:
         build_seconds: wall time of building the NLP (symbolic functions cached).
         status: Ipopt's return status.
         points: The P contact frames of ``forces``.
+        objective: The NLP's objective at the solution.
     """
 
     time: np.ndarray
@@ -186,6 +187,7 @@ class TrackingSolution:
     build_seconds: float
     status: str
     points: tuple[str, ...] = POINTS
+    objective: float = float("nan")
 
     def foot_forces(self) -> np.ndarray:
         """(N, 2, 3) N, total force on the right and left foot."""
@@ -271,6 +273,9 @@ class TrackingNLP:
     ubx: np.ndarray
     lbg: np.ndarray
     ubg: np.ndarray
+    weights: np.ndarray | None = None
+    params: np.ndarray | None = None
+    smoothing: tuple | None = None
 
 
 def tracking_nlp(model: Model3D, data: TrackingData,
@@ -348,24 +353,32 @@ def tracking_nlp(model: Model3D, data: TrackingData,
         {"x": x, "f": cs.sum2(cost) / n + smooth, "g": g}, derivatives, x0,
         lbx.ravel(), ubx.ravel(),
         np.concatenate([lbg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
-        np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]))
+        np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
+        w, params, (matrix, rhs))
 
 
 def solve_tracking(model: Model3D, data: TrackingData,
                    weights: TrackingWeights = TrackingWeights(), *,
                    max_iter: int = 200, tol: float = 1e-8,
-                   print_level: int = 0,
+                   print_level: int = 0, solver: str = "ipopt",
+                   solver_options: dict | None = None,
                    label: str = "whole-body tracking") -> TrackingSolution:
     """Solve the tracking problem (:func:`tracking_nlp`) with Ipopt, exact Hessian.
 
     ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
+    ``solver="fatrop"``: FATROP on the problem's stage form
+    (:mod:`~predgait.problems.fullbody_tracking_fatrop`; no progress lines).
+    ``solver_options``: more options of the solver (over the defaults here).
 
     Raises:
-        SolveFailed: Ipopt did not converge (``best`` is the last iterate's solution).
+        SolveFailed: the solver did not converge (``best`` is the last iterate's solution).
     """
     start = time.perf_counter()
     n = data.nodes
     problem = tracking_nlp(model, data, weights)
+    if solver == "fatrop":
+        return _solve_fatrop(model, data, problem, start, max_iter, tol, print_level,
+                             solver_options or {})
     options = {"print_time": False, **problem.derivatives,
                "ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
                          "tol": tol, "constr_viol_tol": 1e-9,
@@ -378,7 +391,7 @@ def solve_tracking(model: Model3D, data: TrackingData,
                          "mu_strategy": "monotone", "mu_init": 0.1,
                          # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
                          # 20 -> 11 s CPU
-                         "mumps_pivot_order": 5},
+                         "mumps_pivot_order": 5, **(solver_options or {})},
                **ipopt_progress.callback_options("fullbody_tracking", problem.nlp["x"].numel(),
                                                  problem.nlp["g"].numel())}
     solver = cs.nlpsol("fullbody_tracking", "ipopt", problem.nlp, options)
@@ -390,21 +403,46 @@ def solve_tracking(model: Model3D, data: TrackingData,
     seconds = time.perf_counter() - built
     stats = solver.stats()
     solution = _unpack(model, data, np.asarray(result["x"]).reshape(n, -1), stats, seconds,
-                       built - start)
+                       built - start, float(result["f"]))
     if not stats["success"]:
         raise SolveFailed(f"whole-body tracking did not converge: {stats['return_status']} "
                           f"after {stats['iter_count']} iterations.", best=solution)
     return solution
 
 
-def _unpack(model, data, z, stats, seconds, build_seconds) -> TrackingSolution:
+def _solve_fatrop(model, data, problem, start, max_iter, tol, print_level, extra):
+    """:func:`solve_tracking` with FATROP on the stage form of ``problem``."""
+    from predgait.problems import fullbody_tracking_fatrop as stage_form
+
+    nlp, options, bounds = stage_form.fatrop_nlp(model, problem, data, problem.weights,
+                                                 problem.params, *problem.smoothing)
+    options |= {"print_time": False,
+                "fatrop": {"print_level": print_level, "max_iter": max_iter, "tol": tol,
+                           **extra}}
+    solver = cs.nlpsol("fullbody_tracking_fatrop", "fatrop", nlp, options)
+    built = time.perf_counter()
+    with one_blas_thread():
+        result = solver(**bounds)
+    seconds = time.perf_counter() - built
+    stats = solver.stats()
+    layout = stage_form.StageLayout(len(data.points))
+    z = stage_form.from_stage_vector(np.asarray(result["x"]), data.nodes, layout)
+    solution = _unpack(model, data, z, stats, seconds, built - start, float(result["f"]))
+    if not stats["success"]:
+        raise SolveFailed(f"whole-body tracking (FATROP) did not converge: "
+                          f"{stats['return_status']} after {stats['iter_count']} iterations.",
+                          best=solution)
+    return solution
+
+
+def _unpack(model, data, z, stats, seconds, build_seconds, objective) -> TrackingSolution:
     dx, v, a = z[:, :35], z[:, 35:70], z[:, 70:105]
     f = FORCE_UNIT * z[:, 105:].reshape(z.shape[0], -1, 3)
     q = np.array([corrected_configuration(qr, d) for qr, d in zip(data.q, dx, strict=True)])
     return TrackingSolution(data.time.copy(), q, v.copy(), a.copy(), f.copy(),
                             contact_inverse_dynamics(model, q, v, a, f, data.points),
                             int(stats["iter_count"]), seconds, build_seconds,
-                            str(stats["return_status"]), tuple(data.points))
+                            str(stats["return_status"]), tuple(data.points), objective)
 
 
 def point_positions(model: Model3D, q: np.ndarray, points: tuple[str, ...]) -> np.ndarray:
