@@ -54,8 +54,10 @@ def _setup(window):
     return spec, drive, data
 
 
-def _solve_timings(spec, drive, data, repeat: int) -> tuple[Timing, Timing, object]:
+def _solve_timings(spec, drive, data, repeat: int, solver: str = "ipopt"
+                   ) -> tuple[Timing, Timing, object]:
     from predgait.problems import fullbody_tracking as tracking
+    from predgait.problems import fullbody_tracking_fatrop as fatrop
     from predgait.problems import fullbody_tracking_stage as stage
 
     solutions = []
@@ -63,12 +65,12 @@ def _solve_timings(spec, drive, data, repeat: int) -> tuple[Timing, Timing, obje
     def cold():
         stage.node_function.cache_clear()
         stage.stage_functions.cache_clear()
-        solutions.append(tracking.solve_tracking(drive.model, data, spec.weights,
-                                                 max_iter=spec.max_iter))
+        fatrop.stage_form.cache_clear()
+        warm()
 
     def warm():
         solutions.append(tracking.solve_tracking(drive.model, data, spec.weights,
-                                                 max_iter=spec.max_iter))
+                                                 max_iter=spec.max_iter, solver=solver))
 
     return time_call(cold, repeat), time_call(warm, repeat), solutions[-1]
 

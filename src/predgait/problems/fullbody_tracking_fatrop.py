@@ -29,7 +29,6 @@ import numpy as np
 
 from predgait.models.loading3d import Model3D
 from predgait.problems.fullbody_tracking_stage import (
-    FORCE_UNIT,
     NQ,
     _interval,
     stage_functions,

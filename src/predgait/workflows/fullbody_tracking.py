@@ -66,6 +66,7 @@ class TrackingSpec:
     feedback: BrysonWeights
     step: float
     source: str
+    solver: str = "ipopt"
 
 
 def parse_tracking(table: Table) -> TrackingSpec:
@@ -84,7 +85,10 @@ def parse_tracking(table: Table) -> TrackingSpec:
     defaults = TrackingWeights()
     weights.check_keys(tuple(vars(defaults)))
     solver = table.table("solver")
-    solver.check_keys(("max_iter",))
+    solver.check_keys(("max_iter", "name"))
+    name = solver.get("name", str, "ipopt")
+    if name not in ("ipopt", "fatrop"):
+        raise solver.error("name", f"{name!r}: use \"ipopt\" (default) or \"fatrop\".")
     feedback = table.table("feedback")
     fb = {k: v for k, v in vars(FLOATING_WEIGHTS).items() if v is not None}
     feedback.check_keys((*fb, "step"))
@@ -106,7 +110,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
         feedback=replace(FLOATING_WEIGHTS, **{k: feedback.number(k, v, low=1e-6)
                                               for k, v in fb.items()}),
         step=feedback.number("step", 1e-4, low=1e-6, high=5e-3, unit="s"),
-        source=str(table.path))
+        source=str(table.path), solver=name)
 
 
 def gait_cycle(drive: FullbodyDrive, stances) -> tuple[float, float]:
