@@ -256,6 +256,55 @@ def _scatter(n: int, nz: int) -> cs.DM:
     return cs.DM(cs.Sparsity.triplet(6 * (n - 1), nz * n, rows, cols), 1.0)
 
 
+#: Eigenvalue floor of the clipped node Hessian blocks.
+CLIP_MARGIN = 1e-8
+#: Ipopt iterations on the clipped Hessian before the exact one (:func:`solve_tracking`).
+#: Subject01's cycle: the exact Hessian alone 89 iterations, 80 of them with an inertia
+#: correction (2-3 factorisations each); the clipped one converges only linearly (75
+#: iterations to Ipopt's acceptable level, not to tol 1e-8); 20 clipped + 4 exact
+#: iterations reach the same optimum (docs/DEVELOPING.md).
+CONVEX_ITERATIONS = 20
+
+
+class EigenClip(cs.Callback):
+    """Node Hessian blocks with their eigenvalues raised to :data:`CLIP_MARGIN`.
+
+    Input: the N blocks' upper triangles side by side (nz, N nz); output: the clipped
+    blocks, dense. The Hessian is then positive semi-definite: no inertia correction.
+    """
+
+    def __init__(self, sparsity: cs.Sparsity, nz: int, n: int):
+        cs.Callback.__init__(self)
+        self.sparsity, self.nz, self.n = sparsity, nz, n
+        self.construct("eigen_clip", {})
+
+    def get_n_in(self):
+        """One input."""
+        return 1
+
+    def get_n_out(self):
+        """One output."""
+        return 1
+
+    def get_sparsity_in(self, i):
+        """The blocks' upper triangles."""
+        return self.sparsity
+
+    def get_sparsity_out(self, i):
+        """Dense blocks."""
+        return cs.Sparsity.dense(self.nz, self.nz * self.n)
+
+    def eval(self, arg):
+        """Clip each block's eigenvalues."""
+        blocks = np.asarray(cs.densify(arg[0])).reshape(self.nz, self.n, self.nz)
+        upper = np.triu(np.moveaxis(blocks, 1, 0))
+        values, vectors = np.linalg.eigh(upper + np.triu(upper, 1).transpose(0, 2, 1),
+                                         UPLO="U")
+        clipped = (vectors * np.maximum(values, CLIP_MARGIN)[:, None]) @ \
+            vectors.transpose(0, 2, 1)
+        return [cs.DM(np.moveaxis(clipped, 0, 1).reshape(self.nz, -1))]
+
+
 @dataclass(frozen=True, eq=False)
 class TrackingNLP:
     """The NLP of :func:`solve_tracking` with its derivative functions and bounds.
@@ -264,6 +313,11 @@ class TrackingNLP:
         nlp: ``{"x", "f", "g"}`` MX expressions. x0, lbx, ubx, lbg, ubg: arrays.
         derivatives: nlpsol options ``hess_lag``, ``jac_g``, ``grad_f`` assembled from
             the stage functions.
+        weights, params, smoothing: the cost weights, node parameters (NP, N) and the
+            smoothing rows (A, b) (for the stage form,
+            :mod:`~predgait.problems.fullbody_tracking_fatrop`).
+        convex_derivatives: ``derivatives`` with each node's Hessian block
+            eigen-clipped (:class:`EigenClip`, kept alive in ``clip``).
     """
 
     nlp: dict
@@ -276,6 +330,8 @@ class TrackingNLP:
     weights: np.ndarray | None = None
     params: np.ndarray | None = None
     smoothing: tuple | None = None
+    convex_derivatives: dict | None = None
+    clip: cs.Callback | None = None
 
 
 def tracking_nlp(model: Model3D, data: TrackingData,
@@ -313,11 +369,13 @@ def tracking_nlp(model: Model3D, data: TrackingData,
     zero = cs.MX.zeros(3, 1)
     mu = -h / 2 * (cs.horzcat(lam_pos, zero) + cs.horzcat(zero, lam_pos))
     blocks = stage.node_hessian.map(n)(z, params, w, sigma / n, lam_node, mu)
-    hessian = cs.diagcat(*cs.horzsplit(blocks, nz))
+    clip = EigenClip(blocks.sparsity(), nz, n)
     rblocks = stage.rotation_hessian.map(n - 1)(qs[:, :-1], qs[:, 1:], z[3:6, :-1],
                                                 z[3:6, 1:], lam_rot)
     scatter = _scatter(n, nz)
-    hessian += cs.triu(scatter.T @ cs.diagcat(*cs.horzsplit(rblocks, 6)) @ scatter)
+    between = cs.triu(scatter.T @ cs.diagcat(*cs.horzsplit(rblocks, 6)) @ scatter)
+    hessian = cs.diagcat(*cs.horzsplit(blocks, nz)) + between
+    convex = cs.triu(cs.diagcat(*cs.horzsplit(clip(blocks), nz))) + between
     # Least-squares smoothing terms with a constant Hessian (fullbody_tracking_smooth).
     x0 = np.hstack([np.zeros((n, 35)), data.v, data.a,
                     _initial_forces(data) / FORCE_UNIT]).ravel()
@@ -328,6 +386,9 @@ def tracking_nlp(model: Model3D, data: TrackingData,
     residual = matrix @ x - rhs
     smooth = cs.sumsqr(residual)
     smooth_hessian = cs.triu(2 * matrix.T @ matrix)
+    convex_hessian = cs.Function("nlp_hess_l", [x, no_p, sigma, lam],
+                                 [convex + sigma * smooth_hessian],
+                                 ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
     derivatives = {
         "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam],
                                 [hessian + sigma * smooth_hessian],
@@ -354,7 +415,7 @@ def tracking_nlp(model: Model3D, data: TrackingData,
         lbx.ravel(), ubx.ravel(),
         np.concatenate([lbg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
         np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
-        w, params, (matrix, rhs))
+        w, params, (matrix, rhs), {**derivatives, "hess_lag": convex_hessian}, clip)
 
 
 def solve_tracking(model: Model3D, data: TrackingData,
@@ -362,9 +423,14 @@ def solve_tracking(model: Model3D, data: TrackingData,
                    max_iter: int = 200, tol: float = 1e-8,
                    print_level: int = 0, solver: str = "ipopt",
                    solver_options: dict | None = None,
+                   convex_iterations: int = CONVEX_ITERATIONS,
                    label: str = "whole-body tracking") -> TrackingSolution:
-    """Solve the tracking problem (:func:`tracking_nlp`) with Ipopt, exact Hessian.
+    """Solve the tracking problem (:func:`tracking_nlp`) with Ipopt.
 
+    The first ``convex_iterations`` iterations with each node's Hessian block
+    eigen-clipped (:class:`EigenClip`: positive semi-definite, one factorisation an
+    iteration), then the exact Hessian from that iterate (warm start: point,
+    multipliers, barrier parameter) to ``tol``; 0: the exact Hessian throughout.
     ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
     ``solver="fatrop"``: FATROP on the problem's stage form
     (:mod:`~predgait.problems.fullbody_tracking_fatrop`; no progress lines).
@@ -379,34 +445,55 @@ def solve_tracking(model: Model3D, data: TrackingData,
     if solver == "fatrop":
         return _solve_fatrop(model, data, problem, start, max_iter, tol, print_level,
                              solver_options or {})
-    options = {"print_time": False, **problem.derivatives,
-               "ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
-                         "tol": tol, "constr_viol_tol": 1e-9,
-                         # monotone barrier from 0.1: the same optima, subject01's cycle
-                         # in 89 iterations (adaptive: 247, a first step raising mu to
-                         # ~2000 then crawling), walking5 in 90 (adaptive: 85), but its
-                         # 17-node stance in 87 (adaptive: 53; adaptive with mu_max 1:
-                         # cycle 111, stance 55, walking5 95 to another optimum,
-                         # objective 694.43 vs 702.32: not adopted)
-                         "mu_strategy": "monotone", "mu_init": 0.1,
-                         # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
-                         # 20 -> 11 s CPU
-                         "mumps_pivot_order": 5, **(solver_options or {})},
-               **ipopt_progress.callback_options("fullbody_tracking", problem.nlp["x"].numel(),
-                                                 problem.nlp["g"].numel())}
-    solver = cs.nlpsol("fullbody_tracking", "ipopt", problem.nlp, options)
+    ipopt = {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
+             "tol": tol, "constr_viol_tol": 1e-9,
+             # monotone barrier from 0.1: the same optima, subject01's cycle
+             # in 89 iterations (adaptive: 247, a first step raising mu to
+             # ~2000 then crawling), walking5 in 90 (adaptive: 85), but its
+             # 17-node stance in 87 (adaptive: 53; adaptive with mu_max 1:
+             # cycle 111, stance 55, walking5 95 to another optimum,
+             # objective 694.43 vs 702.32: not adopted)
+             "mu_strategy": "monotone", "mu_init": 0.1,
+             # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
+             # 20 -> 11 s CPU
+             "mumps_pivot_order": 5, **(solver_options or {})}
+
+    def ipopt_solver(name, derivatives, more):
+        return cs.nlpsol(name, "ipopt", problem.nlp, {
+            "print_time": False, **derivatives, "ipopt": {**ipopt, **more},
+            **ipopt_progress.callback_options(name, problem.nlp["x"].numel(),
+                                              problem.nlp["g"].numel())})
+
+    convex = min(convex_iterations, max_iter)
+    first = ipopt_solver("fullbody_tracking_convex" if convex else "fullbody_tracking",
+                         problem.convex_derivatives if convex else problem.derivatives,
+                         {"max_iter": convex} if convex else {})
     built = time.perf_counter()
     with one_blas_thread(), ipopt_progress.solving(label, problem.lbg, problem.ubg):
         # one BLAS thread: MUMPS' fronts are small, BLAS threads only cost here
-        result = solver(x0=problem.x0, lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg,
-                        ubg=problem.ubg)
+        result = first(x0=problem.x0, lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg,
+                       ubg=problem.ubg)
+    stats = first.stats()
+    iterations = stats["iter_count"]
+    if convex and not stats["success"] and max_iter > convex:
+        # The exact Hessian from the first phase's iterate, multipliers and barrier.
+        second = ipopt_solver("fullbody_tracking", problem.derivatives, {
+            "max_iter": max_iter - convex, "mu_init": stats["iterations"]["mu"][-1],
+            "warm_start_init_point": "yes", "warm_start_bound_push": 1e-9,
+            "warm_start_slack_bound_push": 1e-9, "warm_start_mult_bound_push": 1e-9})
+        with one_blas_thread(), ipopt_progress.solving(label, problem.lbg, problem.ubg):
+            result = second(x0=result["x"], lam_x0=result["lam_x"], lam_g0=result["lam_g"],
+                            lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg,
+                            ubg=problem.ubg)
+        stats = second.stats()
+        iterations += stats["iter_count"]
     seconds = time.perf_counter() - built
-    stats = solver.stats()
-    solution = _unpack(model, data, np.asarray(result["x"]).reshape(n, -1), stats, seconds,
-                       built - start, float(result["f"]))
+    solution = _unpack(model, data, np.asarray(result["x"]).reshape(n, -1),
+                       {**stats, "iter_count": iterations}, seconds, built - start,
+                       float(result["f"]))
     if not stats["success"]:
         raise SolveFailed(f"whole-body tracking did not converge: {stats['return_status']} "
-                          f"after {stats['iter_count']} iterations.", best=solution)
+                          f"after {iterations} iterations.", best=solution)
     return solution
 
 
@@ -416,6 +503,10 @@ def _solve_fatrop(model, data, problem, start, max_iter, tol, print_level, extra
 
     nlp, options, bounds = stage_form.fatrop_nlp(model, problem, data, problem.weights,
                                                  problem.params, *problem.smoothing)
+    extra = dict(extra)
+    # CasADi's own options of its FATROP interface (the rest are FATROP's).
+    options |= {k: extra.pop(k) for k in ("convexify_strategy", "convexify_margin")
+                if k in extra}
     options |= {"print_time": False,
                 "fatrop": {"print_level": print_level, "max_iter": max_iter, "tol": tol,
                            **extra}}

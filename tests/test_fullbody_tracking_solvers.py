@@ -1,11 +1,13 @@
-"""The whole-body tracking NLP in stage form for FATROP (issue 27 item 5).
+"""Solvers of the whole-body tracking (issue 27 item 5): FATROP on the NLP's stage form,
+Ipopt's start on eigen-clipped node Hessians.
 
 Known answers: at a point whose copies agree and whose velocities follow the trapezoidal
 rule, the stage form's objective equals the node-major NLP's and its constraints are the
 same numbers (node rows, pelvis collocation, and the joint and velocity collocation as
 x_{k+1} - F(x_k, u_k)); its assembled
 derivatives equal CasADi's automatic ones; and FATROP reaches Ipopt's optimum (objective,
-joint torques) on the engine-simulated standing sway.
+joint torques) on the engine-simulated standing sway, as does Ipopt started on the
+clipped Hessian (positive semi-definite blocks, equal to the input where it already is).
 """
 
 import casadi as cs
@@ -14,7 +16,13 @@ import pytest
 
 from predgait.models.loading3d import load_fullbody
 from predgait.problems import fullbody_tracking_fatrop as ft
-from predgait.problems.fullbody_tracking import TrackingData, solve_tracking, tracking_nlp
+from predgait.problems.fullbody_tracking import (
+    CLIP_MARGIN,
+    EigenClip,
+    TrackingData,
+    solve_tracking,
+    tracking_nlp,
+)
 from predgait.problems.fullbody_tracking_stage import NI
 
 
@@ -89,7 +97,7 @@ def test_stage_form_derivatives_equal_automatic_differentiation():
     np.testing.assert_allclose(cs.densify(out_hess), hess, atol=1e-7, rtol=1e-9)
 
 
-def test_fatrop_reaches_ipopts_optimum_on_the_sway():
+def test_solvers_reach_the_exact_hessians_optimum_on_the_sway():
     from test_fullbody_tracking import CONTACT, feet_data, standing_sway
 
     model, t, q, v, a, _, forces = standing_sway()
@@ -97,8 +105,27 @@ def test_fatrop_reaches_ipopts_optimum_on_the_sway():
     data = TrackingData(t, q, v, a, np.ones((t.size, 4), bool), force, cop, free,
                         ground_z=0.0, stiffness=CONTACT.stiffness, friction=CONTACT.friction,
                         slip_transition=CONTACT.slip_transition)
-    ipopt = solve_tracking(model, data)
-    fatrop = solve_tracking(model, data, solver="fatrop", tol=1e-6)
-    assert fatrop.objective == pytest.approx(ipopt.objective, rel=1e-6)
-    assert np.abs(fatrop.tau[:, 6:] - ipopt.tau[:, 6:]).max() < 1e-2
-    assert np.abs(fatrop.tau[:, :6]).max() < 1e-6
+    exact = solve_tracking(model, data, convex_iterations=0)
+    for other in (solve_tracking(model, data),
+                  solve_tracking(model, data, solver="fatrop", tol=1e-6)):
+        assert other.objective == pytest.approx(exact.objective, rel=1e-6)
+        assert np.abs(other.tau[:, 6:] - exact.tau[:, 6:]).max() < 1e-2
+        assert np.abs(other.tau[:, :6]).max() < 1e-6
+
+
+def test_eigen_clip():
+    rng = np.random.default_rng(5)
+    nz, n = 6, 3
+    blocks = [rng.normal(size=(nz, nz)) for _ in range(n)]
+    blocks = [b + b.T for b in blocks[:2]] + [blocks[2] @ blocks[2].T + np.eye(nz)]
+    upper = cs.DM(np.hstack([np.triu(b) for b in blocks]))
+    clip = EigenClip(cs.Sparsity.dense(nz, nz * n), nz, n)
+    out = np.asarray(clip(upper)).reshape(nz, n, nz)
+    for k, b in enumerate(blocks):
+        got = out[:, k]
+        np.testing.assert_allclose(got, got.T, atol=1e-12)
+        assert np.linalg.eigvalsh(got).min() >= CLIP_MARGIN - 1e-9
+        values, vectors = np.linalg.eigh(b)
+        np.testing.assert_allclose(got, (vectors * np.maximum(values, CLIP_MARGIN)) @ vectors.T,
+                                   atol=1e-10)
+    np.testing.assert_allclose(out[:, 2], blocks[2], atol=1e-10)  # already definite
