@@ -260,10 +260,10 @@ def _scatter(n: int, nz: int) -> cs.DM:
 CLIP_MARGIN = 1e-8
 #: Ipopt iterations on the clipped Hessian before the exact one (:func:`solve_tracking`).
 #: Subject01's cycle: the exact Hessian alone 89 iterations, 80 of them with an inertia
-#: correction (2-3 factorisations each); the clipped one converges only linearly (75
-#: iterations to Ipopt's acceptable level, not to tol 1e-8); 20 clipped + 4 exact
-#: iterations reach the same optimum (docs/DEVELOPING.md).
-CONVEX_ITERATIONS = 20
+#: correction (2-3 factorisations each); the clipped one alone converges only linearly
+#: (75 iterations to Ipopt's acceptable level, not to tol 1e-8); 9 clipped + 9 exact
+#: iterations reach the same optimum (6 + 16: 22, 12 + 7: 19, 20 + 4: 24; DEVELOPING.md).
+CONVEX_ITERATIONS = 9
 
 
 class EigenClip(cs.Callback):
