@@ -276,6 +276,8 @@ class EigenClip(cs.Callback):
     def __init__(self, sparsity: cs.Sparsity, nz: int, n: int):
         cs.Callback.__init__(self)
         self.sparsity, self.nz, self.n = sparsity, nz, n
+        rows, cols = (np.asarray(i) for i in sparsity.get_triplet())
+        self._where = (cols // nz, rows, cols % nz)  # (block, row, column) of each nonzero
         self.construct("eigen_clip", {})
 
     def get_n_in(self):
@@ -294,15 +296,20 @@ class EigenClip(cs.Callback):
         """Dense blocks."""
         return cs.Sparsity.dense(self.nz, self.nz * self.n)
 
-    def eval(self, arg):
+    def has_eval_buffer(self):
+        """Evaluate on the nonzeros' buffers (no copies through DM)."""
+        return True
+
+    def eval_buffer(self, arg, res):
         """Clip each block's eigenvalues."""
-        blocks = np.asarray(cs.densify(arg[0])).reshape(self.nz, self.n, self.nz)
-        upper = np.triu(np.moveaxis(blocks, 1, 0))
-        values, vectors = np.linalg.eigh(upper + np.triu(upper, 1).transpose(0, 2, 1),
-                                         UPLO="U")
+        upper = np.zeros((self.n, self.nz, self.nz))
+        upper[self._where] = np.frombuffer(arg[0], dtype=float)
+        values, vectors = np.linalg.eigh(upper, UPLO="U")
         clipped = (vectors * np.maximum(values, CLIP_MARGIN)[:, None]) @ \
             vectors.transpose(0, 2, 1)
-        return [cs.DM(np.moveaxis(clipped, 0, 1).reshape(self.nz, -1))]
+        # Column-major (nz, N nz) output; the blocks are symmetric.
+        np.frombuffer(res[0], dtype=float)[:] = clipped.ravel()
+        return 0
 
 
 @dataclass(frozen=True, eq=False)
