@@ -69,8 +69,9 @@ def _solve_timings(spec, drive, data, repeat: int, solver: str = "ipopt"
         warm()
 
     def warm():
-        solutions.append(tracking.solve_tracking(drive.model, data, spec.weights,
-                                                 max_iter=spec.max_iter, solver=solver))
+        solutions.append(tracking.solve_tracking(
+            drive.model, data, spec.weights, max_iter=spec.max_iter, solver=solver,
+            convex_iterations=spec.convex_iterations if solver == "ipopt" else 0))
 
     return time_call(cold, repeat), time_call(warm, repeat), solutions[-1]
 

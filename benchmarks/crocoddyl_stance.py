@@ -202,7 +202,8 @@ def ratios(ours: Timing, peer: Timing) -> str:
 
 
 def comparison(drive, data: TrackingData, casadi, cold: Timing, warm: Timing,
-               repeat: int, window: str = "stance", solver: str = "ipopt") -> list[str]:
+               repeat: int, window: str = "stance", solver: str = "ipopt",
+               convex: int = 0) -> list[str]:
     """The table: CasADi (solved in this run by ``solver``) against Crocoddyl FDDP."""
     peer = run_peer(repeat, window)
     if "error" in peer:
@@ -241,9 +242,11 @@ def comparison(drive, data: TrackingData, casadi, cold: Timing, warm: Timing,
             ("contact_height_max_m", "contact point off the floor max, m"),
             ("contact_slip_max_m_per_s", "contact point slip max, m/s"))
     name = {"ipopt": "CasADi/Ipopt", "fatrop": "CasADi/FATROP"}[solver]
+    start = (f"; Ipopt's first {convex} iterations on clipped node Hessians "
+             "([solver] convex_iterations)" if convex and solver == "ipopt" else "")
     lines = [f"Whole-body tracking, {window} ({data.nodes} nodes, h = "
              f"{np.mean(np.diff(data.time)):.4f} s): {name} vs Crocoddyl FDDP "
-             f"(forces over nodes 0..{m - 1}; machine shared, 1 thread each)"]
+             f"(forces over nodes 0..{m - 1}; machine shared, 1 thread each{start})"]
     for key, label in keys:
         lines += [f"  {label}", f"      {name + ':':<15} {fmt(ours, key)}",
                   f"      Crocoddyl FDDP: {fmt(peer, key)}"]
@@ -275,7 +278,7 @@ def main() -> int:
     spec, drive, data = _setup(_window(args.window))
     cold, warm, solution = _solve_timings(spec, drive, data, args.repeat, args.solver)
     print("\n".join(comparison(drive, data, solution, cold, warm, args.repeat, args.window,
-                               args.solver)))
+                               args.solver, spec.convex_iterations)))
     return 0
 
 

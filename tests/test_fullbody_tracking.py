@@ -257,3 +257,18 @@ def test_fade_nodes_is_read_and_checked():
     assert parse_tracking(load_problem(PROBLEM, ["window.fade_nodes=4"])).fade_nodes == 4
     with pytest.raises(InputError, match=r"window\.fade_nodes"):
         parse_tracking(load_problem(PROBLEM, ["window.fade_nodes=-1"]))
+
+
+def test_solver_settings_are_read_and_checked():
+    from predgait.errors import InputError
+    from predgait.problemfile import load_problem
+    from predgait.workflows.fullbody_tracking import parse_tracking
+
+    spec = parse_tracking(load_problem(PROBLEM, ["solver.convex_iterations=4",
+                                                 'solver.name="fatrop"']))
+    assert (spec.convex_iterations, spec.solver) == (4, "fatrop")
+    assert parse_tracking(load_problem(PROBLEM)).solver == "ipopt"
+    with pytest.raises(InputError, match=r"solver\.name"):
+        parse_tracking(load_problem(PROBLEM, ['solver.name="snopt"']))
+    with pytest.raises(InputError, match=r"solver\.convex_iterations"):
+        parse_tracking(load_problem(PROBLEM, ["solver.convex_iterations=-1"]))

@@ -258,12 +258,6 @@ def _scatter(n: int, nz: int) -> cs.DM:
 
 #: Eigenvalue floor of the clipped node Hessian blocks.
 CLIP_MARGIN = 1e-8
-#: Ipopt iterations on the clipped Hessian before the exact one (:func:`solve_tracking`).
-#: Subject01's cycle: the exact Hessian alone 89 iterations, 80 of them with an inertia
-#: correction (2-3 factorisations each); the clipped one alone converges only linearly
-#: (75 iterations to Ipopt's acceptable level, not to tol 1e-8); 9 clipped + 9 exact
-#: iterations reach the same optimum (6 + 16: 22, 12 + 7: 19, 20 + 4: 24; DEVELOPING.md).
-CONVEX_ITERATIONS = 9
 
 
 class EigenClip(cs.Callback):
@@ -430,14 +424,17 @@ def solve_tracking(model: Model3D, data: TrackingData,
                    max_iter: int = 200, tol: float = 1e-8,
                    print_level: int = 0, solver: str = "ipopt",
                    solver_options: dict | None = None,
-                   convex_iterations: int = CONVEX_ITERATIONS,
+                   convex_iterations: int = 0,
                    label: str = "whole-body tracking") -> TrackingSolution:
     """Solve the tracking problem (:func:`tracking_nlp`) with Ipopt.
 
-    The first ``convex_iterations`` iterations with each node's Hessian block
-    eigen-clipped (:class:`EigenClip`: positive semi-definite, one factorisation an
-    iteration), then the exact Hessian from that iterate (warm start: point,
-    multipliers, barrier parameter) to ``tol``; 0: the exact Hessian throughout.
+    The exact Hessian (0 ``convex_iterations``, the default), or first
+    ``convex_iterations`` iterations with each node's Hessian block eigen-clipped
+    (:class:`EigenClip`: positive semi-definite, one factorisation an iteration), then
+    the exact Hessian from that iterate (warm start: point, multipliers, barrier
+    parameter) to ``tol``. The clipped start takes another path, which may end in
+    another local optimum (subject01's cycle: the same optimum in 18 iterations instead
+    of 89; walking5: another one, docs/DEVELOPING.md).
     ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
     ``solver="fatrop"``: FATROP on the problem's stage form
     (:mod:`~predgait.problems.fullbody_tracking_fatrop`; no progress lines).

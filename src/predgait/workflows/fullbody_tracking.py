@@ -67,6 +67,7 @@ class TrackingSpec:
     step: float
     source: str
     solver: str = "ipopt"
+    convex_iterations: int = 0
 
 
 def parse_tracking(table: Table) -> TrackingSpec:
@@ -85,7 +86,7 @@ def parse_tracking(table: Table) -> TrackingSpec:
     defaults = TrackingWeights()
     weights.check_keys(tuple(vars(defaults)))
     solver = table.table("solver")
-    solver.check_keys(("max_iter", "name"))
+    solver.check_keys(("max_iter", "name", "convex_iterations"))
     name = solver.get("name", str, "ipopt")
     if name not in ("ipopt", "fatrop"):
         raise solver.error("name", f"{name!r}: use \"ipopt\" (default) or \"fatrop\".")
@@ -110,7 +111,8 @@ def parse_tracking(table: Table) -> TrackingSpec:
         feedback=replace(FLOATING_WEIGHTS, **{k: feedback.number(k, v, low=1e-6)
                                               for k, v in fb.items()}),
         step=feedback.number("step", 1e-4, low=1e-6, high=5e-3, unit="s"),
-        source=str(table.path), solver=name)
+        source=str(table.path), solver=name,
+        convex_iterations=int(solver.number("convex_iterations", 0, low=0, high=5000)))
 
 
 def gait_cycle(drive: FullbodyDrive, stances) -> tuple[float, float]:

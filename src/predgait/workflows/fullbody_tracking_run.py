@@ -59,6 +59,7 @@ def solve_spec(spec: TrackingSpec) -> tuple[FullbodyDrive, TrackingData, Trackin
           "(building it takes a while)")
     return drive, data, solve_tracking(drive.model, data, spec.weights,
                                        max_iter=spec.max_iter, solver=spec.solver,
+                                       convex_iterations=spec.convex_iterations,
                                        label="stage 2/3 whole-body tracking")
 
 
@@ -89,7 +90,8 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
     return record({
         "kind": "fullbody_tracking", "status": "solved",
         "window_s": [float(data.time[0]), float(data.time[-1])], "nodes": int(data.nodes),
-        "solver": spec.solver, "ipopt_status": solution.status,
+        "solver": spec.solver, "convex_iterations": spec.convex_iterations,
+        "ipopt_status": solution.status,
         "iterations": solution.iterations, "objective": solution.objective,
         "solve_time_s": solution.seconds, "build_time_s": solution.build_seconds,
         "pelvis_residual_max_n": float(np.abs(solution.tau[:, :3]).max()),
