@@ -107,7 +107,7 @@ def test_solvers_reach_the_exact_hessians_optimum_on_the_sway():
                         slip_transition=CONTACT.slip_transition)
     exact = solve_tracking(model, data)
     for other in (solve_tracking(model, data, convex_iterations=9),
-                  solve_tracking(model, data, solver="fatrop", tol=1e-6)):
+                  solve_tracking(model, data, solver="fatrop")):
         assert other.objective == pytest.approx(exact.objective, rel=1e-6)
         assert np.abs(other.tau[:, 6:] - exact.tau[:, 6:]).max() < 1e-2
         assert np.abs(other.tau[:, :6]).max() < 1e-6
