@@ -169,9 +169,10 @@ class TrackingSolution:
         forces: (N, P, 3) N, lab forces on ``points``.
         tau: (N, 35) Pinocchio RNEA(q, v, a) - sum J_c^T f_c: rows 0..5 the pelvis
             residual (N, N m; zero to the solver's tolerance), rows 6.. joint torques, N m.
-        iterations: Ipopt iterations. seconds: wall time of the solve (build excluded).
+        iterations: Solver iterations (both phases). seconds: wall time of the solve
+            (build excluded).
         build_seconds: wall time of building the NLP (symbolic functions cached).
-        status: Ipopt's return status.
+        status: The solver's return status (Ipopt's name, FATROP's code).
         points: The P contact frames of ``forces``.
         objective: The NLP's objective at the solution.
     """
