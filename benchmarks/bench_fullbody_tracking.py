@@ -2,7 +2,8 @@
 
 Times, in process, the tracking solve (CasADi + Ipopt, the pelvis rows from one RNEA pass
 in SX; exact Hessian, constraint Jacobian and cost gradient assembled from one node's and
-one interval's symbolic derivatives) cold (symbolic functions built: caches cleared) and
+one interval's symbolic derivatives, the first ``[solver] convex_iterations`` on
+eigen-clipped node Hessians) cold (symbolic functions built: caches cleared) and
 warm (built once per model, reused), with nodes and iterations; then, for the cycle, the LQR gains
 (linearisation at every node + Riccati) and the two forward re-simulations on the
 contact springs (RK4). Goal of the issue: a whole cycle in under 60 s on 2 cores. CPU
