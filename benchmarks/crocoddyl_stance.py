@@ -16,10 +16,11 @@ defects) left between intervals; joint angles RMS from the measured; foot GRF RM
 against the plates (% body weight); COP shift from the plate COP.
 
 Run:  python benchmarks/crocoddyl_stance.py [--repeat N] [--window stance|cycle]
-solves the CasADi stance here and Crocoddyl in fresh processes of CROCODDYL_PYTHON (else
-this Python; ``pip install predgait[crocoddyl]``, see pyproject.toml), ``--repeat``
-cold runs and warm solves each, and prints the table; ``--json``: the Crocoddyl side
-of this process only.
+[--solver ipopt|fatrop] solves the CasADi stance here and Crocoddyl in fresh processes of
+CROCODDYL_PYTHON (else this Python; ``pip install predgait[crocoddyl]``, see
+pyproject.toml), ``--repeat`` cold runs and warm solves each, and prints the table with
+the ratios of the two sides' times (both measured in this run); ``--json``: the
+Crocoddyl side of this process only.
 """
 
 from __future__ import annotations
@@ -192,9 +193,18 @@ def run_peer(repeat: int, window: str = "stance") -> dict:
     return out
 
 
+def ratios(ours: Timing, peer: Timing) -> str:
+    """Ours over the peer's time, min and median, wall (CPU): e.g. "6.7 / 6.9 x wall"."""
+    def ratio(a, b):
+        return f"{min(a) / min(b):.1f} / {np.median(a) / np.median(b):.1f}"
+
+    return (f"{ratio(ours.wall, peer.wall)} x wall ({ratio(ours.cpu, peer.cpu)} x CPU)")
+
+
 def comparison(drive, data: TrackingData, casadi, cold: Timing, warm: Timing,
-               repeat: int, window: str = "stance") -> list[str]:
-    """The table: CasADi/Ipopt (solved in this run) against Crocoddyl FDDP."""
+               repeat: int, window: str = "stance", solver: str = "ipopt",
+               convex: int = 0) -> list[str]:
+    """The table: CasADi (solved in this run by ``solver``) against Crocoddyl FDDP."""
     peer = run_peer(repeat, window)
     if "error" in peer:
         return [f"Crocoddyl FDDP, {window}: {peer['error']}; no comparison."]
@@ -231,12 +241,19 @@ def comparison(drive, data: TrackingData, casadi, cold: Timing, warm: Timing,
             ("friction_excess_max_n", "friction pyramid excess max, N"),
             ("contact_height_max_m", "contact point off the floor max, m"),
             ("contact_slip_max_m_per_s", "contact point slip max, m/s"))
+    name = {"ipopt": "CasADi/Ipopt", "fatrop": "CasADi/FATROP"}[solver]
+    start = (f"; Ipopt's first {convex} iterations on clipped node Hessians "
+             "([solver] convex_iterations)" if convex and solver == "ipopt" else "")
     lines = [f"Whole-body tracking, {window} ({data.nodes} nodes, h = "
-             f"{np.mean(np.diff(data.time)):.4f} s): CasADi/Ipopt vs Crocoddyl FDDP "
-             f"(forces over nodes 0..{m - 1}; machine shared, 1 thread each)"]
+             f"{np.mean(np.diff(data.time)):.4f} s): {name} vs Crocoddyl FDDP "
+             f"(forces over nodes 0..{m - 1}; machine shared, 1 thread each{start})"]
     for key, label in keys:
-        lines += [f"  {label}", f"      CasADi/Ipopt:   {fmt(ours, key)}",
+        lines += [f"  {label}", f"      {name + ':':<15} {fmt(ours, key)}",
                   f"      Crocoddyl FDDP: {fmt(peer, key)}"]
+    lines += [f"  {name} / Crocoddyl FDDP, same run, min / median: cold "
+              f"{ratios(cold, peer['cold'])}; warm {ratios(warm, peer['warm'])}",
+              f"  load average (1, 5, 15 min) at the end: "
+              f"{' '.join(f'{x:.1f}' for x in os.getloadavg())}"]
     return lines
 
 
@@ -246,6 +263,8 @@ def main() -> int:
     parser.add_argument("--json", action="store_true", help="this process only, one JSON line")
     parser.add_argument("--window", choices=("stance", "cycle"), default="stance",
                         help="one stance 0.633-0.9 s (default) or the first right gait cycle")
+    parser.add_argument("--solver", choices=("ipopt", "fatrop"), default="ipopt",
+                        help="the CasADi side's NLP solver (default ipopt)")
     args = parser.parse_args()
     if args.json:
         try:
@@ -257,8 +276,9 @@ def main() -> int:
     from bench_fullbody_tracking import _setup, _solve_timings
 
     spec, drive, data = _setup(_window(args.window))
-    cold, warm, solution = _solve_timings(spec, drive, data, args.repeat)
-    print("\n".join(comparison(drive, data, solution, cold, warm, args.repeat, args.window)))
+    cold, warm, solution = _solve_timings(spec, drive, data, args.repeat, args.solver)
+    print("\n".join(comparison(drive, data, solution, cold, warm, args.repeat, args.window,
+                               args.solver, spec.convex_iterations)))
     return 0
 
 

@@ -280,3 +280,18 @@ def test_trial_mass_is_kg_or_plates(tmp_path, capsys):
         assert code == 2 and "trial.mass" in err and "Traceback" not in err, err
         assert len(err.strip().splitlines()) == 1
     assert not (tmp_path / "x").exists()
+
+
+def test_solver_settings_are_read_and_checked():
+    from predgait.errors import InputError
+    from predgait.problemfile import load_problem
+    from predgait.workflows.fullbody_tracking import parse_tracking
+
+    spec = parse_tracking(load_problem(PROBLEM, ["solver.convex_iterations=4",
+                                                 'solver.name="fatrop"']))
+    assert (spec.convex_iterations, spec.solver) == (4, "fatrop")
+    assert parse_tracking(load_problem(PROBLEM)).solver == "ipopt"
+    with pytest.raises(InputError, match=r"solver\.name"):
+        parse_tracking(load_problem(PROBLEM, ['solver.name="snopt"']))
+    with pytest.raises(InputError, match=r"solver\.convex_iterations"):
+        parse_tracking(load_problem(PROBLEM, ["solver.convex_iterations=-1"]))

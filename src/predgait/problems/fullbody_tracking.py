@@ -169,10 +169,12 @@ class TrackingSolution:
         forces: (N, P, 3) N, lab forces on ``points``.
         tau: (N, 35) Pinocchio RNEA(q, v, a) - sum J_c^T f_c: rows 0..5 the pelvis
             residual (N, N m; zero to the solver's tolerance), rows 6.. joint torques, N m.
-        iterations: Ipopt iterations. seconds: wall time of the solve (build excluded).
+        iterations: Solver iterations (both phases). seconds: wall time of the solve
+            (build excluded).
         build_seconds: wall time of building the NLP (symbolic functions cached).
-        status: Ipopt's return status.
+        status: The solver's return status (Ipopt's name, FATROP's code).
         points: The P contact frames of ``forces``.
+        objective: The NLP's objective at the solution.
     """
 
     time: np.ndarray
@@ -186,6 +188,7 @@ class TrackingSolution:
     build_seconds: float
     status: str
     points: tuple[str, ...] = POINTS
+    objective: float = float("nan")
 
     def foot_forces(self) -> np.ndarray:
         """(N, 2, 3) N, total force on the right and left foot."""
@@ -254,6 +257,56 @@ def _scatter(n: int, nz: int) -> cs.DM:
     return cs.DM(cs.Sparsity.triplet(6 * (n - 1), nz * n, rows, cols), 1.0)
 
 
+#: Eigenvalue floor of the clipped node Hessian blocks.
+CLIP_MARGIN = 1e-8
+
+
+class EigenClip(cs.Callback):
+    """Node Hessian blocks with their eigenvalues raised to :data:`CLIP_MARGIN`.
+
+    Input: the N blocks' upper triangles side by side (nz, N nz); output: the clipped
+    blocks, dense. The Hessian is then positive semi-definite: no inertia correction.
+    """
+
+    def __init__(self, sparsity: cs.Sparsity, nz: int, n: int):
+        cs.Callback.__init__(self)
+        self.sparsity, self.nz, self.n = sparsity, nz, n
+        rows, cols = (np.asarray(i) for i in sparsity.get_triplet())
+        self._where = (cols // nz, rows, cols % nz)  # (block, row, column) of each nonzero
+        self.construct("eigen_clip", {})
+
+    def get_n_in(self):
+        """One input."""
+        return 1
+
+    def get_n_out(self):
+        """One output."""
+        return 1
+
+    def get_sparsity_in(self, i):
+        """The blocks' upper triangles."""
+        return self.sparsity
+
+    def get_sparsity_out(self, i):
+        """Dense blocks."""
+        return cs.Sparsity.dense(self.nz, self.nz * self.n)
+
+    def has_eval_buffer(self):
+        """Evaluate on the nonzeros' buffers (no copies through DM)."""
+        return True
+
+    def eval_buffer(self, arg, res):
+        """Clip each block's eigenvalues."""
+        upper = np.zeros((self.n, self.nz, self.nz))
+        upper[self._where] = np.frombuffer(arg[0], dtype=float)
+        values, vectors = np.linalg.eigh(upper, UPLO="U")
+        clipped = (vectors * np.maximum(values, CLIP_MARGIN)[:, None]) @ \
+            vectors.transpose(0, 2, 1)
+        # Column-major (nz, N nz) output; the blocks are symmetric.
+        np.frombuffer(res[0], dtype=float)[:] = clipped.ravel()
+        return 0
+
+
 @dataclass(frozen=True, eq=False)
 class TrackingNLP:
     """The NLP of :func:`solve_tracking` with its derivative functions and bounds.
@@ -262,6 +315,11 @@ class TrackingNLP:
         nlp: ``{"x", "f", "g"}`` MX expressions. x0, lbx, ubx, lbg, ubg: arrays.
         derivatives: nlpsol options ``hess_lag``, ``jac_g``, ``grad_f`` assembled from
             the stage functions.
+        weights, params, smoothing: the cost weights, node parameters (NP, N) and the
+            smoothing rows (A, b) (for the stage form,
+            :mod:`~predgait.problems.fullbody_tracking_fatrop`).
+        convex_derivatives: ``derivatives`` with each node's Hessian block
+            eigen-clipped (:class:`EigenClip`, kept alive in ``clip``).
     """
 
     nlp: dict
@@ -271,6 +329,11 @@ class TrackingNLP:
     ubx: np.ndarray
     lbg: np.ndarray
     ubg: np.ndarray
+    weights: np.ndarray | None = None
+    params: np.ndarray | None = None
+    smoothing: tuple | None = None
+    convex_derivatives: dict | None = None
+    clip: cs.Callback | None = None
 
 
 def tracking_nlp(model: Model3D, data: TrackingData,
@@ -308,11 +371,13 @@ def tracking_nlp(model: Model3D, data: TrackingData,
     zero = cs.MX.zeros(3, 1)
     mu = -h / 2 * (cs.horzcat(lam_pos, zero) + cs.horzcat(zero, lam_pos))
     blocks = stage.node_hessian.map(n)(z, params, w, sigma / n, lam_node, mu)
-    hessian = cs.diagcat(*cs.horzsplit(blocks, nz))
+    clip = EigenClip(blocks.sparsity(), nz, n)
     rblocks = stage.rotation_hessian.map(n - 1)(qs[:, :-1], qs[:, 1:], z[3:6, :-1],
                                                 z[3:6, 1:], lam_rot)
     scatter = _scatter(n, nz)
-    hessian += cs.triu(scatter.T @ cs.diagcat(*cs.horzsplit(rblocks, 6)) @ scatter)
+    between = cs.triu(scatter.T @ cs.diagcat(*cs.horzsplit(rblocks, 6)) @ scatter)
+    hessian = cs.diagcat(*cs.horzsplit(blocks, nz)) + between
+    convex = cs.triu(cs.diagcat(*cs.horzsplit(clip(blocks), nz))) + between
     # Least-squares smoothing terms with a constant Hessian (fullbody_tracking_smooth).
     x0 = np.hstack([np.zeros((n, 35)), data.v, data.a,
                     _initial_forces(data) / FORCE_UNIT]).ravel()
@@ -323,6 +388,9 @@ def tracking_nlp(model: Model3D, data: TrackingData,
     residual = matrix @ x - rhs
     smooth = cs.sumsqr(residual)
     smooth_hessian = cs.triu(2 * matrix.T @ matrix)
+    convex_hessian = cs.Function("nlp_hess_l", [x, no_p, sigma, lam],
+                                 [convex + sigma * smooth_hessian],
+                                 ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
     derivatives = {
         "hess_lag": cs.Function("nlp_hess_l", [x, no_p, sigma, lam],
                                 [hessian + sigma * smooth_hessian],
@@ -348,63 +416,131 @@ def tracking_nlp(model: Model3D, data: TrackingData,
         {"x": x, "f": cs.sum2(cost) / n + smooth, "g": g}, derivatives, x0,
         lbx.ravel(), ubx.ravel(),
         np.concatenate([lbg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
-        np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]))
+        np.concatenate([ubg_node.ravel(order="F"), np.zeros(NI * (n - 1))]),
+        w, params, (matrix, rhs), {**derivatives, "hess_lag": convex_hessian}, clip)
 
 
 def solve_tracking(model: Model3D, data: TrackingData,
                    weights: TrackingWeights = TrackingWeights(), *,
                    max_iter: int = 200, tol: float = 1e-8,
-                   print_level: int = 0,
+                   print_level: int = 0, solver: str = "ipopt",
+                   solver_options: dict | None = None,
+                   convex_iterations: int = 0,
                    label: str = "whole-body tracking") -> TrackingSolution:
-    """Solve the tracking problem (:func:`tracking_nlp`) with Ipopt, exact Hessian.
+    """Solve the tracking problem (:func:`tracking_nlp`) with Ipopt.
 
+    The exact Hessian (0 ``convex_iterations``, the default), or first
+    ``convex_iterations`` iterations with each node's Hessian block eigen-clipped
+    (:class:`EigenClip`: positive semi-definite, one factorisation an iteration), then
+    the exact Hessian from that iterate (warm start: point, multipliers, barrier
+    parameter) to ``tol``. The clipped start takes another path, which may end in
+    another local optimum (subject01's cycle: the same optimum in 18 iterations instead
+    of 89; walking5: another one, docs/DEVELOPING.md).
     ``label`` names the solve in the progress lines (:mod:`.ipopt_progress`).
+    ``solver="fatrop"``: FATROP on the problem's stage form
+    (:mod:`~predgait.problems.fullbody_tracking_fatrop`; no progress lines).
+    ``solver_options``: more options of the solver (over the defaults here).
 
     Raises:
-        SolveFailed: Ipopt did not converge (``best`` is the last iterate's solution).
+        SolveFailed: the solver did not converge (``best`` is the last iterate's solution).
     """
     start = time.perf_counter()
     n = data.nodes
     problem = tracking_nlp(model, data, weights)
-    options = {"print_time": False, **problem.derivatives,
-               "ipopt": {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
-                         "tol": tol, "constr_viol_tol": 1e-9,
-                         # monotone barrier from 0.1: the same optima, subject01's cycle
-                         # in 89 iterations (adaptive: 247, a first step raising mu to
-                         # ~2000 then crawling), walking5 in 90 (adaptive: 85), but its
-                         # 17-node stance in 87 (adaptive: 53; adaptive with mu_max 1:
-                         # cycle 111, stance 55, walking5 95 to another optimum,
-                         # objective 694.43 vs 702.32: not adopted)
-                         "mu_strategy": "monotone", "mu_init": 0.1,
-                         # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
-                         # 20 -> 11 s CPU
-                         "mumps_pivot_order": 5},
-               **ipopt_progress.callback_options("fullbody_tracking", problem.nlp["x"].numel(),
-                                                 problem.nlp["g"].numel())}
-    solver = cs.nlpsol("fullbody_tracking", "ipopt", problem.nlp, options)
+    if solver == "fatrop":
+        # FATROP's dual infeasibility stalls at 2e-7..4e-5 on subject01's cycle once at
+        # Ipopt's optimum (relative 1e-7): its tolerance is at least 1e-6
+        return _solve_fatrop(model, data, problem, start, max_iter, max(tol, 1e-6),
+                             print_level, solver_options or {})
+    ipopt = {"print_level": print_level, "sb": "yes", "max_iter": max_iter,
+             "tol": tol, "constr_viol_tol": 1e-9,
+             # monotone barrier from 0.1: the same optima, subject01's cycle
+             # in 89 iterations (adaptive: 247, a first step raising mu to
+             # ~2000 then crawling), walking5 in 90 (adaptive: 85), but its
+             # 17-node stance in 87 (adaptive: 53; adaptive with mu_max 1:
+             # cycle 111, stance 55, walking5 95 to another optimum,
+             # objective 694.43 vs 702.32: not adopted)
+             "mu_strategy": "monotone", "mu_init": 0.1,
+             # METIS ordering: subject01's cycle, same 63 iterations, MUMPS
+             # 20 -> 11 s CPU
+             "mumps_pivot_order": 5, **(solver_options or {})}
+
+    def ipopt_solver(name, derivatives, more):
+        return cs.nlpsol(name, "ipopt", problem.nlp, {
+            "print_time": False, **derivatives, "ipopt": {**ipopt, **more},
+            **ipopt_progress.callback_options(name, problem.nlp["x"].numel(),
+                                              problem.nlp["g"].numel())})
+
+    convex = min(convex_iterations, max_iter)
+    first = ipopt_solver("fullbody_tracking_convex" if convex else "fullbody_tracking",
+                         problem.convex_derivatives if convex else problem.derivatives,
+                         {"max_iter": convex} if convex else {})
     built = time.perf_counter()
     with one_blas_thread(), ipopt_progress.solving(label, problem.lbg, problem.ubg):
         # one BLAS thread: MUMPS' fronts are small, BLAS threads only cost here
-        result = solver(x0=problem.x0, lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg,
-                        ubg=problem.ubg)
+        result = first(x0=problem.x0, lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg,
+                       ubg=problem.ubg)
+    stats = first.stats()
+    iterations = stats["iter_count"]
+    if convex and not stats["success"] and max_iter > convex:
+        # The exact Hessian from the first phase's iterate, multipliers and barrier.
+        second = ipopt_solver("fullbody_tracking", problem.derivatives, {
+            "max_iter": max_iter - convex, "mu_init": stats["iterations"]["mu"][-1],
+            "warm_start_init_point": "yes", "warm_start_bound_push": 1e-9,
+            "warm_start_slack_bound_push": 1e-9, "warm_start_mult_bound_push": 1e-9})
+        with one_blas_thread(), ipopt_progress.solving(label, problem.lbg, problem.ubg):
+            result = second(x0=result["x"], lam_x0=result["lam_x"], lam_g0=result["lam_g"],
+                            lbx=problem.lbx, ubx=problem.ubx, lbg=problem.lbg,
+                            ubg=problem.ubg)
+        stats = second.stats()
+        iterations += stats["iter_count"]
     seconds = time.perf_counter() - built
-    stats = solver.stats()
-    solution = _unpack(model, data, np.asarray(result["x"]).reshape(n, -1), stats, seconds,
-                       built - start)
+    solution = _unpack(model, data, np.asarray(result["x"]).reshape(n, -1),
+                       {**stats, "iter_count": iterations}, seconds, built - start,
+                       float(result["f"]))
     if not stats["success"]:
         raise SolveFailed(f"whole-body tracking did not converge: {stats['return_status']} "
-                          f"after {stats['iter_count']} iterations.", best=solution)
+                          f"after {iterations} iterations.", best=solution)
     return solution
 
 
-def _unpack(model, data, z, stats, seconds, build_seconds) -> TrackingSolution:
+def _solve_fatrop(model, data, problem, start, max_iter, tol, print_level, extra):
+    """:func:`solve_tracking` with FATROP on the stage form of ``problem``."""
+    from predgait.problems import fullbody_tracking_fatrop as stage_form
+
+    nlp, options, bounds = stage_form.fatrop_nlp(model, problem, data, problem.weights,
+                                                 problem.params, *problem.smoothing)
+    extra = dict(extra)
+    # CasADi's own options of its FATROP interface (the rest are FATROP's).
+    options |= {k: extra.pop(k) for k in ("convexify_strategy", "convexify_margin")
+                if k in extra}
+    options |= {"print_time": False,
+                "fatrop": {"print_level": print_level, "max_iter": max_iter, "tol": tol,
+                           **extra}}
+    solver = cs.nlpsol("fullbody_tracking_fatrop", "fatrop", nlp, options)
+    built = time.perf_counter()
+    with one_blas_thread():
+        result = solver(**bounds)
+    seconds = time.perf_counter() - built
+    stats = solver.stats()
+    layout = stage_form.StageLayout(len(data.points))
+    z = stage_form.from_stage_vector(np.asarray(result["x"]), data.nodes, layout)
+    solution = _unpack(model, data, z, stats, seconds, built - start, float(result["f"]))
+    if not stats["success"]:
+        raise SolveFailed(f"whole-body tracking (FATROP) did not converge: "
+                          f"{stats['return_status']} after {stats['iter_count']} iterations.",
+                          best=solution)
+    return solution
+
+
+def _unpack(model, data, z, stats, seconds, build_seconds, objective) -> TrackingSolution:
     dx, v, a = z[:, :35], z[:, 35:70], z[:, 70:105]
     f = FORCE_UNIT * z[:, 105:].reshape(z.shape[0], -1, 3)
     q = np.array([corrected_configuration(qr, d) for qr, d in zip(data.q, dx, strict=True)])
     return TrackingSolution(data.time.copy(), q, v.copy(), a.copy(), f.copy(),
                             contact_inverse_dynamics(model, q, v, a, f, data.points),
                             int(stats["iter_count"]), seconds, build_seconds,
-                            str(stats["return_status"]), tuple(data.points))
+                            str(stats["return_status"]), tuple(data.points), objective)
 
 
 def point_positions(model: Model3D, q: np.ndarray, points: tuple[str, ...]) -> np.ndarray:

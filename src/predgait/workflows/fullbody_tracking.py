@@ -66,6 +66,8 @@ class TrackingSpec:
     feedback: BrysonWeights
     step: float
     source: str
+    solver: str = "ipopt"
+    convex_iterations: int = 0
 
 
 def parse_tracking(table: Table) -> TrackingSpec:
@@ -84,7 +86,10 @@ def parse_tracking(table: Table) -> TrackingSpec:
     defaults = TrackingWeights()
     weights.check_keys(tuple(vars(defaults)))
     solver = table.table("solver")
-    solver.check_keys(("max_iter",))
+    solver.check_keys(("max_iter", "name", "convex_iterations"))
+    name = solver.get("name", str, "ipopt")
+    if name not in ("ipopt", "fatrop"):
+        raise solver.error("name", f"{name!r}: use \"ipopt\" (default) or \"fatrop\".")
     feedback = table.table("feedback")
     fb = {k: v for k, v in vars(FLOATING_WEIGHTS).items() if v is not None}
     feedback.check_keys((*fb, "step"))
@@ -106,7 +111,8 @@ def parse_tracking(table: Table) -> TrackingSpec:
         feedback=replace(FLOATING_WEIGHTS, **{k: feedback.number(k, v, low=1e-6)
                                               for k, v in fb.items()}),
         step=feedback.number("step", 1e-4, low=1e-6, high=5e-3, unit="s"),
-        source=str(table.path))
+        source=str(table.path), solver=name,
+        convex_iterations=int(solver.number("convex_iterations", 0, low=0, high=5000)))
 
 
 def gait_cycle(drive: FullbodyDrive, stances) -> tuple[float, float]:

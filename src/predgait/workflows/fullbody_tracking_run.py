@@ -59,7 +59,8 @@ def solve_spec(spec: TrackingSpec) -> tuple[FullbodyDrive, TrackingData, Trackin
     stage(f"stage 2/3: tracking problem on {window[0]:.3f}..{window[1]:.3f} s "
           "(building it takes a while)")
     return drive, data, solve_tracking(drive.model, data, spec.weights,
-                                       max_iter=spec.max_iter,
+                                       max_iter=spec.max_iter, solver=spec.solver,
+                                       convex_iterations=spec.convex_iterations,
                                        label="stage 2/3 whole-body tracking")
 
 
@@ -90,7 +91,9 @@ def summary_of(spec: TrackingSpec, drive, data, solution, *, feedback=None) -> d
     return record({
         "kind": "fullbody_tracking", "status": "solved",
         "window_s": [float(data.time[0]), float(data.time[-1])], "nodes": int(data.nodes),
-        "ipopt_status": solution.status, "iterations": solution.iterations,
+        "solver": spec.solver, "convex_iterations": spec.convex_iterations,
+        "ipopt_status": solution.status,
+        "iterations": solution.iterations, "objective": solution.objective,
         "solve_time_s": solution.seconds, "build_time_s": solution.build_seconds,
         "pelvis_residual_max_n": float(np.abs(solution.tau[:, :3]).max()),
         "pelvis_residual_max_n_m": float(np.abs(solution.tau[:, 3:6]).max()),
