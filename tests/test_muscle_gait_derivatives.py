@@ -15,6 +15,7 @@ import casadi as cs
 import numpy as np
 import pytest
 
+from predgait.blas_threads import one_blas_thread
 from predgait.data.storage import read_storage
 from predgait.models.osim import bundled_2d_gait
 from predgait.problems.collocation import Transcription
@@ -92,14 +93,15 @@ def test_assembled_derivatives_equal_casadis_own(gait_model, case):
 def test_ipopt_reaches_the_same_optimum_with_either_derivatives(gait_model):
     plant, planar = gait_model
     problem = MuscleGaitProblem(plant, 8, tx_row=0, max_iter=500)
-    guess, _ = reference_guess(planar, read_storage(bundled_file("referenceCoordinates.sto")),
-                               plant, problem.n)
+    guess, reference = reference_guess(
+        planar, read_storage(bundled_file("referenceCoordinates.sto")), plant, problem.n)
     bounds = bounds_for(plant, planar, MOCO_BOUNDS, (0.4, 0.6))
-    goal = Goal(speed=1.2, effort_weight=10.0)
-    ours = problem.solve(guess, bounds, goal)
-    problem.__dict__["solver"] = cs.nlpsol("own", "ipopt", problem.nlp,
-                                           problem._solver_options)
-    theirs = problem.solve(guess, bounds, goal)
+    goal = Goal(speed=1.2, effort_weight=10.0, tracking_weight=100.0)   # one clear optimum
+    with one_blas_thread():             # as the product solves it
+        ours = problem.solve(guess, bounds, goal, reference=reference)
+        problem.__dict__["solver"] = cs.nlpsol("own", "ipopt", problem.nlp,
+                                               problem._solver_options)
+        theirs = problem.solve(guess, bounds, goal, reference=reference)
     assert ours.solved.success and theirs.solved.success
     assert ours.objective == pytest.approx(theirs.objective, rel=1e-4)
     np.testing.assert_allclose(ours.path.q, theirs.path.q, atol=np.radians(0.5))
