@@ -8,6 +8,7 @@ from html import escape
 import pytest
 
 from conftest import check_report_page
+from predgait.cli.demo import DEFAULT_OUT, MARKER
 from predgait.errors import InputError
 from predgait.report.html import build_report
 from predgait.report.plot_labels import SIGN_CONVENTION, gif_caption, label_problems, read_labels
@@ -20,12 +21,19 @@ def run_cli(*args, cwd):
 
 @pytest.fixture(scope="module")
 def demo_folder(tmp_path_factory):
+    """One demo run, over a previous demo's folder (one with the demo's marker file, as
+    every demo writes: test_demo_replaces_only_its_own_folder), so the one run checks the
+    replacement too; a stale file of the previous demo must be gone after it."""
     cwd = tmp_path_factory.mktemp("demo")
+    previous = cwd / DEFAULT_OUT
+    previous.mkdir()
+    (previous / MARKER).write_text("written by an earlier predgait demo\n")
+    (previous / "stale.txt").write_text("from the previous demo")
     result = run_cli("demo", cwd=cwd)
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
     (cwd / "demo_stdout.txt").write_text(result.stdout)
-    return cwd / "predgait-demo"
+    return previous
 
 
 def test_demo_prints_and_headlines_the_warnings_of_its_results(demo_folder):
@@ -65,8 +73,10 @@ def test_demo_writes_results_and_a_report(demo_folder, assert_tidy_result):
 
 
 def test_demo_replaces_only_its_own_folder(demo_folder):
-    again = run_cli("demo", cwd=demo_folder.parent)
-    assert again.returncode == 0, again.stderr
+    """The fixture's run replaced a previous demo folder (marker file, stale file gone) and
+    marked its own, so a next demo replaces it; a folder without the marker is refused."""
+    assert (demo_folder / MARKER).read_text().startswith("written by predgait demo")
+    assert not (demo_folder / "stale.txt").exists()
     other = demo_folder.parent / "mine"
     other.mkdir()
     (other / "data.txt").write_text("user data")

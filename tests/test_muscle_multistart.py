@@ -13,8 +13,8 @@
 The comparison of our 50-interval solution with Moco's (issue: within 5 deg RMS,
 objective equal or lower) is a 40-50 s process (build + solve) on the loaded 2-core
 machine: it is in benchmarks/bench_predict_grids.py, not here (measured there: objective
-6.09x Moco's, knee 35 deg RMS: the goal is not met). This file takes 49 s at a load
-average of ~1 on 2 cores, 129 s at ~5.
+6.09x Moco's, knee 35 deg RMS: the goal is not met). This file takes 75 s of CPU alone
+(120 s with the multi-start's former seed 7, whose perturbed start needed 313 iterations).
 """
 
 from pathlib import Path
@@ -149,13 +149,16 @@ def test_multistart_picks_the_least_objective_and_reports_the_spread():
         solve_prediction,
     )
 
-    options = MultiStartOptions(starts=2, seed=7, perturbation_deg=3.0)
+    # Seed 4: its perturbed start converges in 92 Ipopt iterations to a lower objective
+    # than the reference start's (0.12838 vs 0.13071, measured), so the least is not the
+    # first run; seed 7's start took 313-610 iterations (~40 s) to 0.13094.
+    options = MultiStartOptions(starts=2, seed=4, perturbation_deg=3.0)
     spec = MusclePredictSpec(nodes=16, human_checks=False, multistart=options)
     pred = solve_prediction(spec)                    # the problem file's [multistart] path
     sp = prediction_summary(spec, pred)["multistart"]
     assert sp is pred.multistart and sp["starts"] == 2 and len(sp["runs"]) == 2
     assert [r["start"] for r in sp["runs"]] == ["reference coordinates",
-                                                "perturbed reference 1 (seed 7)"]
+                                                "perturbed reference 1 (seed 4)"]
     ok = [r["objective"] for r in sp["runs"] if r["success"]]
     assert sp["converged"] == len(ok) >= 1
     assert pred.gait.solved.objective == min(ok) == sp["objective_min"]
