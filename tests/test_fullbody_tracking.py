@@ -69,18 +69,10 @@ def test_assembled_derivatives_equal_automatic_differentiation():
     CasADi's derivatives of the whole NLP's f and g (4 nodes, random point)."""
     import casadi as cs
 
+    from random_tracking import random_tracking_data
+
     model = load_fullbody()
-    rng = np.random.default_rng(3)
-    n = 4
-    q = np.tile(model.neutral(), (n, 1))
-    q[:, 7:] += rng.uniform(-0.3, 0.3, (n, 29))
-    q[:, 3:7] = rng.normal(size=(n, 4))
-    q[:, 3:7] /= np.linalg.norm(q[:, 3:7], axis=1, keepdims=True)
-    data = TrackingData(np.arange(n) / 60.0, q, rng.normal(size=(n, 35)),
-                        rng.normal(size=(n, 35)), rng.random((n, 4)) < 0.6,
-                        rng.normal(300, 50, (n, 2, 3)), rng.normal(0, 0.1, (n, 2, 3)),
-                        rng.normal(size=(n, 2)), ground_z=0.0, belt_velocity=0.3,
-                        tau=rng.normal(0, 50, (n, 29)))
+    data, rng = random_tracking_data(model)
     problem = tracking_nlp(model, data)
     x, f, g = (problem.nlp[k] for k in ("x", "f", "g"))
     sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", g.size1())

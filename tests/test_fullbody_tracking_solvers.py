@@ -24,20 +24,12 @@ from predgait.problems.fullbody_tracking import (
     tracking_nlp,
 )
 from predgait.problems.fullbody_tracking_stage import NI
+from random_tracking import random_tracking_data
 
 
 def _random_problem(n=4):
     model = load_fullbody()
-    rng = np.random.default_rng(3)
-    q = np.tile(model.neutral(), (n, 1))
-    q[:, 7:] += rng.uniform(-0.3, 0.3, (n, 29))
-    q[:, 3:7] = rng.normal(size=(n, 4))
-    q[:, 3:7] /= np.linalg.norm(q[:, 3:7], axis=1, keepdims=True)
-    data = TrackingData(np.arange(n) / 60.0, q, rng.normal(size=(n, 35)),
-                        rng.normal(size=(n, 35)), rng.random((n, 4)) < 0.6,
-                        rng.normal(300, 50, (n, 2, 3)), rng.normal(0, 0.1, (n, 2, 3)),
-                        rng.normal(size=(n, 2)), ground_z=0.0, belt_velocity=0.3,
-                        tau=rng.normal(0, 50, (n, 29)))
+    data, rng = random_tracking_data(model, n)
     problem = tracking_nlp(model, data)
     nlp, options, bounds = ft.fatrop_nlp(model, problem, data, problem.weights,
                                          problem.params, *problem.smoothing)
