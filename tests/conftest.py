@@ -25,18 +25,21 @@ def pytest_xdist_auto_num_workers(config) -> int:
 
 
 #: The longest test files, s (sum of their tests' setup and call, full suite on the 2-core
-#: machine at load ~2, after the muscle NLP's node-by-node derivatives: 1028 worker-s in
-#: all). They run first: xdist's own order (files with the most tests first) started the
-#: one-test files last, so that one of these (notebook 10, a whole-body tracking fixture)
-#: ran alone at the end while the other worker idled.
+#: machine at load ~5-6 beside other work, issue 30's last item; before the muscle NLP's
+#: node-by-node derivatives: this order gave the fastest CI measured, 9 min 49 s, where the
+#: order of the times re-measured after it, 1028 worker-s, gave 10 min 23-30 s with one
+#: muscle test 10x slower). They run first: xdist's
+#: own order (files with the most tests first) started the one-test files last, so that one
+#: of these (notebook 10, a whole-body tracking fixture) ran alone at the end while the
+#: other worker idled.
 LONG_FILES = {
-    "tests/test_fullbody_tracking_walking5.py": 71, "tests/test_passive_swing.py": 68,
-    "tests/test_predict_scenarios.py": 57, "tests/test_passive_knee_ankle.py": 52,
-    "tests/test_muscle_multistart.py": 49, "notebooks/10_muscle_prediction.ipynb": 48,
-    "tests/test_muscle_scenarios.py": 47, "notebooks/08_predictive_gait.ipynb": 47,
-    "notebooks/07_whole_body.ipynb": 46, "tests/test_predict.py": 42,
-    "tests/test_fullbody_tracking_cycle.py": 37, "tests/test_toes_model.py": 33,
-    "tests/test_demo_report.py": 30,
+    "tests/test_muscle_scenarios.py": 503, "tests/test_muscle_multistart.py": 367,
+    "notebooks/10_muscle_prediction.ipynb": 263,
+    "tests/test_fullbody_tracking_walking5.py": 239, "tests/test_passive_swing.py": 160,
+    "tests/test_fullbody_tracking_cycle.py": 145, "tests/test_predict_scenarios.py": 141,
+    "tests/test_toes_model.py": 121, "notebooks/07_whole_body.ipynb": 87,
+    "notebooks/08_predictive_gait.ipynb": 85, "tests/test_predict.py": 66,
+    "tests/test_fullbody_tracking.py": 57, "tests/test_demo_report.py": 56,
 }
 
 
